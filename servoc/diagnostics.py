@@ -1,0 +1,121 @@
+"""Diagnostics: what every stage reports to the user.
+
+A `Diagnostic` has a code (e.g. ``infeasible-speed``), a severity, a message,
+a span in the source, an optional label shown under the caret and an optional
+help line. `Reporter` collects them; the renderers turn them into the
+``FILE:LINE:COL: severity[code]: message`` form, a caret display, or JSON.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from enum import Enum
+
+from .source import NO_SPAN, SourceFile, Span
+
+
+class Severity(str, Enum):
+    ERROR = "error"
+    WARNING = "warning"
+    NOTE = "note"
+
+
+@dataclass(frozen=True)
+class Diagnostic:
+    code: str
+    severity: Severity
+    message: str
+    span: Span = NO_SPAN
+    label: str = ""
+    help: str = ""
+
+    @property
+    def is_error(self) -> bool:
+        return self.severity is Severity.ERROR
+
+
+@dataclass
+class Reporter:
+    """Collects diagnostics for one source file."""
+
+    source: SourceFile
+    diagnostics: list[Diagnostic] = field(default_factory=list)
+
+    def report(self, diag: Diagnostic) -> None:
+        self.diagnostics.append(diag)
+
+    def error(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "") -> None:
+        self.report(Diagnostic(code, Severity.ERROR, message, span, label, help))
+
+    def warning(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "") -> None:
+        self.report(Diagnostic(code, Severity.WARNING, message, span, label, help))
+
+    def note(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "") -> None:
+        self.report(Diagnostic(code, Severity.NOTE, message, span, label, help))
+
+    @property
+    def has_errors(self) -> bool:
+        return any(d.is_error for d in self.diagnostics)
+
+    def sorted(self) -> list[Diagnostic]:
+        """Diagnostics in source order (stable for equal positions)."""
+        return sorted(self.diagnostics, key=lambda d: (d.span.start, d.span.end))
+
+
+def _paint(text: str, style: str, color: bool) -> str:
+    if not color:
+        return text
+    codes = {"error": "1;31", "warning": "1;33", "note": "1;36", "bold": "1", "blue": "1;34"}
+    return f"\x1b[{codes[style]}m{text}\x1b[0m"
+
+
+def render_short(diag: Diagnostic, source: SourceFile) -> str:
+    """One line: FILE:LINE:COL: severity[code]: message."""
+    line, col = source.line_col(diag.span.start)
+    return f"{source.path}:{line}:{col}: {diag.severity.value}[{diag.code}]: {diag.message}"
+
+
+def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> str:
+    """The one-line header, the source line, a caret under the span, and the help line."""
+    line, col = source.line_col(diag.span.start)
+    head = f"{source.path}:{line}:{col}: "
+    head += _paint(f"{diag.severity.value}[{diag.code}]", diag.severity.value, color)
+    head += ": " + diag.message
+    out = [head]
+    if source.text:
+        text = source.line_text(line).replace("\t", " ")
+        end_line, end_col = source.line_col(max(diag.span.start, diag.span.end - 1))
+        width = (end_col - col + 1) if end_line == line and diag.span.end > diag.span.start else 1
+        width = max(1, min(width, len(text) - col + 1)) if len(text) >= col else 1
+        gutter = f"{line:>4} | "
+        out.append(_paint(gutter, "blue", color) + text)
+        caret = " " * (col - 1) + "^" * width + (f" {diag.label}" if diag.label else "")
+        out.append(_paint("     | ", "blue", color) + _paint(caret, diag.severity.value, color))
+    if diag.help:
+        out.append(_paint("     = ", "blue", color) + "help: " + diag.help)
+    return "\n".join(out)
+
+
+def summary(diags: list[Diagnostic]) -> str:
+    """e.g. '1 error, 2 warnings, 0 notes'."""
+    counts = {s: sum(1 for d in diags if d.severity is s) for s in Severity}
+
+    def n(k: int, word: str) -> str:
+        return f"{k} {word}{'' if k == 1 else 's'}"
+
+    return ", ".join([n(counts[Severity.ERROR], "error"), n(counts[Severity.WARNING], "warning"), n(counts[Severity.NOTE], "note")])
+
+
+def to_json(diags: list[Diagnostic], source: SourceFile) -> str:
+    items = []
+    for d in diags:
+        line, col = source.line_col(d.span.start)
+        end_line, end_col = source.line_col(d.span.end)
+        items.append({
+            "file": source.path, "line": line, "column": col,
+            "end_line": end_line, "end_column": end_col,
+            "severity": d.severity.value, "code": d.code, "message": d.message,
+            "label": d.label, "help": d.help,
+        })
+    return json.dumps({"diagnostics": items, "summary": summary(diags)}, indent=2)

@@ -1,0 +1,141 @@
+"""The checked program: names resolved, units gone.
+
+Input: produced by `servoc.check` from the syntax tree. Invariants: every name
+refers to something declared; every target is an output N in 0..250 (limit,
+then reverse, then trim already applied); times are exact Fractions in
+microseconds; servos are on P0.0-P2.7, one per pin. Spans never take part in
+equality, so a program printed and parsed back compares equal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Union
+
+from .source import NO_SPAN, Span
+from .units import DEFAULT_T_DAV_US
+
+EASES = ("linear", "in", "out", "in-out")
+
+
+def _span() -> Span:
+    return field(default=NO_SPAN, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class Servo:
+    name: str
+    port: int                       # 0..2
+    bit: int                        # 0..7
+    t_dav_us: Fraction = DEFAULT_T_DAV_US
+    trim: int = 0
+    limit: tuple[int, int] | None = None   # inclusive N bounds of positions, before reverse and trim
+    reverse: bool = False
+    span: Span = _span()
+
+    @property
+    def channel(self) -> int:
+        """0..23: port x 8 + bit."""
+        return self.port * 8 + self.bit
+
+    @property
+    def pin(self) -> str:
+        return f"P{self.port}.{self.bit}"
+
+
+@dataclass(frozen=True)
+class Position:
+    """A position as written: its value and unit ('deg', 'us' or 'n')."""
+    value: Fraction
+    unit: str
+    n: int                          # the position's N, before limit/reverse/trim
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Target:
+    servo: str
+    n: int                          # output N, 0..250
+    position: Position
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Group:
+    name: str
+    servos: tuple[str, ...]         # flattened, declaration order, no repeats
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Pose:
+    name: str
+    targets: tuple[Target, ...]     # one per servo, in declaration order of the servos
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Move:
+    pose: str
+    targets: tuple[Target, ...]
+    duration_us: Fraction | None    # None: as fast as the slowest servo allows
+    ease: str = "linear"
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Hold:
+    duration_us: Fraction
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Repeat:
+    count: int
+    body: tuple["Stmt", ...]
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Loop:
+    body: tuple["Stmt", ...]
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Play:
+    sequence: str
+    span: Span = _span()
+
+
+Stmt = Union[Move, Hold, Repeat, Loop, Play]
+
+
+@dataclass(frozen=True)
+class Sequence:
+    name: str
+    body: tuple[Stmt, ...]
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Program:
+    path: str = field(compare=False)
+    servos: tuple[Servo, ...]
+    groups: tuple[Group, ...]
+    poses: tuple[Pose, ...]
+    sequences: tuple[Sequence, ...]
+    main: tuple[Stmt, ...]
+    frame_us: Fraction | None = None          # `frame DUR`, if given
+    target: str = "at89c52"
+    clock_hz: int = 12_000_000
+    references: frozenset[str] = frozenset()  # names used after their declaration
+    main_span: Span = _span()
+    frame_span: Span = _span()
+
+    def servo(self, name: str) -> Servo:
+        return next(s for s in self.servos if s.name == name)
+
+    def sequence(self, name: str) -> Sequence:
+        return next(s for s in self.sequences if s.name == name)
