@@ -3,7 +3,8 @@
 A `Diagnostic` has a code (e.g. ``infeasible-speed``), a severity, a message,
 a span in the source, an optional label shown under the caret and an optional
 help line. `Reporter` collects them; the renderers turn them into the
-``FILE:LINE:COL: severity[code]: message`` form, a caret display, or JSON.
+``FILE:LINE:COL: severity: message [code]`` form (the spec's
+``FILE:LINE:COL: error|warning: message`` with the rule's code at the end), a caret display, or JSON.
 """
 
 from __future__ import annotations
@@ -71,17 +72,17 @@ def _paint(text: str, style: str, color: bool) -> str:
 
 
 def render_short(diag: Diagnostic, source: SourceFile) -> str:
-    """One line: FILE:LINE:COL: severity[code]: message."""
+    """One line: FILE:LINE:COL: severity: message [code]."""
     line, col = source.line_col(diag.span.start)
-    return f"{source.path}:{line}:{col}: {diag.severity.value}[{diag.code}]: {diag.message}"
+    return f"{source.path}:{line}:{col}: {diag.severity.value}: {diag.message} [{diag.code}]"
 
 
 def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> str:
     """The one-line header, the source line, a caret under the span, and the help line."""
     line, col = source.line_col(diag.span.start)
     head = f"{source.path}:{line}:{col}: "
-    head += _paint(f"{diag.severity.value}[{diag.code}]", diag.severity.value, color)
-    head += ": " + diag.message
+    head += _paint(diag.severity.value, diag.severity.value, color)
+    head += f": {diag.message} [{diag.code}]"
     out = [head]
     if source.text:
         text = source.line_text(line).replace("\t", " ")

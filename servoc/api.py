@@ -1,0 +1,160 @@
+"""One function per stage boundary; the CLI and the tests call only these.
+
+    SourceFile --parse--> nodes.Program --check--> model.Program --plan--> Plan
+    Plan --lint--> diagnostics              (lint only reads)
+    Plan --generate--> AsmUnit --assemble--> Firmware --simulate--> SimTrace
+    Plan x SimTrace --verify--> VerifyReport
+
+Every stage takes a Reporter for user mistakes; the driver stops after a
+stage that reported errors. Internal bugs stay ordinary exceptions.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+from . import check as _check
+from . import codegen, lint as _lint, syntax, toolchain
+from . import plan as _plan
+from . import sim as _sim
+from . import verify as _verify
+from .diagnostics import Reporter
+from .source import NO_SPAN, SourceFile, Span
+
+ROM_BYTES = 0x2000
+RAM_BYTES = 256
+
+
+class UsageError(Exception):
+    """A problem with how servoc was called (exit status 2)."""
+
+
+@dataclass(frozen=True)
+class FrontEnd:
+    source: SourceFile
+    tree: object | None
+    program: object | None
+    plan: _plan.Plan | None
+
+
+@dataclass(frozen=True)
+class Firmware:
+    unit: codegen.AsmUnit
+    image: toolchain.HexImage
+    rom_bytes: int            # code memory used, tables included
+    runtime_bytes: int        # the runtime routines
+    program_bytes: int        # the program's native control flow
+    data_bytes: int           # move records and curve tables
+
+    @property
+    def hex_text(self) -> str:
+        return self.image.hex_text
+
+
+def load_source(path: str) -> tuple[SourceFile, Reporter]:
+    """Read a .servo file. Raises UsageError when it cannot be read at all."""
+    if os.path.isdir(path):
+        raise UsageError(f"{path}: is a directory, not a .servo file")
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as exc:
+        raise UsageError(f"{path}: {exc.strerror or exc}") from None
+    source, bad = SourceFile.from_bytes(path, data)
+    reporter = Reporter(source)
+    if bad is not None:
+        at = len(data[:bad].decode("utf-8", errors="replace"))
+        reporter.error("invalid-utf8", "the file is not valid UTF-8 text", Span(at, at + 1),
+                       help="save the file as UTF-8 (plain ASCII is fine)")
+    return source, reporter
+
+
+def parse(source: SourceFile, reporter: Reporter):
+    """Text -> syntax tree (nodes.Program), or None after syntax errors."""
+    return syntax.parse(source, reporter)
+
+
+def check(tree, reporter: Reporter):
+    """Syntax tree -> model.Program (names, units, limits resolved), or None after errors."""
+    return _check.check(tree, reporter, reporter.source.path)
+
+
+def plan(program, reporter: Reporter) -> _plan.Plan:
+    """model.Program -> Plan (frame period, steps with frame counts, move instances)."""
+    return _plan.plan(program, reporter)
+
+
+def lint(plan_: _plan.Plan, reporter: Reporter) -> None:
+    """Report every lint rule's findings on a plan."""
+    _lint.lint(plan_, reporter)
+
+
+def front_end(source: SourceFile, reporter: Reporter) -> FrontEnd:
+    """parse, check, plan and lint; stops after the first stage with errors."""
+    if reporter.has_errors:
+        return FrontEnd(source, None, None, None)
+    tree = parse(source, reporter)
+    if tree is None or reporter.has_errors:
+        return FrontEnd(source, tree, None, None)
+    program = check(tree, reporter)
+    if program is None or reporter.has_errors:
+        return FrontEnd(source, tree, program, None)
+    p = plan(program, reporter)
+    lint(p, reporter)
+    return FrontEnd(source, tree, program, p)
+
+
+def generate(plan_: _plan.Plan, source: SourceFile, reporter: Reporter) -> codegen.AsmUnit | None:
+    """Plan -> assembly text. Resource limits become diagnostics."""
+    try:
+        return codegen.generate(plan_, source)
+    except codegen.CodegenError as exc:
+        reporter.error("resources", str(exc), plan_.program.main_span,
+                       help="simplify the program: fewer nested sequences and repeats")
+        return None
+
+
+def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
+    """Assembly -> Intel HEX via sdas8051 and sdld, with ROM/RAM checked against the AT89C52."""
+    image = toolchain.assemble(unit.text, name="servo")
+    sym = image.symbols
+    runtime = sym["runtime_end"] - sym["runtime_start"]
+    program = sym["program_end"] - sym["runtime_end"]
+    data = sym["data_end"] - sym["data_start"] + 512 * len(unit.fneed_pages)
+    end = sym["data_end"]
+    limit = min(unit.fneed_pages) * 256 if unit.fneed_pages else ROM_BYTES
+    used = toolchain.rom_used(image.hex_text)
+    if end > limit:
+        reporter.error("rom-overflow",
+                       f"the firmware needs {end + (ROM_BYTES - limit)} bytes of code memory, the AT89C52 has {ROM_BYTES}: "
+                       f"runtime {runtime}, program {program}, motion data {data}",
+                       NO_SPAN,
+                       help="shorten the program: fewer distinct moves, or sequences played several times")
+        return None
+    if unit.ram_bytes > RAM_BYTES:
+        reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the AT89C52 has {RAM_BYTES}")
+        return None
+    return Firmware(unit, image, used, runtime, program, data)
+
+
+def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | None]:
+    """The whole compile: front end, then code generation and assembly if there were no errors."""
+    fe = front_end(source, reporter)
+    if fe.plan is None or reporter.has_errors:
+        return fe, None
+    unit = generate(fe.plan, source, reporter)
+    if unit is None:
+        return fe, None
+    return fe, assemble(unit, reporter)
+
+
+def simulate(firmware: Firmware, cycles: int) -> _sim.SimTrace:
+    """Run the firmware in ucsim for `cycles` machine cycles, recording every port write."""
+    return _sim.run(firmware.hex_text, cycles)
+
+
+def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.VerifyReport:
+    """Simulate and compare `frames` frames, from the first pulse, with the plan's golden frames."""
+    trace = simulate(firmware, _verify.cycles_needed(plan_, frames))
+    return _verify.verify(plan_, firmware.unit.rise_offsets, trace, frames)

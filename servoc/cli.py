@@ -1,0 +1,213 @@
+"""The `servoc` command line: lint, plan, compile, verify.
+
+Exit status: 0 success (warnings allowed), 1 errors in the program or a
+failed verification, 2 usage errors and missing tools. Never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import os
+import sys
+from fractions import Fraction
+
+from . import __version__, api
+from .diagnostics import render_full, summary, to_json
+from .plan import Plan
+from .units import DAV_DEG, fmt_ms
+
+EXAMPLES = """\
+examples:
+  servoc lint examples/biped.servo            check a program, show diagnostics
+  servoc plan examples/biped.servo            a table of every move's frames and speeds
+  servoc plan examples/biped.servo --csv      the same as CSV
+  servoc compile examples/biped.servo -o biped.hex --asm biped.asm
+  servoc verify examples/biped.servo          run the firmware in ucsim, check every pulse
+  servoc lint prog.servo --format json        diagnostics for editors and tools
+"""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # usage errors: exit 2 with a hint
+        self.print_usage(sys.stderr)
+        sys.stderr.write(f"servoc: error: {message}\n(see `servoc --help`)\n")
+        raise SystemExit(2)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(prog="servoc", description="Compile .servo motion programs into cycle-exact 8051 firmware "
+                     "(AT89C52, 12 MHz) and verify every pulse in the ucsim simulator.",
+                     epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--version", action="version", version=f"servoc {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    def add(name: str, help_: str) -> argparse.ArgumentParser:
+        p = sub.add_parser(name, help=help_, description=help_)
+        p.add_argument("file", metavar="FILE.servo", help="the program")
+        p.add_argument("--format", choices=("text", "json"), default="text", help="how to print diagnostics")
+        return p
+
+    p = add("lint", "check a program and print its diagnostics")
+    p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
+    p = add("plan", "show every move's frames, duration and speed per servo")
+    p.add_argument("--csv", action="store_true", help="print the table as CSV")
+    p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
+    p = add("compile", "compile to Intel HEX for the AT89C52")
+    p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
+    p.add_argument("--asm", metavar="OUT.asm", help="also write the generated assembly")
+    p = add("verify", "compile, run in ucsim and compare every pulse with the plan")
+    p.add_argument("--frames", type=int, metavar="N",
+                   help="frames to check from the first pulse (default: the whole program and 20 more, "
+                        "or 400 for a program that loops forever)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        return 130
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else 2
+    except Exception as exc:  # a bug in servoc, not in the user's program
+        sys.stderr.write(f"servoc: internal error: {type(exc).__name__}: {exc}\n"
+                         "This is a bug in servoc; please report it with the program that caused it.\n")
+        return 3
+
+
+def _color(stream) -> bool:
+    return "NO_COLOR" not in os.environ and hasattr(stream, "isatty") and stream.isatty()
+
+
+def _main(argv: list[str] | None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not args.command:
+        parser.print_help()
+        return 2
+    try:
+        source, reporter = api.load_source(args.file)
+    except api.UsageError as exc:
+        sys.stderr.write(f"servoc: error: {exc}\n")
+        return 2
+    if getattr(args, "frames", None) is not None and args.frames < 1:
+        sys.stderr.write("servoc: error: --frames must be at least 1\n")
+        return 2
+
+    fe = api.front_end(source, reporter)
+    firmware = None
+    try:
+        if args.command in ("compile", "verify") and fe.plan is not None and not reporter.has_errors:
+            unit = api.generate(fe.plan, source, reporter)
+            if unit is not None:
+                firmware = api.assemble(unit, reporter)
+    except api.toolchain.ToolNotFound as exc:
+        _diagnostics(reporter, args)
+        sys.stderr.write(f"servoc: error: {exc}\n")
+        return 2
+
+    emit = getattr(args, "emit", None)
+    if emit:
+        if reporter.has_errors:
+            _diagnostics(reporter, args)
+            return 1
+        from .dump import dump
+        print(dump({"ast": fe.tree, "model": fe.program, "plan": fe.plan}[emit], source))
+        return 0
+
+    _diagnostics(reporter, args)
+    if reporter.has_errors:
+        return 1
+    plan = fe.plan
+    assert plan is not None
+    if args.command == "lint":
+        if args.format == "text":
+            print(f"{source.path}: {_plan_line(plan)}")
+        return 0
+    if args.command == "plan":
+        sys.stdout.write(plan_table(plan, source, csv_out=args.csv))
+        return 0
+    assert firmware is not None
+    if args.command == "compile":
+        out = args.output or os.path.splitext(args.file)[0] + ".hex"
+        if args.asm:
+            api.toolchain.write_atomic(args.asm, firmware.unit.text)
+        api.toolchain.write_atomic(out, firmware.hex_text)
+        print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{api.ROM_BYTES} bytes "
+              f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
+              f"RAM {firmware.unit.ram_bytes}/{api.RAM_BYTES} bytes (stack {firmware.unit.stack_bytes})")
+        return 0
+    frames = args.frames or (400 if plan.total_frames is None else plan.total_frames + 20)
+    try:
+        report = api.verify(plan, firmware, frames)
+    except api.toolchain.ToolNotFound as exc:
+        sys.stderr.write(f"servoc: error: {exc}\n")
+        return 2
+    print(f"{source.path}: {report.summary()}")
+    for m in report.mismatches[:20]:
+        print(f"  {m}")
+    if len(report.mismatches) > 20:
+        print(f"  ... and {len(report.mismatches) - 20} more mismatches")
+    return 0 if report.ok else 1
+
+
+def _diagnostics(reporter, args) -> None:
+    diags = reporter.sorted()
+    if args.format == "json":
+        print(to_json(diags, reporter.source))
+        return
+    color = _color(sys.stderr)
+    for d in diags:
+        sys.stderr.write(render_full(d, reporter.source, color) + "\n")
+    if diags:
+        sys.stderr.write(summary(diags) + "\n")
+
+
+def _plan_line(plan: Plan) -> str:
+    servos = len(plan.channels)
+    ports = ", ".join(f"P{p}" for p in plan.ports) or "no ports"
+    kind = "default" if plan.period_is_default else "frame"
+    if plan.total_frames is None:
+        length = "loops forever"
+    else:
+        length = f"{plan.total_frames} frames = {fmt_ms(plan.total_frames * plan.period_us)}"
+    return (f"{servos} servo{'s' if servos != 1 else ''} on {ports}, P = {fmt_ms(plan.period_us)} ({kind}; "
+            f"shortest {fmt_ms(plan.min_period_us)}), program {length}")
+
+
+def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
+    """Every move instance: line, pose, frames, duration, each servo's delta and speed in % of its top speed."""
+    rows = []
+    for inst in sorted(plan.moves, key=lambda m: m.step.span.start):
+        line, _ = source.line_col(inst.step.span.start)
+        ms = Fraction(inst.frames * plan.period_us, 1000)
+        cells = []
+        for m in inst.motions:
+            ch = plan.channels[m.channel]
+            t_dav = plan.class_t_dav_us[ch.speed_class]
+            speed = abs(m.delta) * t_dav * 100 / (inst.frames * plan.period_us)
+            cells.append((ch.name, "set" if m.n0 is None else f"{m.delta:+d}", round(float(speed))))
+        rows.append((line, inst.step.pose, inst.frames, float(ms), inst.step.ease, cells))
+    if csv_out:
+        buf = io.StringIO()
+        w = csv.writer(buf, lineterminator="\n")
+        w.writerow(["line", "pose", "frames", "ms", "ease", "servo", "delta", "speed_percent"])
+        for line, pose, frames, ms, ease, cells in rows:
+            for name, delta, speed in cells:
+                w.writerow([line, pose, frames, f"{ms:g}", ease, name, delta, speed])
+        return buf.getvalue()
+    out = [f"frame period P = {fmt_ms(plan.period_us)}; speed = share of the servo's top speed "
+           f"(delta in DAV of {float(DAV_DEG):g}°)",
+           f"{'line':>5}  {'pose':<14} {'frames':>6} {'ms':>9}  servos (delta, speed)"]
+    for line, pose, frames, ms, ease, cells in rows:
+        servos = ", ".join(f"{n} {d} ({s}%)" for n, d, s in cells)
+        tag = "" if ease == "linear" else f" [{ease}]"
+        out.append(f"{line:>5}  {pose:<14} {frames:>6} {ms:>9.1f}  {servos}{tag}")
+    if plan.total_frames is None:
+        out.append("total: the program loops forever")
+    else:
+        out.append(f"total: {plan.total_frames} frames = {fmt_ms(plan.total_frames * plan.period_us)}, "
+                   "then the last targets repeat")
+    return "\n".join(out) + "\n"

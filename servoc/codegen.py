@@ -1,0 +1,371 @@
+"""Code generation: Plan -> AsmUnit (sdas8051 assembly text).
+
+The generator computes every number the firmware needs (RAM addresses,
+records, sorting networks, delay loop counts, jump offsets) and hands them to
+the jinja2 templates in `firmware_templates/`, which only lay out text.
+
+Firmware shape (AT89C52, 12 MHz, 1 us per machine cycle):
+- reset drives every servo line low, starts Timer2 in auto-reload mode with
+  period P, and runs the program code;
+- the program is native code: a move is `MOV DPTR,#record / LCALL do_move`,
+  a hold `LCALL do_hold`, `repeat` keeps its counter on the stack, `loop` is a
+  jump, `play` an LCALL of the sequence's code;
+- every frame, each port in use is prepared (its N sorted with their AND
+  masks by an unrolled sorting network, equal N merged, differenced into an
+  edge chain), then, on the timer tick, pulsed by a routine of fixed length:
+  one ORL raises the port's active lines, a fixed head of 493 cycles, then a
+  chain of 8-cycle edge blocks entered by JMP @A+DPTR so that each line falls
+  with ANL at exactly 500 + 8 N cycles after the rise.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jinja2
+
+from . import resources
+from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
+from .source import SourceFile
+from .units import BASE_US, DIV_US, N_MAX
+
+# Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19).
+SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
+    1: (),
+    2: ((0, 1),),
+    3: ((0, 2), (0, 1), (1, 2)),
+    4: ((0, 1), (2, 3), (0, 2), (1, 3), (1, 2)),
+    5: ((0, 3), (1, 4), (0, 2), (1, 3), (0, 1), (2, 4), (1, 2), (3, 4), (2, 3)),
+    6: ((0, 5), (1, 3), (2, 4), (1, 2), (3, 4), (0, 3), (2, 5), (0, 1), (2, 3), (4, 5), (1, 2), (3, 4)),
+    7: ((0, 6), (2, 3), (4, 5), (0, 2), (1, 4), (3, 6), (0, 1), (2, 5), (3, 4), (1, 2), (4, 6), (2, 3),
+        (4, 5), (1, 2), (3, 4), (5, 6)),
+    8: ((0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7), (0, 1), (2, 3), (4, 5), (6, 7),
+        (2, 4), (3, 5), (1, 4), (3, 6), (1, 2), (3, 4), (5, 6)),
+}
+
+BLOCK_BYTES = 24            # bytes of one edge block (see pulse.asm.j2)
+HEAD_CYCLES = BASE_US - DIV_US + 1   # rise to the first edge block: 493 cycles, so N = 0 falls at 500
+PRE_RISE_CYCLES = 1         # MOV A,ACT before the ORL that raises the lines
+FINAL_N = N_MAX + 1         # the chain ends with a silent block at N = 251
+PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
+CE_CYCLES = 13              # one compare-exchange, either way
+MERGE_CYCLES = 16           # one sorted line after the first, edge or merge
+FIRST_CYCLES = 10           # the smallest line
+STACK_TOP = 0xFF
+STACK_BASE = 0xE0           # the stack lives in 0xE0..0xFF
+STATE_BASE = 0x80           # 4 bytes of motion state per pin: 0x80 + 4 x pin
+CUR_BASE = 0x08             # current N per pin: 0x08 + pin
+ENGINE_STACK = 8            # deepest the runtime itself goes below a program call
+FLAG_EASED, FLAG_NODUR = 1, 2
+TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
+FNEED_TOP = 0x2000          # frames-needed tables sit in whole pages below the 8 KB top
+ROM_SIZE = 0x2000
+# Bit-addressable bytes: one bit per pin (port x 8 + bit).
+ACT, MOVB, DIRB, RMASK, FLAGS = 0x20, 0x23, 0x26, 0x29, 0x2C
+
+
+def edges_cycles(s: int) -> int:
+    """Cycles of the edges<s> routine including its RET (constant whatever the N)."""
+    return CE_CYCLES * len(SORTING_NETWORKS[s]) + MERGE_CYCLES * (s - 1) + FIRST_CYCLES + 2
+
+
+def head_pad(s: int) -> tuple[int, int]:
+    """(DJNZ loops, NOPs) that bring a port's head with s lines to exactly HEAD_CYCLES."""
+    used = (1                      # ORL: the rise
+            + 4 * s                # load N and masks
+            + 2                    # MOV R0, MOV R6
+            + 2 + edges_cycles(s)  # LCALL edges<s>
+            + 4                    # closing block count
+            + 9                    # jump offset
+            + 2                    # MOV DPTR
+            + 2)                   # JMP @A+DPTR
+    pad = HEAD_CYCLES - used
+    if pad < 0:
+        raise AssertionError("port head overflows")
+    if pad < 3:
+        return 0, pad
+    loops, nops = divmod(pad - 1, 2)     # MOV R7,#loops is 1 cycle, each DJNZ 2
+    return loops, nops
+
+
+def _bit(byte: int, pin: int) -> int:
+    return (byte - 0x20) * 8 + pin
+
+
+class CodegenError(Exception):
+    """A program that is valid but does not fit the firmware's resources."""
+
+
+@dataclass(frozen=True)
+class AsmUnit:
+    text: str
+    period_us: int
+    ports: tuple[int, ...]
+    rise_offsets: tuple[int, ...]   # cycles from the first port's rise to each port's rise
+    ram_bytes: int                  # direct RAM used, plus the motion state and the stack
+    stack_bytes: int                # deepest stack use of program and runtime
+    fneed_pages: tuple[int, ...]    # pages holding frames-needed tables (empty if none)
+
+
+def _hex8(v: int) -> str:
+    return f"0x{v & 0xFF:02X}"
+
+
+def _hex16(v: int) -> str:
+    return f"0x{v & 0xFFFF:04X}"
+
+
+_ENV: jinja2.Environment | None = None
+
+
+def environment() -> jinja2.Environment:
+    """The one jinja2 environment for the firmware templates."""
+    global _ENV
+    if _ENV is None:
+        _ENV = jinja2.Environment(
+            loader=jinja2.FunctionLoader(lambda name: resources.template_text(name)),
+            undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+            keep_trailing_newline=True, autoescape=False)
+        _ENV.filters["hex8"] = _hex8
+        _ENV.filters["hex16"] = _hex16
+        _ENV.filters["hi8"] = lambda v: _hex8(v >> 8)
+    return _ENV
+
+
+def render(template: str, **context) -> str:
+    try:
+        return environment().get_template(template).render(**context)
+    except jinja2.TemplateError as exc:
+        raise RuntimeError(f"firmware template {template}: {exc}") from exc
+
+
+# ----------------------------------------------------------------- layout
+
+class _Ram:
+    """A bump allocator over direct RAM 0x20..0x7F (0x08..0x1F holds CUR)."""
+
+    def __init__(self) -> None:
+        self.next = 0x20
+        self.symbols: list[tuple[str, int, str]] = []
+
+    def alloc(self, name: str, size: int, what: str) -> int:
+        addr = self.next
+        self.next += size
+        if self.next > 0x80:
+            raise CodegenError("direct RAM is full")
+        self.symbols.append((name, addr, what))
+        return addr
+
+
+@dataclass
+class _Ctx:
+    plan: Plan
+    source: SourceFile
+    records: list[dict]
+    ease_tables: dict[tuple, str]
+    labels: int = 0
+
+    def label(self, prefix: str) -> str:
+        self.labels += 1
+        return f"{prefix}{self.labels}"
+
+    def where(self, span) -> str:
+        line, _ = self.source.line_col(span.start)
+        text = self.source.line_text(line).split("#")[0].strip()
+        return f"{self.source.path.rsplit('/', 1)[-1]}:{line}  {text}"
+
+
+def _static_frames(plan: Plan, step: MoveStep) -> int | None:
+    if step.frames is not None:
+        return step.frames
+    seen = {inst.frames for inst in plan.moves if inst.step is step}
+    return seen.pop() if len(seen) == 1 else None
+
+
+def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
+    plan = ctx.plan
+    frames = _static_frames(plan, step)
+    flags = (FLAG_EASED if step.ease != "linear" else 0) | (FLAG_NODUR if frames is None else 0)
+    data: list[str] = [_hex8(flags)]
+    notes: list[str] = [f"flags: {'eased ' if flags & FLAG_EASED else ''}{'runtime-F' if flags & FLAG_NODUR else 'F given'}"]
+    if frames is not None:
+        data += [_hex8(frames), _hex8(frames >> 8)]
+        notes.append(f"F = {frames} frames")
+    if step.ease != "linear":
+        key = (step.ease, step.frames)
+        if key not in ctx.ease_tables:
+            ctx.ease_tables[key] = f"etab{len(ctx.ease_tables) + 1}"
+        lab = ctx.ease_tables[key]
+        data += [f"<{lab}", f">{lab}"]
+        notes.append(f"ease {step.ease} table {lab}")
+    targets = dict(step.targets)
+    for port in plan.ports:
+        chans = [c for c in plan.channels if c.port == port and c.index in targets]
+        data.append(_hex8(sum(1 << c.bit for c in chans)))
+        notes.append(f"P{port}: " + (", ".join(c.name for c in chans) or "none"))
+    for c in plan.channels:
+        if c.index in targets:
+            data.append(str(targets[c.index]))
+            notes.append(f"{c.name} N {targets[c.index]}")
+    rec = {"label": f"rec{len(ctx.records) + 1}", "data": data, "notes": notes, "where": ctx.where(step.span)}
+    ctx.records.append(rec)
+    return rec
+
+
+def _ops(ctx: _Ctx, body: tuple[Step, ...], depth: int, out: list[dict]) -> int:
+    """Flatten statements into template ops; returns the deepest stack use in bytes."""
+    deepest = depth
+    for st in body:
+        where = ctx.where(st.span)
+        if isinstance(st, MoveStep):
+            rec = _move_record(ctx, st)
+            out.append({"op": "move", "rec": rec["label"], "where": where})
+        elif isinstance(st, HoldStep):
+            if st.frames:
+                out.append({"op": "hold", "frames": st.frames, "where": where})
+        elif isinstance(st, RepeatStep):
+            lab = ctx.label("rep")
+            out.append({"op": "repeat", "label": lab, "count": st.count, "where": where})
+            deepest = max(deepest, _ops(ctx, st.body, depth + 2, out))
+            out.append({"op": "repeat_end", "label": lab, "where": where})
+        elif isinstance(st, LoopStep):
+            lab = ctx.label("loop")
+            out.append({"op": "loop", "label": lab, "where": where})
+            deepest = max(deepest, _ops(ctx, st.body, depth, out))
+            out.append({"op": "loop_end", "label": lab, "where": where})
+        elif isinstance(st, PlayStep):
+            out.append({"op": "play", "label": _seq_label(ctx.plan, st.sequence), "name": st.sequence, "where": where})
+            deepest = max(deepest, depth + 2 + _seq_depth(ctx, st.sequence))
+    return deepest
+
+
+def _seq_label(plan: Plan, name: str) -> str:
+    return f"seq{[s.name for s in plan.sequences].index(name) + 1}"
+
+
+def _seq_depth(ctx: _Ctx, name: str) -> int:
+    """Stack bytes a sequence's body adds (repeats and nested plays)."""
+    def depth(body) -> int:
+        d = 0
+        for st in body:
+            if isinstance(st, RepeatStep):
+                d = max(d, 2 + depth(st.body))
+            elif isinstance(st, LoopStep):
+                d = max(d, depth(st.body))
+            elif isinstance(st, PlayStep):
+                d = max(d, 2 + depth(ctx.plan.sequence(st.sequence).body))
+        return d
+    return depth(ctx.plan.sequence(name).body)
+
+
+def generate(plan: Plan, source: SourceFile) -> AsmUnit:
+    """Lay out the firmware for a plan (which must have passed lint without errors)."""
+    ctx = _Ctx(plan, source, [], {})
+    main_ops: list[dict] = []
+    deepest = _ops(ctx, plan.main, 0, main_ops)
+    sequences = []
+    for seq in plan.sequences:
+        ops: list[dict] = []
+        _ops(ctx, seq.body, 0, ops)
+        sequences.append({"label": _seq_label(plan, seq.name), "name": seq.name, "ops": ops,
+                          "where": ctx.where(seq.span)})
+    stack_bytes = deepest + ENGINE_STACK
+    if stack_bytes > STACK_TOP - STACK_BASE + 1:
+        raise CodegenError(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
+                           f"the firmware has {STACK_TOP - STACK_BASE + 1}")
+
+    ram = _Ram()
+    ram.symbols += [("ACT", ACT, "per port: lines that have a target (the rise mask); bit address = pin"),
+                    ("MOVB", MOVB, "per port: lines moving in the current move; bit address 0x18 + pin"),
+                    ("DIRB", DIRB, "per port: lines moving down; bit address 0x30 + pin"),
+                    ("RMASK", RMASK, "per port: lines the current record names; bit address 0x48 + pin"),
+                    ("FLAGS", FLAGS, "move flags, bits below")]
+    flag_bits = [("EASED", _bit(FLAGS, 0), "FLAGS.0: the current move is eased"),
+                 ("NODUR", _bit(FLAGS, 1), "FLAGS.1: F is found at run time"),
+                 ("LASTF", _bit(FLAGS, 2), "FLAGS.2: this is the move's last frame"),
+                 ("DIRF", _bit(FLAGS, 3), "FLAGS.3: the pin being stepped moves down")]
+    ram.next = FLAGS + 1
+    segf = ram.alloc("SEGF", 2, "F of the current move")
+    ram.next = 0x30
+    wn = ram.alloc("WN", 8, "sort work: N")
+    wm = ram.alloc("WM", 8, "sort work: AND masks")
+    seg2f = ram.alloc("SEG2F", 2, "2 F")
+    segk = ram.alloc("SEGK", 2, "frame number k in the current move")
+    fleft = ram.alloc("FLEFT", 2, "frames left in the current move or hold")
+    etab = ram.alloc("ETAB", 2, "eased curve table of the current move, minus 1")
+    ram.alloc("EVAL", 1, "e(k/F) x 256 this frame")
+    ram.alloc("TMPD", 1, "scratch: |delta|")
+    ram.alloc("TMPL", 1, "scratch")
+    ports = []
+    for port in plan.ports:
+        bits = [c.bit for c in plan.channels if c.port == port]
+        n = len(bits)
+        slots = ram.alloc(f"EDGES{port}", 2 * n, f"P{port}: edge blocks, (AND mask, count) each")
+        fin = ram.alloc(f"FIN{port}", 1, f"P{port}: count of the closing silent block")
+        loops, nops = head_pad(n)
+        ports.append({
+            "port": port, "s": n,
+            "pins": [{"i": i, "bit": b, "cur": CUR_BASE + 8 * port + b, "mask": 0xFF ^ (1 << b),
+                      "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
+                     for i, b in enumerate(bits)],
+            "fin": fin, "edges_cycles": edges_cycles(n),
+            "blocks": [{"j": j + 1, "mask": slots + 2 * j, "cnt": slots + 2 * j + 1} for j in range(n)],
+            "last_cnt": slots + 2 * n - 1, "entry_add": (1 - slots) % 256,
+            "pad_loops": loops, "pad_nops": nops,
+        })
+    edge_routines = [{"s": n, "network": SORTING_NETWORKS[n], "cycles": edges_cycles(n)}
+                     for n in sorted({p["s"] for p in ports})]
+    chans = []
+    for c in plan.channels:
+        pin = 8 * c.port + c.bit
+        chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": CUR_BASE + pin,
+                      "state": STATE_BASE + 4 * pin, "act_bit": _bit(ACT, pin), "mov_bit": _bit(MOVB, pin),
+                      "dir_bit": _bit(DIRB, pin), "rm_bit": _bit(RMASK, pin)})
+    reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
+                    "names": ", ".join(s.name for s in plan.program.servos if s.port == port)}
+                   for port in sorted({s.port for s in plan.program.servos})]
+
+    nodur = any(r["data"][0] in (_hex8(FLAG_NODUR), _hex8(FLAG_NODUR | FLAG_EASED)) for r in ctx.records)
+    fneed = []
+    if nodur:
+        for cls, table in enumerate(plan.speed_tables):
+            page = (FNEED_TOP >> 8) - 2 * (len(plan.speed_tables) - cls)
+            fneed.append({"cls": cls, "page": page, "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
+                          "t_dav": f"{float(plan.class_t_dav_us[cls]):.1f}"})
+        if max(max(t) for t in plan.speed_tables) > 0xFFFF:
+            raise CodegenError("a servo is too slow for the frames-needed tables")
+    pin_page = [0] * 24
+    for c in plan.channels:
+        if fneed:
+            pin_page[c.port * 8 + c.bit] = fneed[c.speed_class]["page"]
+
+    ease_tables = [{"label": lab, "ease": ease, "frames": frames,
+                    "values": list(next(st.ease_table for st in _moves(plan) if (st.ease, st.frames) == (ease, frames)))}
+                   for (ease, frames), lab in ctx.ease_tables.items()]
+    reload = 0x10000 - plan.period_us
+    tick_fix = (TICK_PARITY - reload) & 0xFF
+    text = render("firmware.asm.j2",
+                  source=source.path.rsplit("/", 1)[-1], plan=plan, period=plan.period_us, reload=reload, tick_fix=tick_fix,
+                  ram=ram.symbols, act=ACT, movb=MOVB, dirb=DIRB, rmask=RMASK, flags=FLAGS,
+                  edge_routines=edge_routines, chans=chans, flag_bits=flag_bits, head_cycles=HEAD_CYCLES,
+                  cur_base=CUR_BASE, state_base=STATE_BASE, stack_init=STACK_BASE - 1,
+                  ports=ports, reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
+                  records=ctx.records, ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
+                  block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES,
+                  flag_eased=FLAG_EASED, flag_nodur=FLAG_NODUR, channels=plan.channels)
+    offsets = tuple(PORT_CYCLES * i for i in range(len(plan.ports)))
+    ram_bytes = ram.next + 4 * 24 + stack_bytes
+    return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
+                   tuple(f["page"] for f in fneed))
+
+
+def _moves(plan: Plan):
+    def visit(body):
+        for st in body:
+            if isinstance(st, MoveStep):
+                yield st
+            elif isinstance(st, (RepeatStep, LoopStep)):
+                yield from visit(st.body)
+    yield from visit(plan.main)
+    for seq in plan.sequences:
+        yield from visit(seq.body)

@@ -1,0 +1,49 @@
+"""Usage rules: declarations nothing uses, statements nothing reaches."""
+
+from __future__ import annotations
+
+from ..diagnostics import Reporter, Severity
+from ..plan import LoopStep, Plan, PlayStep, RepeatStep
+from . import rule
+from .walk import bodies, never_ends
+
+
+def _unused(kind: str, items, plan: Plan, reporter: Reporter) -> None:
+    for item in items:
+        if item.name not in plan.program.references:
+            reporter.warning(f"unused-{kind}", f"{kind} `{item.name}` is never used", item.span,
+                             label="declared here", help=f"remove the {kind}, or use it")
+
+
+@rule("unused-servo", Severity.WARNING)
+def unused_servo(plan: Plan, reporter: Reporter) -> None:
+    _unused("servo", plan.program.servos, plan, reporter)
+
+
+@rule("unused-group", Severity.WARNING)
+def unused_group(plan: Plan, reporter: Reporter) -> None:
+    _unused("group", plan.program.groups, plan, reporter)
+
+
+@rule("unused-pose", Severity.WARNING)
+def unused_pose(plan: Plan, reporter: Reporter) -> None:
+    _unused("pose", plan.program.poses, plan, reporter)
+
+
+@rule("unused-sequence", Severity.WARNING)
+def unused_sequence(plan: Plan, reporter: Reporter) -> None:
+    _unused("sequence", plan.program.sequences, plan, reporter)
+
+
+@rule("unreachable", Severity.WARNING)
+def unreachable(plan: Plan, reporter: Reporter) -> None:
+    for body in bodies(plan):
+        for i, st in enumerate(body[:-1]):
+            ends = isinstance(st, LoopStep) or (
+                isinstance(st, (RepeatStep, PlayStep)) and never_ends(plan, (st,)))
+            if ends:
+                nxt = body[i + 1]
+                what = "`loop` never ends" if isinstance(st, LoopStep) else "the statement before never ends"
+                reporter.warning("unreachable", f"unreachable statement: {what}", nxt.span,
+                                 label="never runs", help="move it before the loop, or remove it")
+                break

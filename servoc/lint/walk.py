@@ -1,0 +1,53 @@
+"""Helpers shared by lint rules: walking plan steps."""
+
+from __future__ import annotations
+
+from typing import Iterator
+
+from ..plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
+
+
+def bodies(plan: Plan) -> Iterator[tuple[Step, ...]]:
+    """Every statement list of the program: main, each sequence, and every nested body."""
+    def visit(body: tuple[Step, ...]) -> Iterator[tuple[Step, ...]]:
+        yield body
+        for st in body:
+            if isinstance(st, (RepeatStep, LoopStep)):
+                yield from visit(st.body)
+    yield from visit(plan.main)
+    for seq in plan.sequences:
+        yield from visit(seq.body)
+
+
+def steps(plan: Plan) -> Iterator[Step]:
+    for body in bodies(plan):
+        yield from body
+
+
+def never_ends(plan: Plan, body: tuple[Step, ...]) -> bool:
+    """True when running `body` never finishes (it reaches a `loop`)."""
+    for st in body:
+        if isinstance(st, LoopStep):
+            return True
+        if isinstance(st, RepeatStep) and never_ends(plan, st.body):
+            return True
+        if isinstance(st, PlayStep) and never_ends(plan, plan.sequence(st.sequence).body):
+            return True
+    return False
+
+
+def fewest_frames(plan: Plan, body: tuple[Step, ...]) -> int:
+    """The fewest frames one pass of `body` can take (a move takes at least one)."""
+    total = 0
+    for st in body:
+        if isinstance(st, MoveStep):
+            total += st.frames or 1
+        elif isinstance(st, HoldStep):
+            total += st.frames
+        elif isinstance(st, RepeatStep):
+            total += st.count * fewest_frames(plan, st.body)
+        elif isinstance(st, LoopStep):
+            total += fewest_frames(plan, st.body)
+        else:
+            total += fewest_frames(plan, plan.sequence(st.sequence).body)
+    return total

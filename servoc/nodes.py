@@ -1,0 +1,205 @@
+"""The syntax tree of a .servo program, as written.
+
+Input: produced by `servoc.syntax.parse` from a `SourceFile`. Output: read by
+`servoc.check` (names, units, limits) and by `servoc.printer` (canonical text).
+
+Invariants:
+- every node is a frozen dataclass with a `span: Span` field: character
+  offsets into `SourceFile.text`, covering the construct as written (a
+  statement from its keyword to its last token, a block statement through
+  its closing brace, a pose entry from its target name through its value);
+- nothing is resolved or checked yet: names are plain text, numbers keep the
+  unit written after them (`Quantity.unit` is "" for a bare number), pins are
+  the text as written (`P1.0`), and a servo's options keep their order and
+  may repeat;
+- numbers are exact `Fraction`s taken from their decimal text, never floats;
+- `Program.items` keeps the declarations in source order (the checker needs
+  the order for "setting after use" errors).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Union
+
+from .source import Span
+
+
+@dataclass(frozen=True)
+class Name:
+    """An identifier as written: a declaration's name or a reference."""
+    text: str
+    span: Span
+
+
+@dataclass(frozen=True)
+class Quantity:
+    """A number and the unit written right after it ("" when none).
+
+    `value` is exact; it is negative only for a `trim` written with `-`.
+    """
+    value: Fraction
+    unit: str
+    span: Span
+
+
+@dataclass(frozen=True)
+class Pin:
+    """A pin as written, e.g. `P1.0`; the checker validates it."""
+    text: str
+    span: Span
+
+
+# ---- servo options ---------------------------------------------------------
+
+@dataclass(frozen=True)
+class SpeedOption:
+    """`speed DUR/ANGLE`."""
+    duration: Quantity
+    angle: Quantity
+    span: Span
+
+
+@dataclass(frozen=True)
+class TrimOption:
+    """`trim INT` (the sign, if any, is folded into `value.value`)."""
+    value: Quantity
+    span: Span
+
+
+@dataclass(frozen=True)
+class LimitOption:
+    """`limit LOW..HIGH`."""
+    low: Quantity
+    high: Quantity
+    span: Span
+
+
+@dataclass(frozen=True)
+class ReverseOption:
+    """`reverse`."""
+    span: Span
+
+
+ServoOption = Union[SpeedOption, TrimOption, LimitOption, ReverseOption]
+
+
+# ---- declarations ----------------------------------------------------------
+
+@dataclass(frozen=True)
+class FrameDecl:
+    """`frame DUR`."""
+    period: Quantity
+    span: Span
+
+
+@dataclass(frozen=True)
+class TargetDecl:
+    """`target CHIP [clock FREQ]`."""
+    chip: Name
+    clock: Quantity | None
+    span: Span
+
+
+@dataclass(frozen=True)
+class ServoDecl:
+    """`servo NAME = PIN OPTION*`."""
+    name: Name
+    pin: Pin
+    options: tuple[ServoOption, ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class GroupDecl:
+    """`group NAME = NAME, NAME, ...`."""
+    name: Name
+    members: tuple[Name, ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One pose entry `TARGET: POSITION`; TARGET is a servo, group or port."""
+    target: Name
+    position: Quantity
+    span: Span
+
+
+@dataclass(frozen=True)
+class PoseDecl:
+    """`pose NAME { ENTRY, ... }` or, with `base`, `pose NAME = BASE with { ... }`."""
+    name: Name
+    base: Name | None
+    entries: tuple[Entry, ...]
+    span: Span
+
+
+# ---- statements ------------------------------------------------------------
+
+@dataclass(frozen=True)
+class MoveStmt:
+    """`move POSE [in DUR [ease KIND]]`; `ease` is the word as written or None."""
+    pose: Name
+    duration: Quantity | None
+    ease: str | None
+    span: Span
+
+
+@dataclass(frozen=True)
+class HoldStmt:
+    """`hold DUR`."""
+    duration: Quantity
+    span: Span
+
+
+@dataclass(frozen=True)
+class RepeatStmt:
+    """`repeat N { STATEMENTS }`."""
+    count: Quantity
+    body: tuple["Stmt", ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class LoopStmt:
+    """`loop { STATEMENTS }`."""
+    body: tuple["Stmt", ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class PlayStmt:
+    """`play SEQUENCE`."""
+    name: Name
+    span: Span
+
+
+Stmt = Union[MoveStmt, HoldStmt, RepeatStmt, LoopStmt, PlayStmt]
+
+
+@dataclass(frozen=True)
+class SequenceDecl:
+    """`sequence NAME { STATEMENTS }`."""
+    name: Name
+    body: tuple[Stmt, ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class MainDecl:
+    """`main { STATEMENTS }`; `keyword` is the span of the word `main`."""
+    body: tuple[Stmt, ...]
+    keyword: Span
+    span: Span
+
+
+Item = Union[FrameDecl, TargetDecl, ServoDecl, GroupDecl, PoseDecl, SequenceDecl, MainDecl]
+
+
+@dataclass(frozen=True)
+class Program:
+    """A whole file: its declarations in source order."""
+    items: tuple[Item, ...]
+    span: Span

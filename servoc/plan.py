@@ -1,0 +1,366 @@
+"""The speed planner: model.Program -> Plan.
+
+The Plan is what the firmware is generated from and what `verify` checks
+against. It keeps the program's control flow (repeat, loop and play are not
+unrolled): each move becomes a `MoveStep` whose frame count F is fixed when
+the move has a duration, and left to the run-time rule (as fast as the slowest
+servo allows) when it has none. The planner also walks every context a
+statement can run in (first and later passes of repeats and loops, every
+place a sequence is played) and records each distinct move instance with its
+start and end N, which is what the speed lint reads.
+
+`expand(plan)` is the golden model: the exact N of every channel in every
+frame, following the spec's formulas. Invariants: all N in 0..250; frame F of
+a move equals the pose; after `main` ends the last frame repeats forever.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Iterator, Union
+
+from . import costs, model
+from .diagnostics import Reporter
+from .source import NO_SPAN, Span
+from .units import N_MAX, frames_for, frames_needed, move_frames, round_half_up
+
+EASE_SCALE = 256     # eased curves are stored as e(k/F) x 256, rounded, clamped to 255
+
+
+# ----------------------------------------------------------------- plan types
+
+@dataclass(frozen=True)
+class Channel:
+    """A servo that gets pulses, as the firmware sees it."""
+    servo: model.Servo
+    index: int            # position in Plan.channels
+    speed_class: int      # index into Plan.speed_tables
+
+    @property
+    def port(self) -> int:
+        return self.servo.port
+
+    @property
+    def bit(self) -> int:
+        return self.servo.bit
+
+    @property
+    def name(self) -> str:
+        return self.servo.name
+
+
+@dataclass(frozen=True)
+class MoveStep:
+    pose: str
+    targets: tuple[tuple[int, int], ...]    # (channel index, N1), channel order
+    frames: int | None                      # F; None = as fast as the slowest servo allows
+    ease: str
+    ease_table: tuple[int, ...]             # eased: round(256 e(k/F)) for k = 1..F-1, else ()
+    duration_us: Fraction | None
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class HoldStep:
+    frames: int
+    duration_us: Fraction
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class RepeatStep:
+    count: int
+    body: tuple["Step", ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class LoopStep:
+    body: tuple["Step", ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class PlayStep:
+    sequence: str
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep]
+
+
+@dataclass(frozen=True)
+class SequencePlan:
+    name: str
+    body: tuple[Step, ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class ServoMotion:
+    channel: int
+    n0: int | None        # None: the servo had no target yet (set at once)
+    n1: int
+
+    @property
+    def delta(self) -> int:
+        return 0 if self.n0 is None else self.n1 - self.n0
+
+
+@dataclass(frozen=True)
+class MoveInstance:
+    """One move in one context the program can reach."""
+    step: MoveStep
+    frames: int
+    motions: tuple[ServoMotion, ...]
+
+
+@dataclass(frozen=True)
+class Plan:
+    program: model.Program
+    channels: tuple[Channel, ...]           # servos that are moved somewhere, by (port, bit)
+    ports: tuple[int, ...]                  # ports with channels, ascending
+    period_us: int                          # frame period P in machine cycles (1 us)
+    period_is_default: bool
+    min_period_us: int                      # shortest P the firmware sustains for these ports
+    speed_tables: tuple[tuple[int, ...], ...]   # per speed class: frames needed for |delta| = 0..250
+    class_t_dav_us: tuple[Fraction, ...]    # per speed class: t_DAV
+    main: tuple[Step, ...]
+    sequences: tuple[SequencePlan, ...]     # only those reachable from main, in declaration order
+    moves: tuple[MoveInstance, ...]         # every distinct move instance the program reaches
+    total_frames: int | None                # frames until main ends; None if it loops forever
+
+    def channel_of(self, servo: str) -> Channel:
+        return next(c for c in self.channels if c.servo.name == servo)
+
+    def sequence(self, name: str) -> SequencePlan:
+        return next(s for s in self.sequences if s.name == name)
+
+
+# ----------------------------------------------------------------- easing
+
+def ease_value(ease: str, u: Fraction) -> Union[Fraction, float]:
+    """e(u) of the spec; exact where the value is rational."""
+    if ease == "linear":
+        return u
+    if ease == "in":
+        return u * u
+    if ease == "out":
+        return 1 - (1 - u) * (1 - u)
+    # in-out: (1 - cos(pi u)) / 2; exact at multiples of 1/3 and 1/2, where cos is rational
+    exact = {Fraction(0): Fraction(1), Fraction(1, 3): Fraction(1, 2), Fraction(1, 2): Fraction(0),
+             Fraction(2, 3): Fraction(-1, 2), Fraction(1): Fraction(-1)}
+    if u in exact:
+        return (1 - exact[u]) / 2
+    return (1 - math.cos(math.pi * u)) / 2
+
+
+def frame_value(n0: int, n1: int, k: int, frames: int, ease: str) -> int:
+    """The spec's commanded N at frame k (1..F) of a move from n0 to n1."""
+    delta = n1 - n0
+    if k >= frames:
+        return n1
+    if ease == "linear":
+        sign = (delta > 0) - (delta < 0)
+        return n0 + sign * round_half_up(Fraction(abs(delta) * k, frames))
+    e = ease_value(ease, Fraction(k, frames))
+    return math.floor(n0 + delta * e + Fraction(1, 2)) if isinstance(e, Fraction) else math.floor(n0 + delta * e + 0.5)
+
+
+def ease_table(ease: str, frames: int) -> tuple[int, ...]:
+    if ease == "linear":
+        return ()
+    return tuple(min(EASE_SCALE - 1, math.floor(ease_value(ease, Fraction(k, frames)) * EASE_SCALE + Fraction(1, 2)))
+                 for k in range(1, frames))
+
+
+# ----------------------------------------------------------------- planning
+
+State = tuple  # per channel: N or None
+
+
+def _moved_servos(program: model.Program) -> set[str]:
+    names: set[str] = set()
+
+    def visit(body: tuple) -> None:
+        for st in body:
+            if isinstance(st, model.Move):
+                names.update(t.servo for t in st.targets)
+            elif isinstance(st, (model.Repeat, model.Loop)):
+                visit(st.body)
+
+    visit(program.main)
+    for seq in program.sequences:
+        visit(seq.body)
+    return names
+
+
+def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
+    """Plan a checked program. Checks on the result are the linter's job."""
+    moved = _moved_servos(program)
+    servos = sorted((s for s in program.servos if s.name in moved), key=lambda s: s.channel)
+    ports = tuple(sorted({s.port for s in servos}))
+    min_p = costs.min_period_us(len(ports))
+    if program.frame_us is not None:
+        period = max(1, round_half_up(program.frame_us))
+        is_default = False
+    else:
+        period = costs.default_period_us(len(ports))
+        is_default = True
+
+    classes: list[Fraction] = []
+    channels = []
+    for i, s in enumerate(servos):
+        if s.t_dav_us not in classes:
+            classes.append(s.t_dav_us)
+        channels.append(Channel(s, i, classes.index(s.t_dav_us)))
+    tables = tuple(tuple(frames_needed(d, t, period) for d in range(N_MAX + 1)) for t in classes)
+    index = {c.servo.name: c.index for c in channels}
+
+    def steps(body: tuple) -> tuple[Step, ...]:
+        out: list[Step] = []
+        for st in body:
+            if isinstance(st, model.Move):
+                targets = tuple(sorted((index[t.servo], t.n) for t in st.targets))
+                frames = None if st.duration_us is None else move_frames(st.duration_us, period)
+                table = ease_table(st.ease, frames) if frames is not None else ()
+                out.append(MoveStep(st.pose, targets, frames, st.ease, table, st.duration_us, st.span))
+            elif isinstance(st, model.Hold):
+                out.append(HoldStep(frames_for(st.duration_us, period), st.duration_us, st.span))
+            elif isinstance(st, model.Repeat):
+                out.append(RepeatStep(st.count, steps(st.body), st.span))
+            elif isinstance(st, model.Loop):
+                out.append(LoopStep(steps(st.body), st.span))
+            else:
+                out.append(PlayStep(st.sequence, st.span))
+        return tuple(out)
+
+    main = steps(program.main)
+    seq_bodies = {s.name: SequencePlan(s.name, steps(s.body), s.span) for s in program.sequences}
+    walker = _Walker(seq_bodies, tables, tuple(c.speed_class for c in channels))
+    _, total, infinite = walker.walk(main, (None,) * len(channels))
+    used = [seq_bodies[s.name] for s in program.sequences if s.name in walker.played]
+    return Plan(program, tuple(channels), ports, period, is_default, min_p, tables, tuple(classes),
+                main, tuple(used), tuple(walker.instances.values()), None if infinite else total)
+
+
+def move_frames_at(step: MoveStep, state: State, tables, classes) -> int:
+    """F of a move entered in `state` (the run-time rule when it has no duration)."""
+    if step.frames is not None:
+        return step.frames
+    need = 0
+    for ch, n1 in step.targets:
+        n0 = state[ch]
+        if n0 is not None:
+            need = max(need, tables[classes[ch]][abs(n1 - n0)])
+    return max(1, need)
+
+
+class _Walker:
+    """Runs the steps over states, not frames: each body is walked once per distinct entry state."""
+
+    def __init__(self, sequences: dict[str, SequencePlan], tables, classes):
+        self.sequences = sequences
+        self.tables = tables
+        self.classes = classes
+        self.instances: dict[tuple, MoveInstance] = {}
+        self.played: set[str] = set()
+        self.memo: dict[tuple, tuple[State, int, bool]] = {}
+
+    def walk(self, body: tuple[Step, ...], state: State) -> tuple[State, int, bool]:
+        key = (id(body), state)
+        if key in self.memo:
+            return self.memo[key]
+        total, infinite = 0, False
+        for st in body:
+            if isinstance(st, MoveStep):
+                f = move_frames_at(st, state, self.tables, self.classes)
+                motions = tuple(ServoMotion(ch, state[ch], n1) for ch, n1 in st.targets)
+                self.instances.setdefault((id(st), state), MoveInstance(st, f, motions))
+                new = list(state)
+                for ch, n1 in st.targets:
+                    new[ch] = n1
+                state = tuple(new)
+                total += f
+            elif isinstance(st, HoldStep):
+                total += st.frames
+            elif isinstance(st, RepeatStep):
+                # Poses are absolute, so every pass after the first starts from the same state.
+                state, first, inf = self.walk(st.body, state)
+                if st.count > 1 and not inf:
+                    state, later, inf = self.walk(st.body, state)
+                    total += first + later * (st.count - 1)
+                else:
+                    total += first
+                infinite = infinite or inf
+            elif isinstance(st, LoopStep):
+                state, _, _ = self.walk(st.body, state)
+                state, _, _ = self.walk(st.body, state)
+                infinite = True
+            else:
+                self.played.add(st.sequence)
+                state, f, inf = self.walk(self.sequences[st.sequence].body, state)
+                total += f
+                infinite = infinite or inf
+            if infinite:
+                break
+        self.memo[key] = (state, total, infinite)
+        return self.memo[key]
+
+
+# ----------------------------------------------------------------- golden frames
+
+@dataclass(frozen=True)
+class GoldenFrame:
+    n: tuple[int | None, ...]   # per channel; None = no pulse (no target yet)
+    exact: tuple[bool, ...]     # per channel: False where an eased curve allows +-1 N
+    span: Span                  # the statement that produced the frame
+
+
+def expand(plan: Plan) -> Iterator[GoldenFrame]:
+    """Every frame of the program, from the first timer frame; after main, the last repeats forever."""
+    count = len(plan.channels)
+    all_exact = (True,) * count
+    state: list[int | None] = [None] * count
+    last_span = NO_SPAN
+    classes = tuple(c.speed_class for c in plan.channels)
+
+    def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
+        nonlocal last_span
+        for st in body:
+            if isinstance(st, MoveStep):
+                f = move_frames_at(st, tuple(state), plan.speed_tables, classes)
+                start = list(state)
+                eased = st.ease != "linear"
+                for k in range(1, f + 1):
+                    exact = list(all_exact)
+                    for ch, n1 in st.targets:
+                        n0 = start[ch]
+                        state[ch] = n1 if n0 is None else frame_value(n0, n1, k, f, st.ease)
+                        if eased and k < f and n0 is not None:
+                            exact[ch] = False
+                    last_span = st.span
+                    yield GoldenFrame(tuple(state), tuple(exact), st.span)
+            elif isinstance(st, HoldStep):
+                for _ in range(st.frames):
+                    last_span = st.span
+                    yield GoldenFrame(tuple(state), all_exact, st.span)
+            elif isinstance(st, RepeatStep):
+                for _ in range(st.count):
+                    yield from run(st.body)
+            elif isinstance(st, LoopStep):
+                while True:
+                    before = None
+                    for fr in run(st.body):
+                        before = fr
+                        yield fr
+                    if before is None:      # a loop whose body makes no frames holds the last frame
+                        break
+            else:
+                yield from run(plan.sequence(st.sequence).body)
+
+    yield from run(plan.main)
+    while True:
+        yield GoldenFrame(tuple(state), all_exact, last_span)

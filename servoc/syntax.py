@@ -1,0 +1,545 @@
+"""Parsing: `SourceFile` text -> `nodes.Program`.
+
+Input: the decoded text of one .servo file. Output: a `nodes.Program` (see
+`servoc.nodes` for its invariants), or None after reporting exactly one
+`syntax-error` diagnostic.
+
+The grammar is `grammar/servo.lark`, parsed by lark's LALR(1) parser with its
+contextual lexer; the parser is built once. Keywords are reserved: a postlexer
+turns a NAME token spelled like a keyword into that keyword, so `servo main =`
+fails where a name was expected. Parse errors are described in the words of
+the language ("a pose name", "a position such as `90deg`"), never with lark's
+terminal names. `parse` never raises, whatever the input.
+"""
+
+from __future__ import annotations
+
+import re
+import unicodedata
+from fractions import Fraction
+from functools import lru_cache
+from typing import Iterable, Iterator
+
+from lark import Lark, Token, Transformer_NonRecursive, Tree, v_args
+from lark.exceptions import UnexpectedInput, UnexpectedToken, VisitError
+from lark.lexer import PatternStr
+
+from . import nodes
+from .diagnostics import Reporter
+from .resources import grammar_text
+from .source import SourceFile, Span
+
+# Deeper block nesting than this is refused (and keeps every later recursive
+# pass, such as dataclass equality, well inside Python's recursion limit).
+MAX_NESTING = 100
+# More digits than this in one number is refused before converting it.
+MAX_DIGITS = 60
+
+_NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+_MICRO = ("\u00b5", "\u03bc")
+
+
+class _KeywordPostLex:
+    """Turns NAME tokens spelled like a keyword into the keyword's token.
+
+    lark's contextual lexer only recognises a keyword where the parser can
+    accept it; elsewhere `main` would pass as a NAME. NAME is also lexed in
+    every parser state (`always_accept`), so that `mainloop` is never split
+    into `main` + `loop` where only keywords fit; so is PIN, so that a pin in
+    the wrong place is reported as `P1.0`, not as `P1`.
+    """
+
+    always_accept = ("NAME", "PIN")
+
+    def __init__(self) -> None:
+        self.keywords: dict[str, str] = {}
+
+    def process(self, stream: Iterable[Token]) -> Iterator[Token]:
+        for tok in stream:
+            if tok.type == "NAME" and tok.value in self.keywords:
+                tok = Token.new_borrow_pos(self.keywords[tok.value], tok.value, tok)
+            yield tok
+
+
+@lru_cache(maxsize=None)
+def _parser() -> Lark:
+    postlex = _KeywordPostLex()
+    parser = Lark(grammar_text(), parser="lalr", lexer="contextual", propagate_positions=True,
+                  postlex=postlex, maybe_placeholders=False)
+    for term in parser.terminals:
+        if isinstance(term.pattern, PatternStr) and _NAME_RE.match(term.pattern.value):
+            postlex.keywords[term.pattern.value] = term.name
+    return parser
+
+
+def keywords() -> frozenset[str]:
+    """The reserved words of the language."""
+    return frozenset(_parser().options.postlex.keywords)
+
+
+class _Problem(Exception):
+    """A syntax problem found while building nodes (e.g. a number too long)."""
+
+    def __init__(self, message: str, span: Span, help: str = "") -> None:
+        super().__init__(message)
+        self.message, self.span, self.help = message, span, help
+
+
+# ---- parse ------------------------------------------------------------------
+
+def parse(source: SourceFile, reporter: Reporter) -> nodes.Program | None:
+    """Parse one file; on a syntax error report it once and return None."""
+    text = source.text
+    try:
+        tree = _parser().parse(text)
+        depth_error = _check_nesting(tree)
+        if depth_error is not None:
+            reporter.error("syntax-error", depth_error[0], depth_error[1],
+                           help="split the program into sequences and `play` them")
+            return None
+        return _Builder().transform(tree)
+    except UnexpectedInput as exc:
+        try:
+            message, span, help_ = _describe(exc, text)
+        except Exception:  # describing must never turn into a traceback
+            pos = _pos_of(exc, text)
+            message, span, help_ = "this text could not be read as .servo", Span(pos, pos + 1), ""
+        reporter.error("syntax-error", message, span, help=help_)
+        return None
+    except VisitError as exc:
+        orig = exc.orig_exc
+        if isinstance(orig, _Problem):
+            reporter.error("syntax-error", orig.message, orig.span, help=orig.help)
+        else:
+            reporter.error("syntax-error", "this program could not be read", Span(0, 0))
+        return None
+    except RecursionError:
+        reporter.error("syntax-error", "the program is nested too deeply to read", Span(0, 0),
+                       help="split the program into sequences and `play` them")
+        return None
+    except Exception:
+        reporter.error("syntax-error", "this program could not be read", Span(0, 0))
+        return None
+
+
+def _check_nesting(tree: Tree) -> tuple[str, Span] | None:
+    """Block nesting depth, walked without recursion."""
+    stack: list[tuple[Tree, int]] = [(tree, 0)]
+    while stack:
+        node, depth = stack.pop()
+        if node.data == "block":
+            depth += 1
+            if depth > MAX_NESTING:
+                start = node.meta.start_pos if not node.meta.empty else 0
+                return (f"blocks are nested more than {MAX_NESTING} deep", Span(start, start + 1))
+        for child in node.children:
+            if isinstance(child, Tree):
+                stack.append((child, depth))
+    return None
+
+
+# ---- tree -> nodes ----------------------------------------------------------
+
+def _span(meta) -> Span:
+    if getattr(meta, "empty", True):
+        return Span(0, 0)
+    return Span(meta.start_pos, meta.end_pos)
+
+
+def _tspan(tok: Token) -> Span:
+    return Span(tok.start_pos, tok.end_pos)
+
+
+def _name(tok: Token) -> nodes.Name:
+    return nodes.Name(str(tok), _tspan(tok))
+
+
+_NUMBER_RE = re.compile(r"([0-9]+)(?:\.([0-9]+))?(.*)\Z", re.S)
+
+
+def _quantity(tok: Token, negative: bool = False, start: int | None = None) -> nodes.Quantity:
+    m = _NUMBER_RE.match(str(tok))
+    whole, frac, unit = m.group(1), m.group(2) or "", m.group(3)
+    span = Span(tok.start_pos if start is None else start, tok.end_pos)
+    if len(whole.lstrip("0")) + len(frac) > MAX_DIGITS:
+        shown = str(tok)[:12]
+        raise _Problem(f"the number `{shown}...` has too many digits", span,
+                       help=f"numbers may have at most {MAX_DIGITS} digits")
+    value = Fraction(int(whole + frac), 10 ** len(frac))
+    if unit[:1] in _MICRO:
+        unit = "u" + unit[1:]
+    return nodes.Quantity(-value if negative else value, unit, span)
+
+
+@v_args(meta=True)
+class _Builder(Transformer_NonRecursive):
+    """lark tree -> `nodes`; each method's grammar rule is above it."""
+
+    # start: _sep* (_item _sep+)* _item?
+    def start(self, meta, items):
+        return nodes.Program(tuple(items), _span(meta))
+
+    # frame_decl: "frame" NUMBER
+    def frame_decl(self, meta, ch):
+        return nodes.FrameDecl(_quantity(ch[0]), _span(meta))
+
+    # target_decl: "target" NAME ("clock" NUMBER)?
+    def target_decl(self, meta, ch):
+        clock = _quantity(ch[1]) if len(ch) > 1 else None
+        return nodes.TargetDecl(_name(ch[0]), clock, _span(meta))
+
+    # servo_decl: "servo" NAME "=" PIN _servo_option*
+    def servo_decl(self, meta, ch):
+        name, pin, *options = ch
+        return nodes.ServoDecl(_name(name), nodes.Pin(str(pin), _tspan(pin)), tuple(options), _span(meta))
+
+    # speed_option: "speed" NUMBER "/" NUMBER
+    def speed_option(self, meta, ch):
+        return nodes.SpeedOption(_quantity(ch[0]), _quantity(ch[1]), _span(meta))
+
+    # trim_option: "trim" SIGN? NUMBER
+    def trim_option(self, meta, ch):
+        if len(ch) == 2:
+            sign, num = ch
+            return nodes.TrimOption(_quantity(num, sign == "-", sign.start_pos), _span(meta))
+        return nodes.TrimOption(_quantity(ch[0]), _span(meta))
+
+    # limit_option: "limit" NUMBER ".." NUMBER
+    def limit_option(self, meta, ch):
+        return nodes.LimitOption(_quantity(ch[0]), _quantity(ch[1]), _span(meta))
+
+    # reverse_option: "reverse"
+    def reverse_option(self, meta, ch):
+        return nodes.ReverseOption(_span(meta))
+
+    # group_decl: "group" NAME "=" NAME ("," _NL* NAME)*
+    def group_decl(self, meta, ch):
+        return nodes.GroupDecl(_name(ch[0]), tuple(_name(t) for t in ch[1:]), _span(meta))
+
+    # pose_decl: "pose" NAME pose_body
+    def pose_decl(self, meta, ch):
+        return nodes.PoseDecl(_name(ch[0]), None, ch[1], _span(meta))
+
+    # pose_decl: "pose" NAME "=" NAME "with" pose_body  -> pose_with_decl
+    def pose_with_decl(self, meta, ch):
+        return nodes.PoseDecl(_name(ch[0]), _name(ch[1]), ch[2], _span(meta))
+
+    # pose_body: "{" _NL* (entry _entry_sep+)* entry? "}"
+    def pose_body(self, meta, ch):
+        return tuple(ch)
+
+    # entry: NAME ":" NUMBER
+    def entry(self, meta, ch):
+        return nodes.Entry(_name(ch[0]), _quantity(ch[1]), _span(meta))
+
+    # sequence_decl: "sequence" NAME block
+    def sequence_decl(self, meta, ch):
+        return nodes.SequenceDecl(_name(ch[0]), ch[1], _span(meta))
+
+    # main_decl: "main" block
+    def main_decl(self, meta, ch):
+        span = _span(meta)
+        return nodes.MainDecl(ch[0], Span(span.start, span.start + len("main")), span)
+
+    # block: "{" _stmt_sep* (_stmt _stmt_sep+)* _stmt? "}"
+    def block(self, meta, ch):
+        return tuple(ch)
+
+    # move_stmt: "move" NAME ("in" NUMBER ease?)?
+    def move_stmt(self, meta, ch):
+        duration = _quantity(ch[1]) if len(ch) > 1 else None
+        ease = ch[2] if len(ch) > 2 else None
+        return nodes.MoveStmt(_name(ch[0]), duration, ease, _span(meta))
+
+    # ease: "ease" (LINEAR | IN | OUT | IN_OUT)
+    def ease(self, meta, ch):
+        return str(ch[0])
+
+    # hold_stmt: "hold" NUMBER
+    def hold_stmt(self, meta, ch):
+        return nodes.HoldStmt(_quantity(ch[0]), _span(meta))
+
+    # repeat_stmt: "repeat" NUMBER block
+    def repeat_stmt(self, meta, ch):
+        return nodes.RepeatStmt(_quantity(ch[0]), ch[1], _span(meta))
+
+    # loop_stmt: "loop" block
+    def loop_stmt(self, meta, ch):
+        return nodes.LoopStmt(ch[0], _span(meta))
+
+    # play_stmt: "play" NAME
+    def play_stmt(self, meta, ch):
+        return nodes.PlayStmt(_name(ch[0]), _span(meta))
+
+
+# ---- error messages ---------------------------------------------------------
+
+_DECL_KWS = ("SERVO", "GROUP", "POSE", "SEQUENCE", "MAIN", "FRAME", "TARGET")
+_STMT_KWS = ("MOVE", "HOLD", "REPEAT", "LOOP", "PLAY")
+_OPTION_KWS = ("SPEED", "TRIM", "LIMIT", "REVERSE")
+_EASE_KWS = ("LINEAR", "IN", "OUT", "IN_OUT")
+_ENDS = ("_NL", "SEMICOLON")
+
+_POSITION = "a position such as `90deg`, `1500us` or a raw N"
+_DURATION = "a duration such as `300ms`"
+
+# What a NUMBER is, by the token before it.
+_NUMBER_AFTER = {
+    "COLON": _POSITION,
+    "IN": _DURATION,
+    "HOLD": _DURATION,
+    "FRAME": "a frame period such as `6ms`",
+    "REPEAT": "a repeat count such as `3`",
+    "TRIM": "a whole number such as `2` or `-2`",
+    "SIGN": "a whole number such as `2` or `-2`",
+    "SPEED": "a duration such as `0.25s` (as in `speed 0.25s/60deg`)",
+    "SLASH": "an angle such as `60deg` (as in `speed 0.25s/60deg`)",
+    "LIMIT": "a position such as `20deg` (as in `limit 20deg..160deg`)",
+    "DOTDOT": "a position such as `160deg` (as in `limit 20deg..160deg`)",
+    "CLOCK": "a clock frequency such as `12MHz`",
+}
+
+# What a NAME is, by the token before it (and, for `=` and `,`, the keyword
+# that opened the declaration).
+_NAME_AFTER = {
+    "SERVO": "a name for the servo",
+    "GROUP": "a name for the group",
+    "POSE": "a name for the pose",
+    "SEQUENCE": "a name for the sequence",
+    "TARGET": "a chip name such as `at89c52`",
+    "MOVE": "the name of a pose",
+    "PLAY": "the name of a sequence",
+}
+
+
+def _pos_of(exc: UnexpectedInput, text: str) -> int:
+    if isinstance(exc, UnexpectedToken):
+        pos = len(text) if exc.token.type == "$END" else exc.token.start_pos
+    else:
+        pos = getattr(exc, "pos_in_stream", None)
+    if not isinstance(pos, int):
+        pos = len(text)
+    return max(0, min(pos, len(text)))
+
+
+def _prefix_tokens(text: str, pos: int) -> list[Token]:
+    """The tokens before `pos` (without comments and blanks), best effort."""
+    toks: list[Token] = []
+    try:
+        for tok in _parser().lex(text[:pos]):
+            toks.append(tok)
+    except Exception:
+        pass
+    return toks
+
+
+def _kind(tok: Token, term_text: dict[str, str]) -> str:
+    """A token's type, with `..` given a readable name."""
+    if term_text.get(tok.type) == "..":
+        return "DOTDOT"
+    return tok.type
+
+
+def _show(value: str, limit: int = 24) -> str:
+    value = value if len(value) <= limit else value[:limit] + "..."
+    return f"`{value}`"
+
+
+def _describe_char(ch: str) -> str:
+    if ch == "":
+        return "the end of the file"
+    if ch.isprintable() and ch.isascii() and ch != "`":
+        return f"`{ch}`"
+    try:
+        uname = unicodedata.name(ch).lower()
+    except ValueError:
+        uname = ""
+    code = f"U+{ord(ch):04X}"
+    return f"character {code}" + (f" ({uname})" if uname else "")
+
+
+def _found(tok: Token, keywords: dict[str, str]) -> str:
+    if tok.type == "$END":
+        return "the end of the file"
+    if tok.type == "_NL":
+        return "the end of the line"
+    if tok.value in keywords and tok.type == keywords[tok.value]:
+        return f"the keyword `{tok.value}`"
+    return _show(str(tok.value))
+
+
+def _join(words: list[str]) -> str:
+    if len(words) <= 1:
+        return "".join(words)
+    return ", ".join(words[:-1]) + " or " + words[-1]
+
+
+def _listing(names: Iterable[str], term_text: dict[str, str]) -> str:
+    return _join([f"`{term_text[n]}`" for n in names if n in term_text])
+
+
+def _expected_words(expected: set[str], prev: list[str], term_text: dict[str, str]) -> list[str]:
+    """The expected terminals in words, most useful first."""
+    exp = set(expected)
+    words: list[str] = []
+    last = prev[-1] if prev else ""
+    if "SIGN" in exp and "NUMBER" in exp:
+        exp.discard("SIGN")
+    if set(_DECL_KWS) <= exp:
+        words.append("a declaration (" + _listing(_DECL_KWS, term_text) + ")")
+        exp -= set(_DECL_KWS)
+    if set(_STMT_KWS) <= exp:
+        words.append("a statement (" + _listing(_STMT_KWS, term_text) + ")")
+        exp -= set(_STMT_KWS)
+    if set(_OPTION_KWS) <= exp:
+        words.append("a servo option (" + _listing(_OPTION_KWS, term_text) + ")")
+        exp -= set(_OPTION_KWS)
+    if set(_EASE_KWS) <= exp:
+        words.append("an easing (" + _listing(_EASE_KWS, term_text) + ")")
+        exp -= set(_EASE_KWS)
+    if "NUMBER" in exp:
+        words.append(_NUMBER_AFTER.get(last, "a number"))
+        exp.discard("NUMBER")
+    if "NAME" in exp:
+        words.append(_name_word(prev))
+        exp.discard("NAME")
+    if "PIN" in exp:
+        words.append("a pin such as `P1.0`")
+        exp.discard("PIN")
+    ends = [e for e in _ENDS if e in exp]
+    closers = [e for e in ("RBRACE", "$END") if e in exp]
+    exp -= set(_ENDS) | {"RBRACE", "$END"}
+    for name in sorted(exp):
+        if name in term_text:
+            words.append(f"`{term_text[name]}`")
+    if "_NL" in ends:
+        words.append("a newline")
+    if "SEMICOLON" in ends:
+        words.append("`;`")
+    if "RBRACE" in closers:
+        words.append("`}`")
+    elif "$END" in closers and not words:
+        words.append("the end of the file")
+    return words
+
+
+def _name_word(prev: list[str]) -> str:
+    last = prev[-1] if prev else ""
+    if last in _NAME_AFTER:
+        return _NAME_AFTER[last]
+    opener = next((k for k in reversed(prev) if k in _DECL_KWS), "")
+    if last in ("EQUAL", "COMMA") and opener == "GROUP":
+        return "a servo or group name"
+    if last == "EQUAL" and opener == "POSE":
+        return "the name of the pose to start from"
+    if opener == "POSE" and last in ("LBRACE", "COMMA", "_NL"):
+        return "a servo, group or port name"
+    return "a name"
+
+
+def _open_braces(toks: list[Token]) -> list[Token]:
+    stack: list[Token] = []
+    for tok in toks:
+        if tok.type == "LBRACE":
+            stack.append(tok)
+        elif tok.type == "RBRACE" and stack:
+            stack.pop()
+    return stack
+
+
+def _line_of(text: str, pos: int) -> int:
+    return text.count("\n", 0, pos) + 1
+
+
+def _expected_at(exc: UnexpectedInput) -> set[str]:
+    """The terminals the parser could take where it stopped.
+
+    Taken from the parse table: an error raised by the lexer carries the
+    lexer's set instead, which always holds NAME and PIN (`always_accept`).
+    """
+    state = getattr(exc, "state", None)
+    try:
+        return set(state.parse_conf.parse_table.states[state.position].keys())
+    except Exception:
+        found = set(getattr(exc, "expected", None) or getattr(exc, "allowed", None) or ())
+        return found - {"WS", "COMMENT"}
+
+
+def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
+    parser = _parser()
+    kws: dict[str, str] = parser.options.postlex.keywords
+    term_text = {t.name: t.pattern.value for t in parser.terminals if isinstance(t.pattern, PatternStr)}
+    pos = _pos_of(exc, text)
+    toks = _prefix_tokens(text, pos)
+    prev = [_kind(t, term_text) for t in toks]
+    last_tok = toks[-1] if toks else None
+    after = ""
+    if last_tok is not None and last_tok.type != "_NL":
+        after = f" after {_show(str(last_tok.value))}"
+
+    if isinstance(exc, UnexpectedToken):
+        tok = exc.token
+        expected = _expected_at(exc)
+        if tok.type == "$END":
+            real = [t for t in toks if t.type != "_NL"]
+            end = real[-1].end_pos if real else 0
+            span = Span(end, end)
+        else:
+            span = Span(pos, max(pos + 1, tok.end_pos or pos + 1))
+        kind = _kind(tok, term_text)
+        found = _found(tok, kws)
+        help_ = ""
+        if tok.type in kws.values() and "NAME" in expected:
+            return (f"`{tok.value}` is a keyword and cannot be used as a name, expected {_name_word(prev)}",
+                    span, f"keywords are reserved; choose another name, such as `{tok.value}_1`")
+        if kind == "SIGN" and "NUMBER" in expected and tok.value == "-":
+            return ("a negative number is allowed only after `trim`", span,
+                    "positions, durations and counts are never negative")
+        if kind == "NUMBER" and "IN" in expected and prev and prev[-1] == "NAME":
+            return (f"expected `in` before the duration, found {found}", span,
+                    f"write `move {toks[-1].value} in {tok.value}`")
+        if kind == "RBRACE" and "RBRACE" not in expected and not _open_braces(toks):
+            return ("unexpected `}`: there is no open block to close", span, "")
+        if tok.type == "$END":
+            open_ = _open_braces(toks)
+            if "RBRACE" in expected and open_:
+                line = _line_of(text, open_[-1].start_pos)
+                return (f"the file ends before the `}}` that closes the block opened at line {line}",
+                        span, "add the missing `}`")
+            words = _expected_words(expected, prev, term_text)
+            return (f"the file ends too early: expected {_join(words)}{after}", span, "")
+        words = _expected_words(expected, prev, term_text)
+        complete = bool(set(_ENDS) & expected)
+        if complete and not (expected - set(_ENDS) - {"RBRACE", "$END"}):
+            message = f"expected a newline or `;` after the statement, found {found}"
+            if tok.type in kws.values() and prev and prev[-1] == "NAME":
+                help_ = "put each statement on its own line, or separate them with `;`"
+        else:
+            message = f"expected {_join(words)}{after}, found {found}"
+        if kind == "PIN" and "NAME" in expected:
+            help_ = "a pin is only written in a `servo` declaration; here use the servo's name"
+        elif kind == "NAME" and "PIN" in expected:
+            help_ = "pins are written as a port and a bit: `P0.0` to `P2.7`"
+        elif kind == "NAME" and expected & set(_EASE_KWS):
+            help_ = "the easings are `linear`, `in`, `out` and `in-out`"
+        elif kind == "NUMBER" and "NAME" in expected:
+            help_ = "names start with a letter or `_`"
+        return message, span, help_
+
+    # UnexpectedCharacters: a character no token can start with.
+    ch = text[pos:pos + 1]
+    span = Span(pos, pos + 1) if ch else Span(pos, pos)
+    expected = _expected_at(exc)
+    shown = _describe_char(ch)
+    if ch in "\"'":
+        return (f"unexpected quote {shown}: .servo has no strings", span,
+                "names and chip names are written without quotes")
+    if ch == ".":
+        return ("unexpected `.`", span,
+                "a number needs digits on both sides of its point, as in `0.25s`; "
+                "a pin is written `P1.0`; a limit range is written `20deg..160deg`")
+    words = _expected_words(expected, prev, term_text) if expected else []
+    message = f"unexpected {shown}" if not shown.startswith("`") else f"unexpected character {shown}"
+    if words:
+        message += f": expected {_join(words)}{after}"
+    return message, span, ""

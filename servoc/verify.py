@@ -1,0 +1,141 @@
+"""Verification: Plan x SimTrace -> VerifyReport.
+
+The golden frames of `plan.expand` are compared with the pulses ucsim
+recorded, pulse for pulse: frame 1 is the first frame that carries a pulse;
+frame j of port p rises at T1 + (j - 1) P + the port's offset. Every expected
+pulse must be there with exactly 500 + 8 N cycles (eased intermediate frames:
+within one N), no pulse may appear where the plan has none, every rise must
+be within the allowed jitter of its slot, servo lines must go low within 20
+cycles of reset, and pins that are not servos must never change.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, field
+
+from .plan import Plan, expand
+from .sim import SimTrace
+from .units import BASE_US, DIV_US
+
+RESET_LOW_CYCLES = 20
+MAX_JITTER = 2
+
+
+@dataclass(frozen=True)
+class Mismatch:
+    frame: int
+    servo: str
+    pin: str
+    expected_us: int | None
+    measured_us: int | None
+    what: str
+
+    def __str__(self) -> str:
+        exp = "none" if self.expected_us is None else f"{self.expected_us} us"
+        got = "none" if self.measured_us is None else f"{self.measured_us} us"
+        return f"frame {self.frame}, {self.servo} ({self.pin}): expected {exp}, measured {got}: {self.what}"
+
+
+@dataclass(frozen=True)
+class VerifyReport:
+    frames: int
+    pulses: int
+    max_error_cycles: int
+    period_min: int | None
+    period_max: int | None
+    period_mean: float | None
+    reset_low_cycles: int | None        # latest first-low of a servo line after reset
+    mismatches: tuple[Mismatch, ...] = field(default=())
+
+    @property
+    def ok(self) -> bool:
+        return not self.mismatches
+
+    def summary(self) -> str:
+        period = "n/a" if self.period_min is None else (
+            f"{self.period_min}..{self.period_max} us (mean {self.period_mean:.3f})")
+        return (f"{'OK' if self.ok else 'FAILED'}: {self.frames} frames, {self.pulses} pulses checked, "
+                f"max error {self.max_error_cycles} cycles, period {period}, "
+                f"servo lines low {self.reset_low_cycles} us after reset")
+
+
+def cycles_needed(plan: Plan, frames: int) -> int:
+    """Machine cycles to simulate so that `frames` frames after the first pulse are complete."""
+    lead = 0
+    for fr in expand(plan):
+        if any(n is not None for n in fr.n):
+            break
+        lead += 1
+        if lead > 10_000_000:
+            break
+    return (lead + frames + 2) * plan.period_us + 5000
+
+
+def verify(plan: Plan, rise_offsets: tuple[int, ...], trace: SimTrace, frames: int) -> VerifyReport:
+    """Compare `frames` frames from the first pulse with what the simulation recorded."""
+    mismatches: list[Mismatch] = []
+    golden_iter = expand(plan)
+    golden = [fr for fr in golden_iter if any(n is not None for n in fr.n)][:1]
+    golden += list(itertools.islice(golden_iter, frames - 1))
+    port_offset = dict(zip(plan.ports, rise_offsets))
+    pulses = {c.index: trace.pulses(c.port, c.bit) for c in plan.channels}
+
+    resets = [trace.first_low(s.port, s.bit) for s in plan.program.servos]
+    reset_low = None if any(r is None for r in resets) or not resets else max(resets)
+    for s, r in zip(plan.program.servos, resets):
+        if r is None or r > RESET_LOW_CYCLES:
+            mismatches.append(Mismatch(0, s.name, s.pin, None, None,
+                                       f"line not driven low within {RESET_LOW_CYCLES} us of reset"))
+    servo_pins = {(s.port, s.bit) for s in plan.program.servos}
+    for port in sorted({s.port for s in plan.program.servos}):
+        for bit in range(8):
+            if (port, bit) not in servo_pins and trace.pin_edges(port, bit):
+                mismatches.append(Mismatch(0, "-", f"P{port}.{bit}", None, None, "a pin that is not a servo changed"))
+
+    firsts = [(ps[0][0] - port_offset[plan.channels[ch].port]) for ch, ps in pulses.items() if ps]
+    if not golden or not firsts:
+        if golden:
+            mismatches.append(Mismatch(1, "-", "-", None, None, "no pulse at all"))
+        return VerifyReport(0, 0, 0, None, None, None, reset_low, tuple(mismatches))
+    t1 = min(firsts)
+    period = plan.period_us
+    checked, max_err = 0, 0
+    rises_by_channel: dict[int, list[int]] = {}
+    for ch in plan.channels:
+        slots: dict[int, tuple[int, int]] = {}
+        for rise, width in pulses[ch.index]:
+            j = round((rise - t1 - port_offset[ch.port]) / period) + 1
+            if 1 <= j <= len(golden):
+                if j in slots:
+                    mismatches.append(Mismatch(j, ch.name, ch.servo.pin, None, width, "two pulses in one frame"))
+                slots[j] = (rise, width)
+        for j, fr in enumerate(golden, start=1):
+            n = fr.n[ch.index]
+            got = slots.get(j)
+            exp_us = None if n is None else BASE_US + DIV_US * n
+            if n is None:
+                if got:
+                    mismatches.append(Mismatch(j, ch.name, ch.servo.pin, None, got[1], "pulse before any target"))
+                continue
+            if got is None:
+                mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, None, "pulse missing"))
+                continue
+            rise, width = got
+            checked += 1
+            err = width - exp_us
+            slot_err = rise - (t1 + port_offset[ch.port] + (j - 1) * period)
+            if fr.exact[ch.index] or abs(err) > DIV_US or (width - BASE_US) % DIV_US:
+                max_err = max(max_err, abs(err))
+                if err:
+                    mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width, f"width off by {err} cycles"))
+            if abs(slot_err) > MAX_JITTER:
+                mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width,
+                                           f"rise {slot_err:+d} cycles from its frame slot"))
+            rises_by_channel.setdefault(ch.index, []).append(rise)
+    diffs = [b - a for rises in rises_by_channel.values() for a, b in zip(rises, rises[1:])
+             if round((b - a) / period) == 1]
+    spans = [(r[-1] - r[0], len(r) - 1) for r in rises_by_channel.values() if len(r) > 1]
+    mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
+    return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
+                        max(diffs) if diffs else None, mean, reset_low, tuple(mismatches))
