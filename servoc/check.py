@@ -156,10 +156,6 @@ class _Checker:
         if q.unit in units.TIME_UNITS_US:
             width = q.value * units.TIME_UNITS_US[q.unit]
             n = units.width_to_n(width)
-            if not units.width_on_grid(width):
-                self.r.warning("off-grid", f"pulse width `{format_quantity(q)}` is not on the 8 µs grid; "
-                               f"it is rounded to {format_number(Fraction(units.n_to_width_us(n)))}us (N {n})",
-                               q.span, help="pulse widths are 500us + 8us × N")
             return model.Position(width, "us", n, q.span)
         self.unit_error(q, _POSITION_NEED, context)
         return None

@@ -25,9 +25,9 @@ from dataclasses import dataclass
 import jinja2
 
 from . import resources
+from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
 from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
 from .source import SourceFile
-from .units import BASE_US, DIV_US, N_MAX
 
 # Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19).
 SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
@@ -44,10 +44,6 @@ SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
 }
 
 BLOCK_BYTES = 24            # bytes of one edge block (see pulse.asm.j2)
-HEAD_CYCLES = BASE_US - DIV_US + 1   # rise to the first edge block: 493 cycles, so N = 0 falls at 500
-PRE_RISE_CYCLES = 1         # MOV A,ACT before the ORL that raises the lines
-FINAL_N = N_MAX + 1         # the chain ends with a silent block at N = 251
-PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
 CE_CYCLES = 13              # one compare-exchange, either way
 MERGE_CYCLES = 16           # one sorted line after the first, edge or merge
 FIRST_CYCLES = 10           # the smallest line

@@ -1,30 +1,39 @@
 """The firmware's own cost per frame, in machine cycles (1 us at 12 MHz).
 
 This is the one place the front end learns what the generated firmware
-needs: the shortest frame period it sustains for the ports in use. The
-figures are properties of `firmware_templates/`; `tests/test_costs.py`
-measures them in ucsim and fails when they drift.
+needs: the shortest frame period it sustains. A frame is the pulse routines
+of the ports in use (fixed length each, sort and differencing included) plus
+the work between the last port's pulses and the next tick: stepping every
+moving servo, and on the first frame of a move reading its record. The
+constants below are upper bounds of what `benchmarks/measure.py` and
+`tests/test_costs.py` measure in ucsim; the test fails when they drift.
 """
 
 from __future__ import annotations
 
-from .units import DEFAULT_PERIOD_FLOOR_US
+from .units import BASE_US, DEFAULT_PERIOD_FLOOR_US, DIV_US, N_MAX
 
-# Cycles from a port's rise to the end of its routine: the longest pulse
-# (N = 250 ends at 2500) plus the cycles after the last edge.
-PORT_CYCLES = 2520
-# Cycles a frame spends outside the port routines in the worst case:
-# timer wait exit, the next frame's interpolation, sort and differencing.
-FRAME_OVERHEAD_CYCLES = 1400
+# The port routine (firmware_templates/pulse.asm.j2) has a fixed length:
+HEAD_CYCLES = BASE_US - DIV_US + 1   # rise to the first edge block: 493, so N = 0 falls at 500
+PRE_RISE_CYCLES = 1                  # MOV A,ACT before the ORL that raises the lines
+FINAL_N = N_MAX + 1                  # the edge chain closes with a silent block at N = 251
+PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
+
+# Between two frames: tick sync, returns and calls of the program's control
+# flow (nested repeats and plays ending together), reading a move record.
+FRAME_FIXED_CYCLES = 400
+# Per servo with pulses, on a move's first frame: record, DDA terms and first step.
+CHANNEL_CYCLES = 110
+# Per servo, when some move's F is found at run time (frames-needed lookup).
+RUNTIME_F_CYCLES = 50
 
 
-def min_period_us(port_count: int) -> int:
-    """The shortest frame period the firmware sustains with `port_count` ports in use."""
-    if port_count == 0:
-        return FRAME_OVERHEAD_CYCLES
-    return FRAME_OVERHEAD_CYCLES + PORT_CYCLES * port_count
+def min_period_us(port_count: int, channel_count: int, runtime_frames: bool = False) -> int:
+    """The shortest frame period the firmware sustains."""
+    per_channel = CHANNEL_CYCLES + (RUNTIME_F_CYCLES if runtime_frames else 0)
+    return PORT_CYCLES * port_count + FRAME_FIXED_CYCLES + per_channel * channel_count
 
 
-def default_period_us(port_count: int) -> int:
+def default_period_us(port_count: int, channel_count: int, runtime_frames: bool = False) -> int:
     """The spec's default P: the shortest sustainable period, never below 5.3 ms."""
-    return max(DEFAULT_PERIOD_FLOOR_US, min_period_us(port_count))
+    return max(DEFAULT_PERIOD_FLOOR_US, min_period_us(port_count, channel_count, runtime_frames))

@@ -202,12 +202,13 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
     moved = _moved_servos(program)
     servos = sorted((s for s in program.servos if s.name in moved), key=lambda s: s.channel)
     ports = tuple(sorted({s.port for s in servos}))
-    min_p = costs.min_period_us(len(ports))
+    # Frame counts depend on P; a default P depends on the run-time F rule, which depends
+    # only on the contexts (not on P), so plan with the floor first and settle P below.
     if program.frame_us is not None:
         period = max(1, round_half_up(program.frame_us))
         is_default = False
     else:
-        period = costs.default_period_us(len(ports))
+        period = costs.default_period_us(len(ports), len(servos), True)
         is_default = True
 
     classes: list[Fraction] = []
@@ -237,13 +238,46 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
                 out.append(PlayStep(st.sequence, st.span))
         return tuple(out)
 
+    speed_classes = tuple(c.speed_class for c in channels)
     main = steps(program.main)
     seq_bodies = {s.name: SequencePlan(s.name, steps(s.body), s.span) for s in program.sequences}
-    walker = _Walker(seq_bodies, tables, tuple(c.speed_class for c in channels))
+    walker = _Walker(seq_bodies, tables, speed_classes)
+    walker.walk(main, (None,) * len(channels))
+    # A move without duration whose F is the same in every context gets that F fixed;
+    # only the others are left to the firmware's run-time rule.
+    fixed: dict[Span, int] = {}
+    by_step: dict[int, set[int]] = {}
+    for inst in walker.instances.values():
+        by_step.setdefault(id(inst.step), set()).add(inst.frames)
+    for inst in walker.instances.values():
+        if inst.step.frames is None and len(by_step[id(inst.step)]) == 1:
+            fixed[id(inst.step)] = inst.frames
+    if fixed:
+        main = _fix_frames(main, fixed)
+        seq_bodies = {n: SequencePlan(sp.name, _fix_frames(sp.body, fixed), sp.span) for n, sp in seq_bodies.items()}
+        walker = _Walker(seq_bodies, tables, speed_classes)
+        walker.walk(main, (None,) * len(channels))
     _, total, infinite = walker.walk(main, (None,) * len(channels))
+    runtime_frames = any(inst.step.frames is None for inst in walker.instances.values())
+    min_p = costs.min_period_us(len(ports), len(channels), runtime_frames)
+    if program.frame_us is None:
+        period = costs.default_period_us(len(ports), len(channels), runtime_frames)
     used = [seq_bodies[s.name] for s in program.sequences if s.name in walker.played]
     return Plan(program, tuple(channels), ports, period, is_default, min_p, tables, tuple(classes),
                 main, tuple(used), tuple(walker.instances.values()), None if infinite else total)
+
+
+def _fix_frames(body: tuple[Step, ...], fixed: dict[int, int]) -> tuple[Step, ...]:
+    out: list[Step] = []
+    for st in body:
+        if isinstance(st, MoveStep) and id(st) in fixed:
+            st = MoveStep(st.pose, st.targets, fixed[id(st)], st.ease, st.ease_table, st.duration_us, st.span)
+        elif isinstance(st, RepeatStep):
+            st = RepeatStep(st.count, _fix_frames(st.body, fixed), st.span)
+        elif isinstance(st, LoopStep):
+            st = LoopStep(_fix_frames(st.body, fixed), st.span)
+        out.append(st)
+    return tuple(out)
 
 
 def move_frames_at(step: MoveStep, state: State, tables, classes) -> int:

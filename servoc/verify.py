@@ -60,24 +60,28 @@ class VerifyReport:
                 f"servo lines low {self.reset_low_cycles} us after reset")
 
 
+SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries a pulse
+
+
+def first_pulse_frame(plan: Plan) -> int | None:
+    """0-based index of the first golden frame with a pulse, or None if there is none."""
+    for i, fr in enumerate(itertools.islice(expand(plan), SEARCH_FRAMES)):
+        if any(n is not None for n in fr.n):
+            return i
+    return None
+
+
 def cycles_needed(plan: Plan, frames: int) -> int:
     """Machine cycles to simulate so that `frames` frames after the first pulse are complete."""
-    lead = 0
-    for fr in expand(plan):
-        if any(n is not None for n in fr.n):
-            break
-        lead += 1
-        if lead > 10_000_000:
-            break
+    lead = first_pulse_frame(plan) or 0
     return (lead + frames + 2) * plan.period_us + 5000
 
 
 def verify(plan: Plan, rise_offsets: tuple[int, ...], trace: SimTrace, frames: int) -> VerifyReport:
     """Compare `frames` frames from the first pulse with what the simulation recorded."""
     mismatches: list[Mismatch] = []
-    golden_iter = expand(plan)
-    golden = [fr for fr in golden_iter if any(n is not None for n in fr.n)][:1]
-    golden += list(itertools.islice(golden_iter, frames - 1))
+    lead = first_pulse_frame(plan)
+    golden = [] if lead is None else list(itertools.islice(expand(plan), lead, lead + frames))
     port_offset = dict(zip(plan.ports, rise_offsets))
     pulses = {c.index: trace.pulses(c.port, c.bit) for c in plan.channels}
 

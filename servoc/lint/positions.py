@@ -23,8 +23,8 @@ def off_grid_width(plan: Plan, reporter: Reporter) -> None:
     """A pulse width that is not 500 us + a multiple of 8 us is rounded half up."""
     for pose, t in _positions(plan):
         p = t.position
-        if p.unit in ("us", "ms") and not width_on_grid(p.value):
-            written = _num(p.value) + ("us" if p.unit == "us" else "ms")
+        if p.unit == "us" and not width_on_grid(p.value):
+            written = _num(p.value) + "us"
             reporter.warning(
                 "off-grid-width",
                 f"pulse width {written} is not on the 8 µs grid: it becomes N {p.n} = {n_to_width_us(p.n)} µs",
