@@ -133,7 +133,13 @@ class _Checker:
             self.r.error("bad-unit", f"unknown unit `{unit}` in `{text}`; {need} is needed{where}", q.span,
                          help=hint or "the units are deg, us, ms, s, kHz and MHz")
             return
-        self.r.error("bad-unit", msg, q.span)
+        help_ = ""
+        if unit == "":
+            example = next((u for word, u in (("duration", "ms"), ("period", "ms"), ("angle", "deg"),
+                                              ("clock", "MHz")) if word in need), "")
+            if example:
+                help_ = f"write the unit right after the number, e.g. `{format_number(q.value)}{example}`"
+        self.r.error("bad-unit", msg, q.span, help=help_)
 
     # ---- conversions ------------------------------------------------------
 
@@ -326,7 +332,8 @@ class _Checker:
             if type(opt) in seen:
                 self.r.error("duplicate-option", f"`{word}` is given more than once for servo `{decl.name.text}`",
                              Span(opt.span.start, opt.span.start + len(word)),
-                             help=f"the first `{word}` is at line {self.line(seen[type(opt)].span)}")
+                             help="give each option once; the first `{}` is at line {}, column {}".format(
+                                 word, *self.r.source.line_col(seen[type(opt)].span.start)))
                 continue
             seen[type(opt)] = opt
             if isinstance(opt, nodes.SpeedOption):
@@ -398,7 +405,8 @@ class _Checker:
             port = PORTS[text]
             found = [s.name for s in self.st.servos.values() if s.port == port and s.name not in self.bad_pins]
             if not found and in_pose:
-                self.r.warning("empty-port", f"no servo is declared on port {text}, so this sets nothing", name.span)
+                self.r.warning("empty-port", f"no servo is declared on port {text}, so this sets nothing", name.span,
+                               help=f"declare a servo on {text} (e.g. `servo s = {text}.0`) or remove this entry")
             if in_pose:
                 self.st.references.update(found)
             return found
@@ -442,7 +450,8 @@ class _Checker:
         written: set[str] = set()
         for member in decl.members:
             if member.text in written:
-                self.r.warning("duplicate-member", f"`{member.text}` is listed twice in group `{text}`", member.span)
+                self.r.warning("duplicate-member", f"`{member.text}` is listed twice in group `{text}`", member.span,
+                               help=f"remove the second `{member.text}`; a group holds each servo once")
             written.add(member.text)
             found = self.servos_of(member, in_pose=False)
             if found is None:
@@ -536,7 +545,8 @@ class _Checker:
                 self.r.error("limit-violation",
                              f"`{written}` (N {n}) is outside the limit of servo `{name}`: "
                              f"{format_quantity(lim.low)}..{format_quantity(lim.high)} (N {lo}..{hi})",
-                             entry.span, help=f"the limit is set at line {self.line(lim.span)}")
+                             entry.span, help=f"use a position within the limit, or widen the limit "
+                                              f"(set at line {self.line(lim.span)})")
                 return None
         steps = [f"`{written}` is N {n}"]
         if servo.reverse:

@@ -172,7 +172,8 @@ def _plan_line(plan: Plan) -> str:
     if plan.total_frames is None:
         length = "loops forever"
     else:
-        length = f"{plan.total_frames} frames = {fmt_ms(plan.total_frames * plan.period_us)}"
+        length = (f"{plan.total_frames} frame{'' if plan.total_frames == 1 else 's'} = "
+                  f"{fmt_ms(plan.total_frames * plan.period_us)}")
     return (f"{servos} servo{'s' if servos != 1 else ''} on {ports}, P = {fmt_ms(plan.period_us)} ({kind}; "
             f"shortest {fmt_ms(plan.min_period_us)}), program {length}")
 

@@ -19,21 +19,26 @@ PRE_RISE_CYCLES = 1                  # MOV A,ACT before the ORL that raises the 
 FINAL_N = N_MAX + 1                  # the edge chain closes with a silent block at N = 251
 PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
 
-# Between two frames: tick sync, returns and calls of the program's control
-# flow (nested repeats and plays ending together), reading a move record.
-FRAME_FIXED_CYCLES = 400
+# Measured by `benchmarks/stress.py` (shortest P that verifies exactly, worst-case
+# programs): about 100 fixed, 25.6 per nesting level, 114.6 per servo (plus 5 when
+# a DDA carry is taken on the first frame), 41 more per servo for a run-time F.
+# Between two frames: tick sync, frame_io's return, the move's bookkeeping.
+FRAME_FIXED_CYCLES = 120
+# Per level of `repeat` or `play` that ends and starts again between two frames.
+LEVEL_CYCLES = 28
 # Per servo with pulses, on a move's first frame: record, DDA terms and first step.
-CHANNEL_CYCLES = 110
+CHANNEL_CYCLES = 122
 # Per servo, when some move's F is found at run time (frames-needed lookup).
-RUNTIME_F_CYCLES = 50
+RUNTIME_F_CYCLES = 45
 
 
-def min_period_us(port_count: int, channel_count: int, runtime_frames: bool = False) -> int:
+def min_period_us(port_count: int, channel_count: int, runtime_frames: bool = False, nesting: int = 0) -> int:
     """The shortest frame period the firmware sustains."""
     per_channel = CHANNEL_CYCLES + (RUNTIME_F_CYCLES if runtime_frames else 0)
-    return PORT_CYCLES * port_count + FRAME_FIXED_CYCLES + per_channel * channel_count
+    return (PORT_CYCLES * port_count + FRAME_FIXED_CYCLES + LEVEL_CYCLES * nesting
+            + per_channel * channel_count)
 
 
-def default_period_us(port_count: int, channel_count: int, runtime_frames: bool = False) -> int:
+def default_period_us(port_count: int, channel_count: int, runtime_frames: bool = False, nesting: int = 0) -> int:
     """The spec's default P: the shortest sustainable period, never below 5.3 ms."""
-    return max(DEFAULT_PERIOD_FLOOR_US, min_period_us(port_count, channel_count, runtime_frames))
+    return max(DEFAULT_PERIOD_FLOOR_US, min_period_us(port_count, channel_count, runtime_frames, nesting))

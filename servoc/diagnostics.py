@@ -84,10 +84,16 @@ def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> st
     head += _paint(diag.severity.value, diag.severity.value, color)
     head += f": {diag.message} [{diag.code}]"
     out = [head]
-    if source.text:
+    # NO_SPAN means "no place in the file" (e.g. a missing `main`): no source line then.
+    if source.text and diag.span != NO_SPAN:
         text = source.line_text(line).replace("\t", " ")
         end_line, end_col = source.line_col(max(diag.span.start, diag.span.end - 1))
-        width = (end_col - col + 1) if end_line == line and diag.span.end > diag.span.start else 1
+        if diag.span.end <= diag.span.start:
+            width = 1
+        elif end_line == line:
+            width = end_col - col + 1
+        else:   # a span over several lines: underline the rest of its first line
+            width = len(text.rstrip()) - col + 1
         width = max(1, min(width, len(text) - col + 1)) if len(text) >= col else 1
         gutter = f"{line:>4} | "
         out.append(_paint(gutter, "blue", color) + text)

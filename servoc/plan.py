@@ -131,6 +131,7 @@ class Plan:
     sequences: tuple[SequencePlan, ...]     # only those reachable from main, in declaration order
     moves: tuple[MoveInstance, ...]         # every distinct move instance the program reaches
     total_frames: int | None                # frames until main ends; None if it loops forever
+    nesting: int = 0                        # deepest stack of repeats and plays around a statement
 
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)
@@ -202,15 +203,44 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
     moved = _moved_servos(program)
     servos = sorted((s for s in program.servos if s.name in moved), key=lambda s: s.channel)
     ports = tuple(sorted({s.port for s in servos}))
-    # Frame counts depend on P; a default P depends on the run-time F rule, which depends
-    # only on the contexts (not on P), so plan with the floor first and settle P below.
+    depth = nesting(program.main, {q.name: q for q in program.sequences})
     if program.frame_us is not None:
         period = max(1, round_half_up(program.frame_us))
-        is_default = False
-    else:
-        period = costs.default_period_us(len(ports), len(servos), True)
-        is_default = True
+        return _plan_at(program, servos, ports, period, False, depth)
+    # The default P depends on whether some move's F is left to the run time, and
+    # that depends on P. Try the shorter period the firmware sustains without the
+    # run-time rule; if that plan needs the rule after all, plan at the longer one.
+    fast = costs.default_period_us(len(ports), len(servos), False, depth)
+    result = _plan_at(program, servos, ports, fast, True, depth)
+    if _needs_runtime_frames(result):
+        slow = costs.default_period_us(len(ports), len(servos), True, depth)
+        if slow != fast:
+            result = _plan_at(program, servos, ports, slow, True, depth)
+    return result
 
+
+def _needs_runtime_frames(p: Plan) -> bool:
+    return any(inst.step.frames is None for inst in p.moves)
+
+
+def nesting(body: tuple, sequences: dict) -> int:
+    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` costs nothing).
+
+    Works on model statements; `sequences` maps names to model.Sequence."""
+    deepest = 0
+    for st in body:
+        if isinstance(st, model.Repeat):
+            deepest = max(deepest, 1 + nesting(st.body, sequences))
+        elif isinstance(st, model.Loop):
+            deepest = max(deepest, nesting(st.body, sequences))
+        elif isinstance(st, model.Play):
+            deepest = max(deepest, 1 + nesting(sequences[st.sequence].body, sequences))
+    return deepest
+
+
+def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], period: int,
+             is_default: bool, depth: int) -> Plan:
+    """The plan at one frame period P: every F, speed table and move instance uses this P."""
     classes: list[Fraction] = []
     channels = []
     for i, s in enumerate(servos):
@@ -245,7 +275,7 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
     walker.walk(main, (None,) * len(channels))
     # A move without duration whose F is the same in every context gets that F fixed;
     # only the others are left to the firmware's run-time rule.
-    fixed: dict[Span, int] = {}
+    fixed: dict[int, int] = {}
     by_step: dict[int, set[int]] = {}
     for inst in walker.instances.values():
         by_step.setdefault(id(inst.step), set()).add(inst.frames)
@@ -259,12 +289,10 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
         walker.walk(main, (None,) * len(channels))
     _, total, infinite = walker.walk(main, (None,) * len(channels))
     runtime_frames = any(inst.step.frames is None for inst in walker.instances.values())
-    min_p = costs.min_period_us(len(ports), len(channels), runtime_frames)
-    if program.frame_us is None:
-        period = costs.default_period_us(len(ports), len(channels), runtime_frames)
+    min_p = costs.min_period_us(len(ports), len(channels), runtime_frames, depth)
     used = [seq_bodies[s.name] for s in program.sequences if s.name in walker.played]
     return Plan(program, tuple(channels), ports, period, is_default, min_p, tables, tuple(classes),
-                main, tuple(used), tuple(walker.instances.values()), None if infinite else total)
+                main, tuple(used), tuple(walker.instances.values()), None if infinite else total, depth)
 
 
 def _fix_frames(body: tuple[Step, ...], fixed: dict[int, int]) -> tuple[Step, ...]:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from fractions import Fraction
 
 from ..diagnostics import Reporter, Severity
@@ -15,6 +16,12 @@ def fmt_duration(us: int) -> str:
     ms = Fraction(us, 1000)
     text = f"{float(ms):.3f}".rstrip("0").rstrip(".")
     return f"{text}ms"
+
+
+def whole_ms_for(frames: int, period_us: int, at_least_us: Fraction = Fraction(0)) -> str:
+    """The shortest whole-ms `in` duration D >= at_least_us with floor(D/P + 1/2) >= frames, e.g. `306ms`."""
+    low = max(Fraction(at_least_us), (frames - Fraction(1, 2)) * period_us)
+    return f"{math.ceil(low / 1000)}ms"
 
 
 @rule("infeasible-speed", Severity.ERROR)
@@ -36,13 +43,14 @@ def infeasible_speed(plan: Plan, reporter: Reporter) -> None:
         asked = inst.frames * plan.period_us
         frames_min = plan.speed_tables[ch_.speed_class][abs(m.delta)]
         step = inst.step
+        written = fmt_ms(step.duration_us) if step.duration_us is not None else fmt_ms(asked)
         reporter.error(
             "infeasible-speed",
             f"servo `{ch_.name}` cannot move {abs(m.delta)} DAV ({fmt_deg(abs(m.delta) * DAV_DEG)}) "
-            f"in {fmt_ms(asked)} ({inst.frames} frame{'s' if inst.frames != 1 else ''}): "
-            f"it needs {fmt_ms(need)} at its top speed",
+            f"in {written} ({inst.frames} frame{'s' if inst.frames != 1 else ''} = {fmt_ms(asked)}): "
+            f"at its top speed it needs {fmt_ms(need)}",
             step.span, label=f"too fast for `{ch_.name}`",
-            help=f"use `in {fmt_duration(frames_min * plan.period_us)}` or drop the duration "
+            help=f"use `in {whole_ms_for(frames_min, plan.period_us, need)}` or longer, or drop the duration "
                  f"(`move {step.pose}`) to go as fast as the slowest servo allows")
 
 
@@ -62,17 +70,24 @@ def eased_overspeed(plan: Plan, reporter: Reporter) -> None:
             peak = _peak_step(m.n0, m.n1, inst.frames, step.ease)
             if peak * t_dav <= plan.period_us:
                 continue
-            f = inst.frames
-            while _peak_step(m.n0, m.n1, f, step.ease) * t_dav > plan.period_us and f < 100_000:
-                f += 1
             seen.add(id(step))
+            if t_dav > plan.period_us:
+                # Every curve steps at least 1 DAV in some frame: no duration is slow enough.
+                help_ = (f"`{ch.name}` takes {fmt_ms(t_dav)} per DAV, longer than one frame, so it cannot "
+                         f"follow any eased curve; use `ease linear`")
+            else:
+                # The steps sum to |delta|, so F is at least the linear need; from there the
+                # peak falls to 1 DAV within about 2 x |delta| frames.
+                f = max(inst.frames + 1, plan.speed_tables[ch.speed_class][abs(m.delta)])
+                while _peak_step(m.n0, m.n1, f, step.ease) * t_dav > plan.period_us:
+                    f += 1
+                help_ = f"use `in {whole_ms_for(f, plan.period_us)}` or longer, or `ease linear`"
             reporter.warning(
                 "eased-overspeed",
                 f"`ease {step.ease}` asks `{ch.name}` for {peak} DAV ({fmt_deg(peak * DAV_DEG)}) in one "
                 f"{fmt_ms(plan.period_us)} frame at its steepest, faster than its top speed "
                 f"({fmt_ms(t_dav)} per DAV): it will lag and lose the curve's shape",
-                step.span, label="peak speed too high",
-                help=f"use `in {fmt_duration(f * plan.period_us)}` or longer, or `ease linear`")
+                step.span, label="peak speed too high", help=help_)
             break
 
 

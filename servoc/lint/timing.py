@@ -33,8 +33,10 @@ def period_too_long(plan: Plan, reporter: Reporter) -> None:
     if plan.period_us > MAX_PERIOD_US:
         reporter.error(
             "period-too-long",
-            f"frame period {fmt_ms(plan.period_us)} is longer than Timer2 can count ({fmt_ms(MAX_PERIOD_US)})",
-            plan.program.frame_span, help="use a shorter `frame`; servos follow best at 3-30 ms")
+            f"frame period {fmt_ms(plan.period_us)} is longer than Timer2 can count "
+            f"({fmt_duration(MAX_PERIOD_US)[:-2]} ms at most)",
+            plan.program.frame_span, label="too long",
+            help=f"use `frame {MAX_PERIOD_US // 1000}ms` or shorter; hobby servos expect a pulse at least every 20 ms")
 
 
 @rule("short-gap", Severity.WARNING)
