@@ -186,6 +186,8 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
         ms = Fraction(inst.frames * plan.period_us, 1000)
         cells = []
         for m in inst.motions:
+            if m.n0 is not None and m.delta == 0:
+                continue
             ch = plan.channels[m.channel]
             t_dav = plan.class_t_dav_us[ch.speed_class]
             speed = abs(m.delta) * t_dav * 100 / (inst.frames * plan.period_us)
@@ -203,7 +205,7 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
            f"(delta in DAV of {float(DAV_DEG):g}°)",
            f"{'line':>5}  {'pose':<14} {'frames':>6} {'ms':>9}  servos (delta, speed)"]
     for line, pose, frames, ms, ease, cells in rows:
-        servos = ", ".join(f"{n} {d} ({s}%)" for n, d, s in cells)
+        servos = ", ".join(f"{n} {d} ({s}%)" for n, d, s in cells) or "(already there)"
         tag = "" if ease == "linear" else f" [{ease}]"
         out.append(f"{line:>5}  {pose:<14} {frames:>6} {ms:>9.1f}  {servos}{tag}")
     if plan.total_frames is None:

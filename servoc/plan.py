@@ -27,6 +27,8 @@ from .source import NO_SPAN, Span
 from .units import N_MAX, frames_for, frames_needed, move_frames, round_half_up
 
 EASE_SCALE = 256     # eased curves are stored as e(k/F) x 256, rounded, clamped to 255
+MAX_TABLE_FRAMES = 65535   # the firmware's frame counters are 16 bits; longer moves are a
+                           # lint error (too-long), so their curve tables are not built
 
 
 # ----------------------------------------------------------------- plan types
@@ -256,7 +258,7 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
             if isinstance(st, model.Move):
                 targets = tuple(sorted((index[t.servo], t.n) for t in st.targets))
                 frames = None if st.duration_us is None else move_frames(st.duration_us, period)
-                table = ease_table(st.ease, frames) if frames is not None else ()
+                table = ease_table(st.ease, frames) if frames is not None and frames <= MAX_TABLE_FRAMES else ()
                 out.append(MoveStep(st.pose, targets, frames, st.ease, table, st.duration_us, st.span))
             elif isinstance(st, model.Hold):
                 out.append(HoldStep(frames_for(st.duration_us, period), st.duration_us, st.span))

@@ -77,6 +77,7 @@ def fmt_deg(x: Fraction) -> str:
 
 
 def fmt_ms(us: Fraction) -> str:
-    """A duration in ms for messages: at most two decimals."""
-    s = f"{float(Fraction(us) / 1000):.2f}".rstrip("0").rstrip(".")
+    """A duration in ms for messages: at most three decimals (exact for whole microseconds)."""
+    ms = Fraction(us) / 1000
+    s = str(ms.numerator) if ms.denominator == 1 else f"{float(ms):.3f}".rstrip("0").rstrip(".")
     return s + " ms"

@@ -92,6 +92,13 @@ def eased_overspeed(plan: Plan, reporter: Reporter) -> None:
 
 
 def _peak_step(n0: int, n1: int, frames: int, ease: str) -> int:
+    """The largest step in DAV between two frames of a move (frame 0 is n0)."""
+    if n0 == n1:
+        return 0
+    if 2 * abs(n1 - n0) < frames:
+        # e' <= 2 for every easing, so no frame moves 1 DAV or more before rounding,
+        # hence at most 1 after; and the steps add up to |delta| > 0.
+        return 1
     prev, peak = n0, 0
     for k in range(1, frames + 1):
         cur = frame_value(n0, n1, k, frames, ease)
