@@ -285,7 +285,7 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     ram.next = 0x30
     wn = ram.alloc("WN", 8, "sort work: N")
     wm = ram.alloc("WM", 8, "sort work: AND masks")
-    seg2f = ram.alloc("SEG2F", 2, "2 F")
+    ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
     segk = ram.alloc("SEGK", 2, "frame number k in the current move")
     fleft = ram.alloc("FLEFT", 2, "frames left in the current move or hold")
     etab = ram.alloc("ETAB", 2, "eased curve table of the current move, minus 1")
