@@ -8,18 +8,22 @@ from __future__ import annotations
 
 import argparse
 import csv
+import difflib
 import io
 import os
+import re
 import sys
 from fractions import Fraction
 
 from . import __version__, api
 from .diagnostics import render_full, summary, to_json
 from .plan import Plan
+from .starter import starter
 from .units import DAV_DEG, fmt_ms
 
 EXAMPLES = """\
 examples:
+  servoc init arm                             write arm.servo, a commented starter program
   servoc lint examples/biped.servo            check a program, show diagnostics
   servoc plan examples/biped.servo            a table of every move's frames and speeds
   servoc plan examples/biped.servo --csv      the same as CSV
@@ -29,10 +33,19 @@ examples:
 """
 
 
+COMMANDS = ("init", "lint", "plan", "compile", "verify")
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # usage errors: exit 2 with a hint
         self.print_usage(sys.stderr)
-        sys.stderr.write(f"servoc: error: {message}\n(see `servoc --help`)\n")
+        hint = ""
+        m = re.search(r"invalid choice: '([^']*)'", message)
+        if m:
+            close = difflib.get_close_matches(m.group(1), COMMANDS, n=1, cutoff=0.5)
+            message = f"unknown command `{m.group(1)}`"
+            hint = f"did you mean `servoc {close[0]}`? " if close else ""
+        sys.stderr.write(f"servoc: error: {message}\n{hint}(see `servoc --help`)\n")
         raise SystemExit(2)
 
 
@@ -49,6 +62,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("--format", choices=("text", "json"), default="text", help="how to print diagnostics")
         return p
 
+    p = sub.add_parser("init", help="write a commented starter program", description="write a commented starter program")
+    p.add_argument("name", metavar="NAME", help="the program to create: NAME.servo")
     p = add("lint", "check a program and print its diagnostics")
     p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
     p = add("plan", "show every move's frames, duration and speed per servo")
@@ -58,6 +73,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
     p.add_argument("--asm", metavar="OUT.asm", help="also write the generated assembly")
     p = add("verify", "compile, run in ucsim and compare every pulse with the plan")
+    p.add_argument("--hex", metavar="FILE.hex", help="check this HEX (built from FILE.servo) instead of compiling")
     p.add_argument("--frames", type=int, metavar="N",
                    help="frames to check from the first pulse (default: the whole program and 20 more, "
                         "or 400 for a program that loops forever)")
@@ -87,6 +103,8 @@ def _main(argv: list[str] | None) -> int:
     if not args.command:
         parser.print_help()
         return 2
+    if args.command == "init":
+        return _init(args.name)
     try:
         source, reporter = api.load_source(args.file)
     except api.UsageError as exc:
@@ -140,6 +158,14 @@ def _main(argv: list[str] | None) -> int:
               f"RAM {firmware.unit.ram_bytes}/{api.RAM_BYTES} bytes (stack {firmware.unit.stack_bytes})")
         return 0
     frames = args.frames or (400 if plan.total_frames is None else plan.total_frames + 20)
+    if args.hex:
+        try:
+            with open(args.hex, encoding="ascii") as f:
+                hex_text = f.read()
+        except (OSError, UnicodeDecodeError) as exc:
+            sys.stderr.write(f"servoc: error: {args.hex}: cannot read an Intel HEX file ({exc})\n")
+            return 2
+        firmware = api.Firmware(firmware.unit, api.toolchain.HexImage(hex_text, 0, {}, ""), 0, 0, 0, 0)
     try:
         report = api.verify(plan, firmware, frames)
     except api.toolchain.ToolNotFound as exc:
@@ -151,6 +177,21 @@ def _main(argv: list[str] | None) -> int:
     if len(report.mismatches) > 20:
         print(f"  ... and {len(report.mismatches) - 20} more mismatches")
     return 0 if report.ok else 1
+
+
+def _init(name: str) -> int:
+    path = name if name.endswith(".servo") else name + ".servo"
+    if os.path.exists(path):
+        sys.stderr.write(f"servoc: error: {path} already exists; choose another name\n")
+        return 2
+    stem = os.path.splitext(os.path.basename(path))[0]
+    try:
+        api.toolchain.write_atomic(path, starter(stem))
+    except OSError as exc:
+        sys.stderr.write(f"servoc: error: cannot write {path}: {exc.strerror or exc}\n")
+        return 2
+    print(f"{path}: written. Next: servoc lint {path}")
+    return 0
 
 
 def _diagnostics(reporter, args) -> None:

@@ -10,6 +10,7 @@ help line. `Reporter` collects them; the renderers turn them into the
 from __future__ import annotations
 
 import json
+import unicodedata
 from dataclasses import dataclass, field
 from enum import Enum
 
@@ -71,6 +72,20 @@ def _paint(text: str, style: str, color: bool) -> str:
     return f"\x1b[{codes[style]}m{text}\x1b[0m"
 
 
+def _printable(line: str) -> str:
+    """A source line as shown under a diagnostic: one printable character per character, so
+    the caret stays aligned and no control character reaches the terminal."""
+    out = []
+    for ch in line:
+        if ch.isspace() and not ch.isprintable():
+            out.append(" ")                     # tab, CR (of CRLF), VT, FF, line separators
+        elif unicodedata.category(ch) in ("Cc", "Cf", "Cs", "Co", "Cn"):
+            out.append("\ufffd")
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
 def render_short(diag: Diagnostic, source: SourceFile) -> str:
     """One line: FILE:LINE:COL: severity: message [code]."""
     line, col = source.line_col(diag.span.start)
@@ -86,7 +101,7 @@ def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> st
     out = [head]
     # NO_SPAN means "no place in the file" (e.g. a missing `main`): no source line then.
     if source.text and diag.span != NO_SPAN:
-        text = source.line_text(line).replace("\t", " ")
+        text = _printable(source.line_text(line))
         end_line, end_col = source.line_col(max(diag.span.start, diag.span.end - 1))
         if diag.span.end <= diag.span.start:
             width = 1
@@ -95,10 +110,10 @@ def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> st
         else:   # a span over several lines: underline the rest of its first line
             width = len(text.rstrip()) - col + 1
         width = max(1, min(width, len(text) - col + 1)) if len(text) >= col else 1
-        gutter = f"{line:>4} | "
-        out.append(_paint(gutter, "blue", color) + text)
+        pad = max(4, len(str(line)))
+        out.append(_paint(f"{line:>{pad}} | ", "blue", color) + text)
         caret = " " * (col - 1) + "^" * width + (f" {diag.label}" if diag.label else "")
-        out.append(_paint("     | ", "blue", color) + _paint(caret, diag.severity.value, color))
+        out.append(_paint(" " * pad + " | ", "blue", color) + _paint(caret, diag.severity.value, color))
     if diag.help:
         out.append(_paint("     = ", "blue", color) + "help: " + diag.help)
     return "\n".join(out)

@@ -346,6 +346,32 @@ main {
     assert_exact(built.verify(), text)
 
 
+@pytest.mark.parametrize("frames", [255, 256, 997, 32767, 32768, 40000, 65535])
+def test_linear_dda_for_long_moves(frames):
+    """Long linear moves: every frame's N follows floor(|delta| k / F + 1/2), for F up to 65535
+    (the DDA's 16-bit error term must not overflow; the first frames show it)."""
+    text = f"""\
+frame 5300us
+servo up = P1.0
+servo down = P1.1
+servo small = P1.2
+servo one = P1.3
+pose a {{ up: 0, down: 250, small: 100, one: 200 }}
+pose b {{ up: 250, down: 0, small: 107, one: 199 }}
+main {{
+  move a
+  move b in {frames * 5300}us
+}}
+"""
+    built = build_text(text)
+    assert built.plan.total_frames == frames + 1
+    checked = min(frames + 3, frames // 100 + 20)     # the whole move, or its first three changes of N
+    report = built.verify(checked)
+    assert_exact(report, text)
+    changes = sum(1 for a, b in itertools.pairwise(itertools.islice(expand(built.plan), checked)) if a.n != b.n)
+    assert changes >= 3
+
+
 def test_long_hold_and_repeat_counts_above_255():
     text = """\
 servo a = P2.0
