@@ -154,7 +154,16 @@ def simulate(firmware: Firmware, cycles: int) -> _sim.SimTrace:
     return _sim.run(firmware.hex_text, cycles)
 
 
+def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
+    """Machine cycles to simulate so that `frames` frames from the first pulse are complete."""
+    return _verify.cycles_needed(plan_, frames)
+
+
+def check_trace(plan_: _plan.Plan, firmware: Firmware, trace: _sim.SimTrace, frames: int) -> _verify.VerifyReport:
+    """Compare `frames` frames of a simulation, from the first pulse, with the plan's golden frames."""
+    return _verify.verify(plan_, firmware.unit.rise_offsets, trace, frames)
+
+
 def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.VerifyReport:
     """Simulate and compare `frames` frames, from the first pulse, with the plan's golden frames."""
-    trace = simulate(firmware, _verify.cycles_needed(plan_, frames))
-    return _verify.verify(plan_, firmware.unit.rise_offsets, trace, frames)
+    return check_trace(plan_, firmware, simulate(firmware, cycles_needed(plan_, frames)), frames)

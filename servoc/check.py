@@ -193,7 +193,7 @@ class _Checker:
                 kw = Span(item.span.start, item.span.start + len(word))
                 if first is not None:
                     r.error("duplicate-setting", f"`{word}` is set more than once", kw,
-                            help=f"the first `{word}` is at line {self.line(first.span)}")
+                            help=f"the first `{word}` is at line {self.line(first.span)}; keep only one")
                     continue
                 if used_from is not None:
                     what = "main" if isinstance(used_from, nodes.MainDecl) else f"sequence {used_from.name.text}"
@@ -392,7 +392,7 @@ class _Checker:
         if lo.n > hi.n:
             self.r.error("bad-limit", f"the limit `{format_quantity(opt.low)}..{format_quantity(opt.high)}` "
                          f"runs backwards (N {lo.n}..{hi.n})", opt.span,
-                         help="write the low bound first")
+                         help=f"write the low bound first: `limit {format_quantity(opt.high)}..{format_quantity(opt.low)}`")
             return None
         return lo.n, hi.n
 

@@ -16,7 +16,7 @@ import sys
 from fractions import Fraction
 
 from . import __version__, api
-from .diagnostics import render_full, summary, to_json
+from .diagnostics import Severity, render_full, summary, to_json
 from .plan import Plan
 from .starter import starter
 from .units import DAV_DEG, fmt_ms
@@ -68,11 +68,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
     p = add("plan", "show every move's frames, duration and speed per servo")
     p.add_argument("--csv", action="store_true", help="print the table as CSV")
+    p.add_argument("--plot", metavar="OUT.png", help="also draw every servo's angle over time (needs servoc[plot])")
     p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
     p = add("compile", "compile to Intel HEX for the AT89C52")
     p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
     p.add_argument("--asm", metavar="OUT.asm", help="also write the generated assembly")
     p = add("verify", "compile, run in ucsim and compare every pulse with the plan")
+    p.add_argument("--vcd", metavar="OUT.vcd", help="also write the simulated pin waveforms (needs servoc[vcd])")
     p.add_argument("--hex", metavar="FILE.hex", help="check this HEX (built from FILE.servo) instead of compiling")
     p.add_argument("--frames", type=int, metavar="N",
                    help="frames to check from the first pulse (default: the whole program and 20 more, "
@@ -146,6 +148,13 @@ def _main(argv: list[str] | None) -> int:
         return 0
     if args.command == "plan":
         sys.stdout.write(plan_table(plan, source, csv_out=args.csv))
+        if args.plot:
+            from .plot import MissingExtra, plot_plan
+            try:
+                plot_plan(plan, args.plot, source)
+            except (MissingExtra, OSError) as exc:
+                sys.stderr.write(f"servoc: error: {exc}\n")
+                return 2
         return 0
     assert firmware is not None
     if args.command == "compile":
@@ -167,10 +176,22 @@ def _main(argv: list[str] | None) -> int:
             return 2
         firmware = api.Firmware(firmware.unit, api.toolchain.HexImage(hex_text, 0, {}, ""), 0, 0, 0, 0)
     try:
-        report = api.verify(plan, firmware, frames)
+        if _color(sys.stderr):
+            sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
+        trace = api.simulate(firmware, api.cycles_needed(plan, frames))
+        if _color(sys.stderr):
+            sys.stderr.write(" " * 60 + "\r")
     except api.toolchain.ToolNotFound as exc:
         sys.stderr.write(f"servoc: error: {exc}\n")
         return 2
+    report = api.check_trace(plan, firmware, trace, frames)
+    if args.vcd:
+        from .vcd import MissingExtra, write_vcd
+        try:
+            write_vcd(plan, trace, args.vcd, source.path)
+        except (MissingExtra, OSError) as exc:
+            sys.stderr.write(f"servoc: error: {exc}\n")
+            return 2
     print(f"{source.path}: {report.summary()}")
     for m in report.mismatches[:20]:
         print(f"  {m}")
@@ -196,6 +217,8 @@ def _init(name: str) -> int:
 
 def _diagnostics(reporter, args) -> None:
     diags = reporter.sorted()
+    if args.command != "lint":      # notes are for `servoc lint`; the other commands show what matters
+        diags = [d for d in diags if d.severity is not Severity.NOTE]
     if args.format == "json":
         print(to_json(diags, reporter.source))
         return

@@ -54,7 +54,7 @@ CUR_BASE = 0x08             # current N per pin: 0x08 + pin
 ENGINE_STACK = 8            # deepest the runtime itself goes below a program call
 FLAG_EASED, FLAG_NODUR = 1, 2
 TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
-FNEED_TOP = 0x2000          # frames-needed tables sit in whole pages below the 8 KB top
+FNEED_TOP = 0x2000          # frames-needed tables: whole pages after the motion data, budgeted below the 8 KB top
 ROM_SIZE = 0x2000
 # Bit-addressable bytes: one bit per pin (port x 8 + bit).
 ACT, MOVB, DIRB, RMASK, FLAGS = 0x20, 0x23, 0x26, 0x29, 0x2C
@@ -100,7 +100,8 @@ class AsmUnit:
     rise_offsets: tuple[int, ...]   # cycles from the first port's rise to each port's rise
     ram_bytes: int                  # direct RAM used, plus the motion state and the stack
     stack_bytes: int                # deepest stack use of program and runtime
-    fneed_pages: tuple[int, ...]    # pages holding frames-needed tables (empty if none)
+    fneed_pages: tuple[int, ...]    # the top pages the frames-needed tables may reach down to (empty if none):
+                                    # the tables follow the motion data page-aligned, so it must end below these
 
 
 def _hex8(v: int) -> str:
@@ -326,14 +327,14 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     if nodur:
         for cls, table in enumerate(plan.speed_tables):
             page = (FNEED_TOP >> 8) - 2 * (len(plan.speed_tables) - cls)
-            fneed.append({"cls": cls, "page": page, "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
+            fneed.append({"cls": cls, "page": page, "label": f"fneed{cls}", "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
                           "t_dav": f"{float(plan.class_t_dav_us[cls]):.1f}"})
         if max(max(t) for t in plan.speed_tables) > 0xFFFF:
             raise CodegenError("a servo is too slow for the frames-needed tables")
-    pin_page = [0] * 24
+    pin_page = ["0"] * 24
     for c in plan.channels:
         if fneed:
-            pin_page[c.port * 8 + c.bit] = fneed[c.speed_class]["page"]
+            pin_page[c.port * 8 + c.bit] = ">" + fneed[c.speed_class]["label"]
 
     ease_tables = [{"label": lab, "ease": ease, "frames": frames,
                     "values": list(next(st.ease_table for st in _moves(plan) if (st.ease, st.frames) == (ease, frames)))}

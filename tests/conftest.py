@@ -16,8 +16,6 @@ from servoc.diagnostics import render_short
 from servoc.plan import Plan
 from servoc.source import SourceFile
 
-TIMING_RE = re.compile(r"^\s*[0-9A-F]{6}\s+(?:[0-9A-F]{2}\s)+\s*\[(\d+)\]\s+\d+\s+(.*)$")
-
 
 @dataclass(frozen=True)
 class Built:
@@ -72,14 +70,44 @@ def assert_exact(report, text: str = "") -> None:
     assert report.pulses > 0, report.summary()
 
 
-def listing_lines(listing: str) -> list[tuple[int, str]]:
-    """(machine cycles, source text) of every instruction line of an sdas8051 listing."""
-    out = []
+@dataclass(frozen=True)
+class Instr:
+    address: int
+    cycles: int
+    op: str
+    args: tuple[str, ...]
+    labels: tuple[str, ...]
+
+
+def parse_listing(listing: str) -> tuple[list[Instr], dict[str, int]]:
+    """Instructions of an sdas8051 listing with their machine cycles, and label -> instruction index."""
+    instrs: list[Instr] = []
+    labels: dict[str, int] = {}
+    pending: list[str] = []
     for line in listing.splitlines():
-        m = TIMING_RE.match(line)
+        # Columns: address 6..11, code bytes, [clocks] at 30, source line number 34..38, source from 40.
+        head, src = line[:39], line[40:]
+        if not head[34:39].strip().isdigit():
+            continue
+        code = src.split(";", 1)[0].strip()
+        m = re.match(r"^([A-Za-z_][\w]*)::?\s*(.*)$", code)
         if m:
-            out.append((int(m.group(1)) // 12, m.group(2)))
-    return out
+            pending.append(m.group(1))
+            code = m.group(2)
+        clocks = re.search(r"\[(\d+)\]", head)
+        if not code:
+            continue
+        if clocks is None:          # a directive or an equate: labels before it are not code labels
+            pending = []
+            continue
+        assert int(clocks.group(1)) % 12 == 0
+        parts = code.split(None, 1)
+        args = tuple(a.strip() for a in parts[1].split(",")) if len(parts) > 1 else ()
+        for lab in pending:
+            labels[lab] = len(instrs)
+        instrs.append(Instr(int(head[6:12], 16), int(clocks.group(1)) // 12, parts[0].upper(), args, tuple(pending)))
+        pending = []
+    return instrs, labels
 
 
 def servo_decls(pins: list[tuple[int, int]], prefix: str = "s", options: str = "") -> str:

@@ -10,8 +10,6 @@ from __future__ import annotations
 import difflib
 import os
 import re
-import shutil
-from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
@@ -19,7 +17,7 @@ import pytest
 from servoc import api, codegen, costs
 from servoc.diagnostics import Reporter
 
-from conftest import build_text, compile_file, front_end_text, pose, servo_decls
+from conftest import Instr, build_text, compile_file, parse_listing, pose, servo_decls
 
 pytestmark = pytest.mark.toolchain
 
@@ -130,45 +128,25 @@ def test_rom_overflow_is_a_diagnostic_not_an_exception(tmp_path):
     assert "8192" in next(d.message for d in reporter.diagnostics if d.is_error)
 
 
+def test_too_many_speed_classes_is_a_rom_diagnostic_not_an_exception(tmp_path):
+    """Frames-needed tables take two pages per speed class; too many classes overflow the ROM
+    (they must not overlap the code: that once ended in an internal error)."""
+    pins = [(p, b) for p in range(3) for b in range(8)]
+    text = "".join(f"servo s{p}_{b} = P{p}.{b} speed {0.1 + 0.01 * (8 * p + b):.2f}s/60deg\n" for p, b in pins)
+    for k in range(3):
+        text += pose(f"a{k}", {f"s{p}_{b}": 40 * k + b for p, b in pins})
+    text += pose("c", {f"s{p}_{b}": 120 for p, b in pins})
+    text += "sequence s { move c }\nmain {\n" + "".join(f"  move a{k}\n  play s\n" for k in range(3)) + "}\n"
+    path = tmp_path / "classes.servo"
+    path.write_text(text, encoding="utf-8")
+    source, reporter = api.load_source(str(path))
+    fe, fw = api.build(source, reporter)
+    assert fe.plan is not None and len(fe.plan.speed_tables) == 24
+    assert fw is None
+    assert [d.code for d in reporter.diagnostics if d.is_error] == ["rom-overflow"]
+
+
 # ============================================================ 9. constant-time code, from the listing
-
-@dataclass(frozen=True)
-class Instr:
-    cycles: int
-    op: str
-    args: tuple[str, ...]
-    labels: tuple[str, ...]
-
-
-def parse_listing(listing: str) -> tuple[list[Instr], dict[str, int]]:
-    """Instructions of an sdas8051 listing with their machine cycles, and label -> instruction index."""
-    instrs: list[Instr] = []
-    labels: dict[str, int] = {}
-    pending: list[str] = []
-    for line in listing.splitlines():
-        head, src = line[:38], line[38:]
-        if not head[30:38].strip().isdigit():
-            continue
-        code = src.split(";", 1)[0].strip()
-        m = re.match(r"^([A-Za-z_][\w]*)::?\s*(.*)$", code)
-        if m:
-            pending.append(m.group(1))
-            code = m.group(2)
-        clocks = re.search(r"\[(\d+)\]", head)
-        if not code:
-            continue
-        if clocks is None:          # a directive or an equate: labels before it are not code labels
-            pending = []
-            continue
-        assert int(clocks.group(1)) % 12 == 0
-        parts = code.split(None, 1)
-        args = tuple(a.strip() for a in parts[1].split(",")) if len(parts) > 1 else ()
-        for lab in pending:
-            labels[lab] = len(instrs)
-        instrs.append(Instr(int(clocks.group(1)) // 12, parts[0].upper(), args, tuple(pending)))
-        pending = []
-    return instrs, labels
-
 
 CONDITIONAL = {"JC", "JNC", "JZ", "JNZ", "JB", "JNB", "JBC", "CJNE", "DJNZ"}
 JUMPS = {"SJMP", "LJMP", "AJMP"}
@@ -320,3 +298,17 @@ def test_head_pad_fills_the_head_exactly(s):
     assert loops >= 0 and nops >= 0
     assert (1 + 2 * loops if loops else 0) + nops + (
         1 + 4 * s + 2 + 2 + codegen.edges_cycles(s) + 4 + 9 + 2 + 2) == costs.HEAD_CYCLES
+
+
+def test_listing_checks_can_fail(listing_firmware):
+    """The path analysis sees a one-cycle change on one path of edges<s> and a changed head pad."""
+    _, built = listing_firmware[0]
+    listing = built.firmware.image.listing
+    keep = next(line for line in listing.splitlines() if re.search(r"\bok3_1:\s+MUL", line))
+    mutated = listing.replace(keep, keep.replace("[48]", "[36]"))
+    instrs, labels = parse_listing(mutated)
+    assert path_cycles(instrs, labels, labels["edges3"]) == {codegen.edges_cycles(3), codegen.edges_cycles(3) - 1}
+    pad = next(line for line in listing.splitlines() if "pad the head" in line)
+    instrs, labels = parse_listing(listing.replace(pad, re.sub(r"#(\d+)", lambda m: f"#{int(m[1]) + 1}", pad)))
+    rise = next(i for i, ins in enumerate(instrs) if ins.op == "ORL" and ins.args == ("P0", "A"))
+    assert path_cycles(instrs, labels, rise, stop=lambda ins: ins.op == "JMP") == {costs.HEAD_CYCLES + 2}

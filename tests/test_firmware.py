@@ -256,6 +256,8 @@ def check_program(text: str, frames_cap: int = 400):
     frames = min(frames_cap, 150 if plan.total_frames is None else plan.total_frames + 3)
     report = built.verify(frames)
     assert_exact(report, text)
+    # The TL2 parity trick makes the poll jitter-free: every rise-to-rise period is exactly P.
+    assert report.period_min == report.period_max == plan.period_us, report.summary()
     return built, report
 
 
@@ -439,15 +441,51 @@ def test_sorting_random_permutations_with_duplicates(size):
     check_every_frame(sort_source(PIN_SETS[size], vectors, port=size % 3), vectors)
 
 
-@settings(max_examples=15, **SETTINGS)
+@settings(max_examples=20, **SETTINGS)
 @given(st.integers(1, 8).flatmap(lambda s: st.tuples(
     st.just(s),
     st.lists(st.lists(st.sampled_from([0, 1, 2, 125, 126, 249, 250]) | st.integers(0, 250), min_size=s, max_size=s),
-             min_size=1, max_size=12))))
+             min_size=1, max_size=40))))
 def test_sorting_hypothesis_vectors(args):
     size, vectors = args
     bits = random.Random(size).sample(range(8), size)
     check_every_frame(sort_source(sorted(bits), vectors, port=2), vectors)
+
+
+def test_every_n_on_every_port_with_ties_and_neighbours():
+    """N = 0..250, one per frame, on all three ports: a line at N, one tied with it, one a DIV above,
+    one mirrored (250 - N) and one fixed at 125, so every N meets every kind of neighbour."""
+    pins = [(p, b) for p in range(3) for b in (0, 3, 4, 6, 7)]
+    roles = {0: "n", 3: "tie", 4: "next", 6: "mirror", 7: "fixed"}
+
+    def values(n: int) -> dict[str, int]:
+        by_role = {"n": n, "tie": n, "next": min(250, n + 1), "mirror": 250 - n, "fixed": 125}
+        return {name((p, b)): by_role[roles[b]] for p, b in pins}
+
+    text = "frame 10ms\n" + servo_decls(pins, options=FAST) + pose("start", values(0)) + pose("end", values(250))
+    text += "main {\n  move start\n  move end in 2500ms\n}\n"
+    built = build_text(text)
+    golden = list(itertools.islice(expand(built.plan), 251))
+    n_index = built.plan.channel_of(name((1, 0))).index
+    assert [fr.n[n_index] for fr in golden] == [0] + list(range(1, 251))
+    report = built.verify(254)
+    assert_exact(report, text)
+    assert report.pulses == 254 * len(pins)
+
+
+def test_many_speed_classes_with_runtime_frames():
+    """24 servos in 8 speed classes, moves whose F is found at run time: 16 pages of tables."""
+    pins = [(p, b) for p in range(3) for b in range(8)]
+    text = "".join(f"servo {name((p, b))} = P{p}.{b} speed {0.1 + 0.01 * ((8 * p + b) % 8):.2f}s/60deg\n"
+                   for p, b in pins)
+    for k in range(4):
+        text += pose(f"a{k}", {name((p, b)): (k * 60 + 7 * b + p) % 251 for p, b in pins})
+    text += pose("c", {name(pin): 120 for pin in pins})
+    text += "sequence s { move c }\nmain {\n" + "".join(f"  move a{k}\n  play s\n" for k in range(4)) + "}\n"
+    built = build_text(text)
+    assert len(built.firmware.unit.fneed_pages) == 8
+    assert any(inst.step.frames is None for inst in built.plan.moves)
+    assert_exact(built.verify(), text)
 
 
 # ============================================================ 5. reset, untouched pins, late first targets
@@ -508,13 +546,14 @@ def test_untouched_port_never_written():
 # ============================================================ 8. resources: stack depth
 
 def nested_source(depth: int, with_repeats: bool = False) -> str:
-    """A chain of `depth` sequences, each playing the one below (inside a repeat when asked)."""
-    text = "servo a = P1.0\npose p { a: 10 }\npose q { a: 11 }\n"
+    """A chain of `depth` sequences, each playing the one below (inside a repeat when asked), played
+    twice: the innermost move's F differs between the plays, so need_frames runs at the deepest point."""
+    text = "servo a = P1.0 speed 0.005s/60deg\npose p { a: 10 }\npose q { a: 200 }\n"
     text += "sequence q0 {\n  move p\n  move q\n}\n"
     for i in range(1, depth):
         inner = f"repeat 2 {{ play q{i - 1} }}" if with_repeats else f"play q{i - 1}"
         text += f"sequence q{i} {{\n  {inner}\n}}\n"
-    return text + f"main {{\n  play q{depth - 1}\n}}\n"
+    return text + f"main {{\n  play q{depth - 1}\n  play q{depth - 1}\n}}\n"
 
 
 def deepest_that_fits(with_repeats: bool) -> int:
@@ -534,4 +573,33 @@ def test_deepest_nesting_that_fits_runs_without_stack_overflow(with_repeats):
     text = nested_source(depth, with_repeats)
     built = build_text(text)
     assert built.firmware.unit.stack_bytes <= 32
+    assert any(inst.step.frames is None for inst in built.plan.moves), "the run-time F path is not used"
     assert_exact(built.verify(), text)
+
+
+# ============================================================ frame budget
+
+def worst_case_source(period: int | None) -> str:
+    pins = [(p, b) for p in range(3) for b in range(8)]
+    speeds = ["0.2", "0.25", "0.3"]
+    text = f"frame {period}us\n" if period else ""
+    text += "".join(f"servo {name((p, b))} = P{p}.{b} speed {speeds[(8 * p + b) % 3]}s/60deg\n" for p, b in pins)
+    text += pose("a", {name(pin): 0 for pin in pins}) + pose("b", {name(pin): 250 for pin in pins})
+    text += pose("c", {name((p, b)): 3 + b for p, b in pins})
+    text += "sequence q0 {\n  move b\n  move a\n}\n"
+    text += "sequence q1 {\n  repeat 2 { play q0 }\n}\n"
+    return text + "main {\n  move c\n  play q1\n  move c\n  repeat 2 { play q1 }\n}\n"
+
+
+def test_worst_case_frames_at_the_minimum_period():
+    """24 servos all moving, F found at run time, nested repeats and plays ending together,
+    at the shortest period the plan allows: every rise stays in its slot, every pulse exact."""
+    fe, _ = front_end_text(worst_case_source(None))
+    period = fe.plan.min_period_us
+    text = worst_case_source(period)
+    built = build_text(text)
+    assert built.plan.period_us == built.plan.min_period_us == period
+    assert any(inst.step.frames is None for inst in built.plan.moves)
+    report = built.verify()
+    assert_exact(report, text)
+    assert report.period_min == report.period_max == period

@@ -45,4 +45,5 @@ def inexact_angle(plan: Plan, reporter: Reporter) -> None:
             "inexact-angle",
             f"{_num(p.value)}deg is not exactly reachable: N {p.n} = {fmt_deg(p.n * DAV_DEG)}",
             t.span, label=f"N {p.n}",
-            help="positions move in steps of 0.74°; write the raw N to silence this")
+            help=f"positions move in steps of 0.74°; write `{p.n}` (the raw N) or "
+                 f"`{_num(p.n * DAV_DEG)}deg` to silence this")

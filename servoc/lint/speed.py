@@ -85,8 +85,8 @@ def eased_overspeed(plan: Plan, reporter: Reporter) -> None:
             reporter.warning(
                 "eased-overspeed",
                 f"`ease {step.ease}` asks `{ch.name}` for {peak} DAV ({fmt_deg(peak * DAV_DEG)}) in one "
-                f"{fmt_ms(plan.period_us)} frame at its steepest, faster than its top speed "
-                f"({fmt_ms(t_dav)} per DAV): it will lag and lose the curve's shape",
+                f"{fmt_ms(plan.period_us)} frame at its steepest, but at its top speed ({fmt_ms(t_dav)} per DAV) "
+                f"that takes {fmt_ms(peak * t_dav)}: it will lag and lose the curve's shape",
                 step.span, label="peak speed too high", help=help_)
             break
 

@@ -8,11 +8,15 @@ from . import rule
 from .walk import bodies, never_ends
 
 
+_USE = {"servo": "name it in a pose", "group": "name it in a pose", "pose": "`move` to it",
+        "sequence": "`play` it from `main`"}
+
+
 def _unused(kind: str, items, plan: Plan, reporter: Reporter) -> None:
     for item in items:
         if item.name not in plan.program.references:
             reporter.warning(f"unused-{kind}", f"{kind} `{item.name}` is never used", item.span,
-                             label="declared here", help=f"remove the {kind}, or use it")
+                             label="declared here", help=f"remove the {kind}, or {_USE[kind]}")
 
 
 @rule("unused-servo", Severity.WARNING)

@@ -666,10 +666,11 @@ etab1_data:
         .db     2, 6, 14, 24, 37, 53, 70, 88, 108, 128, 148, 168, 186, 203, 219, 232
         .db     242, 250, 254
 pin_page:                               ; per pin: page of its speed class's frames-needed table
-        .db     0, 0, 0, 0, 0, 0, 0, 0, 28, 0, 0, 30, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 30, 0
+        .db     0, 0, 0, 0, 0, 0, 0, 0, >fneed0, 0, 0, >fneed1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, >fneed1, 0
 data_end::
 
-        .org    0x1C00             ; frames needed for |delta| = 0..250, t_DAV = 1233.3 us: low bytes
+        .bndry  256                     ; whole pages after the motion data (they never overlap the code)
+fneed0:                                 ; frames needed for |delta| = 0..250, t_DAV = 1233.3 us: low bytes
         .db     0, 1, 1, 1, 1, 2, 2, 2, 2, 2, 3, 3, 3, 3, 3, 4
         .db     4, 4, 4, 4, 5, 5, 5, 5, 5, 6, 6, 6, 6, 6, 7, 7
         .db     7, 7, 7, 8, 8, 8, 8, 9, 9, 9, 9, 9, 10, 10, 10, 10
@@ -686,7 +687,7 @@ data_end::
         .db     43, 43, 44, 44, 44, 44, 44, 45, 45, 45, 45, 46, 46, 46, 46, 46
         .db     47, 47, 47, 47, 47, 48, 48, 48, 48, 48, 49, 49, 49, 49, 49, 50
         .db     50, 50, 50, 50, 51, 51, 51, 51, 51, 52, 52
-        .org    0x1D00             ; high bytes
+        .bndry  256                     ; high bytes on the next page
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
@@ -704,7 +705,8 @@ data_end::
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
 
-        .org    0x1E00             ; frames needed for |delta| = 0..250, t_DAV = 2466.7 us: low bytes
+        .bndry  256                     ; whole pages after the motion data (they never overlap the code)
+fneed1:                                 ; frames needed for |delta| = 0..250, t_DAV = 2466.7 us: low bytes
         .db     0, 1, 1, 2, 2, 3, 3, 3, 4, 4, 5, 5, 5, 6, 6, 7
         .db     7, 7, 8, 8, 9, 9, 10, 10, 10, 11, 11, 12, 12, 12, 13, 13
         .db     14, 14, 14, 15, 15, 16, 16, 17, 17, 17, 18, 18, 19, 19, 19, 20
@@ -721,7 +723,7 @@ data_end::
         .db     86, 86, 87, 87, 88, 88, 88, 89, 89, 90, 90, 91, 91, 91, 92, 92
         .db     93, 93, 93, 94, 94, 95, 95, 95, 96, 96, 97, 97, 98, 98, 98, 99
         .db     99, 100, 100, 100, 101, 101, 102, 102, 102, 103, 103
-        .org    0x1F00             ; high bytes
+        .bndry  256                     ; high bytes on the next page
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0
         .db     0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0

@@ -1,0 +1,445 @@
+"""The linter and every diagnostic code: one fixture per code with its full rendered output.
+
+tests/fixtures/lint/<code>.servo is a small program that triggers <code>;
+<code>.expected is everything `servoc lint <code>.servo` prints on stderr.
+Regenerate the expected files with `SERVOC_REGEN=1 pytest tests/test_lint.py`
+and read every changed message before keeping it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+from fractions import Fraction
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from servoc import api, cli
+from servoc.diagnostics import Severity
+from servoc.lint import RULES
+from servoc.source import SourceFile
+
+FIXTURES = Path(__file__).parent / "fixtures" / "lint"
+REGEN = os.environ.get("SERVOC_REGEN") == "1"
+
+LINT_CODES = [
+    "infeasible-speed", "eased-overspeed", "off-grid-width", "inexact-angle", "period-too-short",
+    "period-too-long", "short-gap", "short-hold", "empty-loop", "too-long", "unused-servo", "unused-group",
+    "unused-pose", "unused-sequence", "unreachable", "p0-pull-up",
+]
+FRONT_CODES = [
+    "syntax-error", "duplicate-name", "pin-conflict", "bad-pin", "unknown-name", "wrong-kind", "bad-unit",
+    "limit-violation", "out-of-range", "bad-limit", "bad-speed", "missing-main", "duplicate-main",
+    "duplicate-setting", "late-setting", "bad-frame", "unsupported-target", "bad-count", "recursion",
+    "duplicate-target", "duplicate-option", "empty-port", "duplicate-member", "invalid-utf8",
+]
+CODES = LINT_CODES + FRONT_CODES
+
+
+def run_cli(args: list[str], capsys) -> tuple[int, str, str]:
+    rc = cli.main(args)
+    out, err = capsys.readouterr()
+    return rc, out, err
+
+
+def diagnose(text: str, name: str = "t.servo"):
+    src = SourceFile(name, text)
+    rep = api.Reporter(src)
+    fe = api.front_end(src, rep)
+    return fe, rep.sorted(), src
+
+
+def codes(text: str) -> list[str]:
+    return [d.code for d in diagnose(text)[1]]
+
+
+def where(text: str, code: str) -> list[tuple[int, int]]:
+    _, diags, src = diagnose(text)
+    return [src.line_col(d.span.start) for d in diags if d.code == code]
+
+
+# ---- one fixture per code ----------------------------------------------------------------
+
+def test_every_lint_rule_has_a_fixture():
+    assert set(RULES) == set(LINT_CODES)
+    for code in CODES:
+        assert (FIXTURES / f"{code}.servo").is_file(), code
+    assert {p.stem for p in FIXTURES.glob("*.servo")} == set(CODES)
+
+
+@pytest.mark.parametrize("code", CODES)
+def test_fixture_renders_as_expected(code, capsys, monkeypatch):
+    monkeypatch.chdir(FIXTURES)
+    monkeypatch.setenv("NO_COLOR", "1")
+    rc, out, err = run_cli(["lint", f"{code}.servo"], capsys)
+    expected_file = FIXTURES / f"{code}.expected"
+    if REGEN:
+        expected_file.write_text(err, encoding="utf-8")
+    assert err == expected_file.read_text(encoding="utf-8")
+    headers = [line for line in err.splitlines() if re.match(r"\S+\.servo:\d+:\d+: ", line)]
+    assert any(h.endswith(f"[{code}]") for h in headers), headers
+    has_error = any(": error: " in h for h in headers)
+    assert rc == (1 if has_error else 0)
+    # every diagnostic the fixture raises explains itself with a help line
+    assert err.count("= help: ") == len(headers), err
+    if code in RULES:
+        severity = RULES[code][0]
+        mine = [h for h in headers if h.endswith(f"[{code}]")]
+        assert all(f": {severity.value}: " in h for h in mine)
+    if rc == 0:
+        assert out.startswith(f"{code}.servo: ") and "P = " in out
+    else:
+        assert out == ""
+
+
+# ---- infeasible-speed: the boundary -----------------------------------------------------------
+
+def one_ms_program(duration: str, speed: str) -> str:
+    # frame 6ms; the arm's t_DAV is exactly 3.01 ms (speed 3.01ms/0.74deg): 100 DAV need 301 ms.
+    # `in 300ms` is 50 frames = 300 ms: 1 ms too fast.
+    return f"""frame 6ms
+servo arm = P1.0 speed {speed}/0.74deg
+pose down {{ arm: 20 }}
+pose up   {{ arm: 120 }}
+main {{
+  move down
+  hold 100ms
+    move up in {duration}
+}}
+"""
+
+
+def test_a_move_1ms_too_fast_exits_1_at_the_move(tmp_path, capsys):
+    path = tmp_path / "arm.servo"
+    path.write_text(one_ms_program("300ms", "3.01ms"))
+    rc, out, err = run_cli(["lint", str(path)], capsys)
+    assert rc == 1
+    head = err.splitlines()[0]
+    assert head.startswith(f"{path}:8:5: error: "), err
+    assert head.endswith("[infeasible-speed]")
+    assert "`arm`" in head and "100 DAV (74°)" in head and "300 ms" in head and "301 ms" in head
+    # 51 frames are needed; 303 ms is the shortest whole-ms duration that rounds to 51 frames
+    assert "use `in 303ms` or longer" in err
+
+
+def test_the_same_move_with_time_to_spare_exits_0(tmp_path, capsys):
+    for duration, speed in (("306ms", "3.01ms"), ("303ms", "3.01ms"), ("300ms", "3ms")):
+        # 303 ms is 50.5 frames, rounded up to 51; at 3 ms per DAV 300 ms is exactly enough
+        path = tmp_path / "arm.servo"
+        path.write_text(one_ms_program(duration, speed))
+        rc, out, err = run_cli(["lint", str(path)], capsys)
+        assert rc == 0, (duration, speed, err)
+        assert "infeasible-speed" not in err
+
+
+def test_default_servo_boundary_is_exact():
+    # P = 7.4 ms: the default servo needs 150 x 7400/3 us = 370 ms = 50 frames exactly.
+    base = "frame 7.4ms\nservo a = P1.0\npose p {{ a: 0 }}\npose q {{ a: 150 }}\nmain {{\n  move p\n  move q in {}\n}}\n"
+    assert "infeasible-speed" not in codes(base.format("370ms"))
+    assert "infeasible-speed" not in codes(base.format("366.3ms"))    # 49.5 frames -> 50
+    assert "infeasible-speed" in codes(base.format("366.2ms"))        # 49.49 -> 49 frames
+    assert "infeasible-speed" not in codes(base.replace("150", "151").format("381ms"))
+    assert "infeasible-speed" in codes(base.replace("150", "151").format("370ms"))
+
+
+def test_infeasible_speed_suggestion_is_feasible():
+    # the `in ...ms` the help suggests makes the error go away, whatever the numbers
+    for delta in (1, 7, 61, 124, 250):
+        for p_us in (5300, 6000, 7321, 20000):
+            text = (f"frame {p_us}us\nservo a = P1.0\npose p {{ a: 0 }}\npose q {{ a: {delta} }}\n"
+                    "main {\n  move p\n  move q in 1ms\n}\n")
+            _, diags, _ = diagnose(text)
+            if delta * Fraction(7400, 3) <= p_us:      # one frame is enough
+                assert "infeasible-speed" not in [d.code for d in diags]
+                continue
+            d = next(d for d in diags if d.code == "infeasible-speed")
+            suggestion = re.search(r"use `in (\d+)ms`", d.help).group(1)
+            fixed = text.replace("in 1ms", f"in {suggestion}ms")
+            assert "infeasible-speed" not in codes(fixed), (delta, p_us, suggestion)
+            # and it is the shortest whole-ms duration that works (never below the need)
+            shorter = text.replace("in 1ms", f"in {int(suggestion) - 1}ms")
+            need_ms = Fraction(delta * 7400, 3) / 1000
+            assert "infeasible-speed" in codes(shorter) or int(suggestion) - 1 < need_ms
+
+
+def test_infeasible_in_a_later_pass_of_a_repeat():
+    # first pass: p -> q from q (delta 0); later passes start from r: 200 DAV in 100 ms is too fast
+    text = """servo a = P1.0
+pose q { a: 0 }
+pose r { a: 200 }
+main {
+  move q
+  repeat 2 {
+    move q in 100ms
+    move r
+  }
+}
+"""
+    assert where(text, "infeasible-speed") == [(7, 5)]
+
+
+def test_infeasible_once_per_move_from_a_sequence_played_twice():
+    text = """servo a = P1.0
+servo b = P1.1 speed 0.5s/60deg
+pose low  { a: 0, b: 0 }
+pose mid  { a: 100, b: 100 }
+pose high { a: 200, b: 200 }
+sequence up {
+  move high in 300ms
+}
+main {
+  move low
+  play up
+  move mid
+  play up
+}
+"""
+    _, diags, _ = diagnose(text)
+    found = [d for d in diags if d.code == "infeasible-speed"]
+    assert len(found) == 1
+    # the slower servo from the worse context: b, 200 DAV at 6.17 ms per DAV
+    assert "`b`" in found[0].message and "200 DAV" in found[0].message
+
+
+def test_moves_without_duration_are_never_infeasible():
+    text = """servo a = P1.0 speed 5s/10deg
+pose p { a: 0 }
+pose q { a: 250 }
+main {
+  move p
+  move q
+  move p
+}
+"""
+    assert "infeasible-speed" not in codes(text)
+
+
+def test_first_move_sets_at_once_without_speed_check():
+    text = "servo a = P1.0\npose q { a: 250 }\nmain {\n  move q in 1ms\n}\n"
+    assert "infeasible-speed" not in codes(text)
+
+
+# ---- property: infeasible-speed exactly when |delta| t_DAV > F P ------------------------
+
+@st.composite
+def speed_programs(draw):
+    n = draw(st.integers(1, 3))
+    P = draw(st.integers(5300, 20000))
+    t = []
+    lines = [f"frame {P}us"]
+    for i in range(n):
+        kind = draw(st.sampled_from(["default", "random", "exact"]))
+        if kind == "random":
+            d_ms, a_deg = draw(st.integers(10, 1000)), draw(st.integers(1, 180))
+            lines.append(f"servo s{i} = P1.{i} speed {d_ms}ms/{a_deg}deg")
+            t.append(Fraction(d_ms * 1000) * Fraction(74, 100) / a_deg)
+        elif kind == "exact":
+            # t_DAV = P / k exactly (P us over k DAV), so |delta| = k F lands on the boundary
+            k = draw(st.integers(1, 6))
+            lines.append(f"servo s{i} = P1.{i} speed {P}us/{k * 74 // 100}.{k * 74 % 100:02d}deg")
+            t.append(Fraction(P, k))
+        else:
+            lines.append(f"servo s{i} = P1.{i}")
+            t.append(Fraction(74, 100) * 200_000 / 60)
+    poses = []
+    for j in range(draw(st.integers(1, 4))):
+        chosen = draw(st.lists(st.integers(0, n - 1), min_size=1, unique=True))
+        # round positions make |delta| = k F (the exact boundary) likely with the durations below
+        targets = {i: draw(st.one_of(st.integers(0, 250), st.sampled_from([0, 60, 120, 180, 240])))
+                   for i in chosen}
+        poses.append(targets)
+        lines.append(f"pose p{j} {{ " + ", ".join(f"s{i}: {v}" for i, v in targets.items()) + " }")
+    lines.append("main {")
+    body = []     # (line number, pose index, duration in us or None, repeat count or 0)
+    for _ in range(draw(st.integers(1, 6))):
+        pose = draw(st.integers(0, len(poses) - 1))
+        # durations near the frame rounding boundaries (F - 1/2) P, and anywhere
+        dur = draw(st.one_of(st.none(), st.integers(0, 800_000),
+                             st.builds(lambda h, e: max(0, h * P // 2 + e), st.integers(0, 120), st.integers(-1, 1)),
+                             st.builds(lambda m: m * P, st.sampled_from([10, 12, 15, 20, 24, 30, 40, 60]))))
+        text = f"move p{pose}" + ("" if dur is None else f" in {dur}us")
+        if draw(st.integers(0, 4)) == 0:
+            count = draw(st.integers(2, 3))
+            other = draw(st.integers(0, len(poses) - 1))
+            lines.append(f"  repeat {count} {{")
+            body.append((len(lines) + 1, pose, dur, count, other))
+            lines.append(f"    {text}")
+            lines.append(f"    move p{other}")
+            lines.append("  }")
+        else:
+            body.append((len(lines) + 1, pose, dur, 0, None))
+            lines.append(f"  {text}")
+    lines.append("}")
+    return "\n".join(lines) + "\n", P, t, poses, body
+
+
+def expected_infeasible(P, t, poses, body) -> set[int]:
+    """Lines of moves that ask some servo for |delta| x t_DAV > F x P, from the spec alone."""
+    state: dict[int, int] = {}
+    bad: set[int] = set()
+
+    def move(line, pose, dur):
+        if dur is not None:
+            F = max(1, math.floor(Fraction(dur, P) + Fraction(1, 2)))
+            for i, n1 in poses[pose].items():
+                if i in state and abs(n1 - state[i]) * t[i] > F * P:
+                    bad.add(line)
+        state.update(poses[pose])
+
+    for line, pose, dur, count, other in body:
+        for _ in range(max(1, count)):
+            move(line, pose, dur)
+            if count:
+                move(line + 1, other, None)
+    return bad
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(speed_programs())
+def test_infeasible_speed_exactly_when_the_inequality_holds(case):
+    text, P, t, poses, body = case
+    _, diags, src = diagnose(text)
+    assert not [d for d in diags if d.is_error and d.code != "infeasible-speed"], text
+    reported = {src.line_col(d.span.start)[0] for d in diags if d.code == "infeasible-speed"}
+    assert reported == expected_infeasible(P, t, poses, body), text
+
+
+# ---- other rules -----------------------------------------------------------------------
+
+def test_eased_overspeed_only_when_the_peak_is_too_fast():
+    base = ("frame 10ms\nservo a = P1.0\npose p {{ a: 0 }}\npose q {{ a: 40 }}\n"
+            "main {{\n  move p\n  move q in {}\n}}\n")
+    # 40 DAV need 98.7 ms; linear in 200 ms steps at most 2 DAV = 4.9 ms < 10 ms per frame
+    assert codes(base.format("200ms")) == []
+    # in-out over 20 frames: the middle steps are about 40 x pi/2 / 20 = 3.1 -> 3 DAV = 7.4 ms: fine
+    assert codes(base.format("200ms ease in-out")) == []
+    # ease in over 10 frames: the last step is 40 x (1 - 0.81) = 7.6 -> 8 DAV = 19.7 ms > 10 ms
+    _, diags, _ = diagnose(base.format("100ms ease in"))
+    assert [d.code for d in diags] == ["eased-overspeed"]
+    help_ms = int(re.search(r"`in (\d+)ms`", diags[0].help).group(1))
+    assert codes(base.format(f"{help_ms}ms ease in")) == []
+
+
+def test_eased_overspeed_for_a_servo_slower_than_a_frame_terminates():
+    text = ("servo a = P1.0 speed 10s/1deg\npose p { a: 0 }\npose q { a: 2 }\n"
+            "main {\n  move p\n  move q in 20s ease in\n}\n")
+    _, diags, _ = diagnose(text)
+    d = next(d for d in diags if d.code == "eased-overspeed")
+    assert "ease linear" in d.help
+
+
+def test_huge_eased_moves_lint_quickly():
+    text = ("frame 6ms\nservo a = P1.0\npose p { a: 0 }\npose q { a: 250 }\n"
+            "main {\n  move p\n  move q in 100000s ease in-out\n  move p in 30000s ease out\n}\n")
+    assert sorted(set(codes(text))) == ["too-long"]
+
+
+def test_short_hold_and_empty_loop():
+    text = """servo a = P1.0
+pose p { a: 10 }
+main {
+  move p
+  loop {
+    hold 2ms
+  }
+}
+"""
+    assert codes(text) == ["empty-loop", "short-hold"]
+    assert where(text, "empty-loop") == [(5, 3)]
+    # a hold of at least half a frame is one frame: the loop is not empty
+    assert "empty-loop" not in codes(text.replace("2ms", "3ms"))
+
+
+def test_empty_loop_through_a_sequence():
+    text = """servo a = P1.0
+pose p { a: 10 }
+sequence nothing {
+  hold 1ms
+}
+main {
+  move p
+  loop { play nothing }
+}
+"""
+    assert "empty-loop" in codes(text)
+
+
+def test_too_long_repeat_and_hold():
+    base = "servo a = P1.0\npose p {{ a: 10 }}\nmain {{\n  move p\n  {}\n}}\n"
+    assert codes(base.format("repeat 65535 { hold 10ms }")) == []
+    assert codes(base.format("repeat 65536 { hold 10ms }")) == ["too-long"]
+    # 65535 frames of 5.3 ms = 347.3355 s
+    assert codes(base.format("hold 347335ms")) == []
+    assert codes(base.format("hold 347339ms")) == ["too-long"]
+
+
+def test_unreachable_after_a_sequence_that_loops():
+    text = """servo a = P1.0
+pose p { a: 10 }
+pose q { a: 20 }
+sequence forever {
+  loop { move p in 100ms; move q in 100ms }
+}
+main {
+  play forever
+  move p
+  move q
+}
+"""
+    assert where(text, "unreachable") == [(9, 3)]
+
+
+def test_unused_declarations():
+    text = """servo a = P1.0
+servo b = P1.1
+servo c = P1.2
+group g = a, b
+group unused_g = c
+pose p { g: 10 }
+pose unused_p { a: 20 }
+sequence unused_s { move unused_p }
+main {
+  move p
+}
+"""
+    found = {(d.code, d.message) for d in diagnose(text)[1]}
+    assert found == {("unused-servo", "servo `c` is never used"),
+                     ("unused-group", "group `unused_g` is never used"),
+                     ("unused-sequence", "sequence `unused_s` is never used")}
+
+
+def test_period_rules_name_the_minimum():
+    _, diags, _ = diagnose("frame 1ms\nservo a = P1.0\npose p { a: 1 }\nmain { move p }\n")
+    d = next(d for d in diags if d.code == "period-too-short")
+    plan = diagnose("servo a = P1.0\npose p { a: 1 }\nmain { move p }\n")[0].plan
+    shown = re.search(r"at least ([\d.]+) ms", d.message).group(1)
+    assert Fraction(shown) * 1000 == plan.min_period_us
+    # exactly the minimum is fine; one microsecond less is not
+    at_min = f"frame {plan.min_period_us}us\nservo a = P1.0\npose p {{ a: 1 }}\nmain {{ move p }}\n"
+    assert "period-too-short" not in codes(at_min)
+    below = at_min.replace(f"{plan.min_period_us}us", f"{plan.min_period_us - 1}us")
+    assert "period-too-short" in codes(below)
+    # 65535 us is the longest Timer2 period
+    assert "period-too-long" not in codes(at_min.replace(f"{plan.min_period_us}us", "65535us"))
+    assert "period-too-long" in codes(at_min.replace(f"{plan.min_period_us}us", "65536us"))
+
+
+def test_p0_pull_up_counts_the_servos():
+    text = "servo a = P0.0\nservo b = P0.1\nservo c = P1.0\npose p { a: 1, b: 1, c: 1 }\nmain { move p }\n"
+    _, diags, _ = diagnose(text)
+    notes = [d for d in diags if d.code == "p0-pull-up"]
+    assert len(notes) == 1 and "the 2 servos on P0 need pull-up" in notes[0].message
+    assert notes[0].severity is Severity.NOTE
+
+
+def test_lint_reports_the_period_on_success(tmp_path, capsys):
+    path = tmp_path / "ok.servo"
+    path.write_text("servo a = P1.0\npose p { a: 1 }\nmain { move p }\n")
+    rc, out, err = run_cli(["lint", str(path)], capsys)
+    assert rc == 0 and err == ""
+    assert out == f"{path}: 1 servo on P1, P = 5.3 ms (default; shortest " + out.split("shortest ")[1]
+    assert "program 1 frame = 5.3 ms" in out

@@ -1,0 +1,217 @@
+"""verify must fail on wrong firmware: patched HEX images and traces of other plans.
+
+A verify that cannot fail is useless: each test here breaks the firmware (or
+hands verify someone else's trace) and checks that the report names the
+frame, the servo, the expected and the measured pulse.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import re
+
+import pytest
+from intelhex import IntelHex
+
+from servoc import api, verify
+
+from conftest import assert_exact, build_text, parse_listing
+
+pytestmark = pytest.mark.toolchain
+
+PROGRAM = """\
+frame 6ms
+servo a = P1.0
+servo b = P1.2
+servo c = P1.5
+servo d = P2.1
+pose p { a: 10, b: 120, c: 250, d: 33 }
+pose q { a: 11, b: 119, c: 250, d: 0 }
+main {
+  move p
+  hold 30ms
+  move q
+  hold 30ms
+}
+"""
+
+EXPECTED = {"a": 10, "b": 120, "c": 250, "d": 33}
+
+
+@pytest.fixture(scope="module")
+def good():
+    built = build_text(PROGRAM)
+    assert_exact(built.verify(), PROGRAM)
+    return built
+
+
+def patched(built, patches: dict[int, int]):
+    """The firmware with some code bytes replaced."""
+    ih = IntelHex()
+    ih.loadhex(io.StringIO(built.firmware.hex_text))
+    for addr, value in patches.items():
+        ih[addr] = value
+    buf = io.StringIO()
+    ih.write_hex_file(buf, write_start_addr=False, byte_count=16)
+    image = dataclasses.replace(built.firmware.image, hex_text=buf.getvalue().replace("\r\n", "\n"))
+    return dataclasses.replace(built.firmware, image=image)
+
+
+def instr(built, op: str, *args: str, label: str | None = None):
+    instrs, labels = parse_listing(built.firmware.image.listing)
+    if label is not None:
+        return instrs[labels[label]], instrs, labels
+    found = [i for i in instrs if i.op == op and i.args[:len(args)] == args]
+    assert len(found) == 1, (op, args, found)
+    return found[0], instrs, labels
+
+
+def mismatch_text_ok(m: verify.Mismatch) -> None:
+    text = str(m)
+    assert f"frame {m.frame}" in text and m.servo in text and m.pin in text
+    if m.expected_us is not None:
+        assert f"expected {m.expected_us} us" in text
+    if m.measured_us is not None:
+        assert f"measured {m.measured_us} us" in text
+
+
+def test_longer_head_pad_is_caught(good):
+    """One more pad loop in P1's head: every P1 pulse 2 cycles long."""
+    instrs, _ = parse_listing(good.firmware.image.listing)
+    head_pads = [a for a, b in zip(instrs, instrs[1:]) if b.op == "DJNZ" and b.args == ("R7", ".")]
+    assert len(head_pads) == 2      # one per port in use: P1, then P2
+    p1_pad = head_pads[0]
+    k = int(p1_pad.args[1].lstrip("#"), 0)
+    report = api.verify(good.plan, patched(good, {p1_pad.address + 1: k + 1}), 12)
+    assert not report.ok
+    widths = [m for m in report.mismatches if "width off by 2 cycles" in m.what]
+    assert {m.servo for m in widths} == {"a", "b", "c"}
+    assert {m.frame for m in widths} == set(range(1, 13))
+    for m in widths:
+        mismatch_text_ok(m)
+        assert m.measured_us == m.expected_us + 2
+    first = next(m for m in widths if m.frame == 1 and m.servo == "b")
+    assert (first.expected_us, first.measured_us) == (500 + 8 * 120, 500 + 8 * 120 + 2)
+    assert report.max_error_cycles == 2
+    assert not any(m.servo == "d" and "width" in m.what for m in report.mismatches)
+
+
+def test_shorter_chain_block_is_caught(good):
+    """Two NOPs of P1's first edge block become one 1-cycle instruction: its edge and all later ones early."""
+    anl, instrs, labels = instr(good, "ANL", label="e1_1")
+    nops = instrs[labels["e1_1"] - 4: labels["e1_1"]]
+    assert [i.op for i in nops] == ["NOP"] * 4
+    report = api.verify(good.plan, patched(good, {nops[0].address: 0x7F, nops[0].address + 1: 0x00}), 5)
+    assert not report.ok
+    bad = {(m.frame, m.servo): m for m in report.mismatches}
+    for frame in range(1, 6):
+        for servo in "abc":
+            m = bad[(frame, servo)]
+            mismatch_text_ok(m)
+            assert m.measured_us == m.expected_us - 1 and "off by -1 cycles" in m.what
+    assert not any(m.servo == "d" for m in report.mismatches)
+
+
+def test_wrong_target_in_a_record_is_caught(good):
+    """A move record with d's N changed from 33 to 34: one DIV long in the frames of that pose."""
+    lines = good.firmware.image.listing.splitlines()
+    rec = next(i for i, line in enumerate(lines) if re.search(r"\brec1:", line))
+    db = next(line for line in lines[rec:] if ".db" in line)
+    address = int(db[6:12], 16)
+    values = [int(v.strip(), 0) for v in db.split(".db", 1)[1].split(";")[0].split(",")]
+    assert values[-4:] == [10, 120, 250, 33]
+    report = api.verify(good.plan, patched(good, {address + len(values) - 1: 34}), 10)
+    assert not report.ok
+    assert {m.servo for m in report.mismatches} == {"d"}
+    m = report.mismatches[0]
+    assert (m.frame, m.expected_us, m.measured_us) == (1, 500 + 8 * 33, 500 + 8 * 34)
+    assert "width off by 8 cycles" in m.what
+    mismatch_text_ok(m)
+
+
+def test_missing_reset_is_caught(good):
+    """Without the reset's ANL P1 the P1 servo lines stay high until their first edge."""
+    anl, _, _ = instr(good, "ANL", label="reset")
+    assert anl.args[0] == "P1"
+    report = api.verify(good.plan, patched(good, {anl.address: 0, anl.address + 1: 0, anl.address + 2: 0}), 4)
+    assert not report.ok
+    reset = [m for m in report.mismatches if "reset" in m.what]
+    assert {m.servo for m in reset} == {"a", "b", "c"} and all(m.frame == 0 for m in reset)
+    assert report.reset_low_cycles > verify.RESET_LOW_CYCLES
+
+
+def test_non_servo_pin_change_is_caught(good):
+    """The reset clears P1.7 too, which is not a servo."""
+    anl, _, _ = instr(good, "ANL", label="reset")
+    assert anl.args[0] == "P1"
+    mask = int(anl.args[1].lstrip("#"), 0)
+    report = api.verify(good.plan, patched(good, {anl.address + 2: mask & 0x7F}), 4)
+    assert not report.ok
+    assert [(m.pin, m.what) for m in report.mismatches] == [("P1.7", "a pin that is not a servo changed")]
+
+
+def other(text_changes: dict[str, str]):
+    text = PROGRAM
+    for old, new in text_changes.items():
+        assert old in text
+        text = text.replace(old, new)
+    return build_text(text)
+
+
+def test_trace_of_another_plan_is_caught(good):
+    """verify(plan A, trace of firmware B): B moves b to 121 where A says 120."""
+    wrong = other({"b: 120": "b: 121"})
+    trace = api.simulate(wrong.firmware, verify.cycles_needed(good.plan, 10))
+    report = verify.verify(good.plan, good.firmware.unit.rise_offsets, trace, 10)
+    assert not report.ok
+    m = report.mismatches[0]
+    assert (m.frame, m.servo, m.pin, m.expected_us, m.measured_us) == (1, "b", "P1.2", 1460, 1468)
+    assert str(m).startswith("frame 1, b (P1.2): expected 1460 us, measured 1468 us")
+    assert report.max_error_cycles == 8
+
+
+def test_wrong_period_is_caught(good):
+    """A firmware one microsecond per frame slow drifts out of its frame slots."""
+    wrong = other({"frame 6ms": "frame 6001us"})
+    report = api.verify(good.plan, wrong.firmware, 10)
+    assert not report.ok
+    assert any("from its frame slot" in m.what for m in report.mismatches)
+    assert all(m.frame >= 3 for m in report.mismatches)
+
+
+def test_early_pulse_and_missing_pulse_are_caught():
+    """Plan: d gets its first target in the second move; firmware: d pulses from frame 1 and a never."""
+    plan_text = PROGRAM.replace("d: 33", "d: 0").replace("pose p { a: 10, b: 120, c: 250, d: 0 }",
+                                                         "pose p { a: 10, b: 120, c: 250 }")
+    planned = build_text(plan_text)
+    fw_text = PROGRAM.replace("pose p { a: 10,", "pose p {").replace("pose q { a: 11,", "pose q {") \
+        .replace("servo a = P1.0\n", "servo a = P1.0\npose unused { a: 1 }\n")
+    wrong = build_text(fw_text.replace("main {\n", "main {\n  hold 0ms\n"))
+    report = api.verify(planned.plan, wrong.firmware, 8)
+    assert not report.ok
+    whats = {(m.servo, m.what) for m in report.mismatches}
+    assert ("d", "pulse before any target") in whats
+    assert ("a", "pulse missing") in whats
+
+
+def test_eased_tolerance_does_not_hide_a_wrong_last_frame():
+    """Eased intermediate frames may be off by one N, the last frame may not."""
+    base = """\
+frame 6ms
+servo a = P0.3 speed 0.001s/60deg
+pose lo { a: 0 }
+pose hi { a: TARGET }
+main {
+  move lo
+  move hi in 60ms ease in-out
+  hold 12ms
+}
+"""
+    planned = build_text(base.replace("TARGET", "200"))
+    near = build_text(base.replace("TARGET", "201"))
+    report = api.verify(planned.plan, near.firmware, 14)
+    assert not report.ok
+    frames = sorted({m.frame for m in report.mismatches})
+    assert frames == [11, 12, 13, 14]         # frame 11 is the move's last, then the hold and the repeat
+    assert all(m.measured_us - m.expected_us == 8 for m in report.mismatches)
