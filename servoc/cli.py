@@ -255,7 +255,8 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
             ch = plan.channels[m.channel]
             t_dav = plan.class_t_dav_us[ch.speed_class]
             speed = abs(m.delta) * t_dav * 100 / (inst.frames * plan.period_us)
-            cells.append((ch.name, "set" if m.n0 is None else f"{m.delta:+d}", round(float(speed))))
+            cells.append((ch.name, "set" if m.n0 is None else f"{m.delta:+d}",
+                          None if m.n0 is None else round(float(speed))))
         rows.append((line, inst.step.pose, inst.frames, float(ms), inst.step.ease, cells))
     if csv_out:
         buf = io.StringIO()
@@ -263,13 +264,13 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
         w.writerow(["line", "pose", "frames", "ms", "ease", "servo", "delta", "speed_percent"])
         for line, pose, frames, ms, ease, cells in rows:
             for name, delta, speed in cells:
-                w.writerow([line, pose, frames, f"{ms:g}", ease, name, delta, speed])
+                w.writerow([line, pose, frames, f"{ms:g}", ease, name, delta, "" if speed is None else speed])
         return buf.getvalue()
     out = [f"frame period P = {fmt_ms(plan.period_us)}; speed = share of the servo's top speed "
            f"(delta in DAV of {float(DAV_DEG):g}°)",
            f"{'line':>5}  {'pose':<14} {'frames':>6} {'ms':>9}  servos (delta, speed)"]
     for line, pose, frames, ms, ease, cells in rows:
-        servos = ", ".join(f"{n} {d} ({s}%)" for n, d, s in cells) or "(already there)"
+        servos = ", ".join(f"{n} {d}" + ("" if s is None else f" ({s}%)") for n, d, s in cells) or "(already there)"
         tag = "" if ease == "linear" else f" [{ease}]"
         out.append(f"{line:>5}  {pose:<14} {frames:>6} {ms:>9.1f}  {servos}{tag}")
     if plan.total_frames is None:

@@ -4,12 +4,14 @@ Fenced blocks, by info string:
 - `servo`: a complete program that lints with no errors and no warnings;
 - `servo wrong=CODE`: a program whose lint reports CODE with the severity the
   docs give for CODE (its `### CODE (severity)` heading), and no other error
-  or warning; a clean `servo` block (the fix) follows it in the same section;
-- `text` / `sh`: not run, except a `text` block that shows servoc output for
-  the nearest `servo` block above it, recognised by its first line:
-  `prog.servo: ` (the `servoc lint` summary line), `frame period P ...`
-  (the `servoc plan` table) or `frame: ...` (a frame table: the N of the
-  program's one servo in each frame, checked against the planner).
+  or warning; under a `### CODE (...)` heading, a clean `servo` block (the
+  fix) follows it in the same section;
+- `text` / `sh`: not run, except a `text` block that shows servoc's output for
+  the nearest program block above it, recognised by its first line:
+  `prog.servo: ` (the `servoc lint` summary line), `prog.servo:LINE:COL:`
+  (`servoc lint` diagnostics as text), `{` (`servoc lint --format json`),
+  `frame period P` (the `servoc plan` table) or `frame:` (a frame table: the
+  N of the program's one servo in each frame, checked against the planner).
 
 Coverage: every code of the lint registry and of the checker and parser has a
 `wrong=` example; every code servoc can report has a heading with its severity.
@@ -20,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import io
 import itertools
+import json
 import os
 import re
 from dataclasses import dataclass
@@ -136,8 +139,8 @@ def lint(text: str, tmp_path: Path):
     return reporter.sorted(), fe.plan, source
 
 
-def cli_stdout(text: str, tmp_path: Path, *args: str) -> tuple[int, str]:
-    """Run `servoc ARGS prog.servo` in-process from tmp_path: (exit code, stdout)."""
+def cli_output(text: str, tmp_path: Path, *args: str) -> tuple[int, str, str]:
+    """Run `servoc ARGS prog.servo` in-process from tmp_path: (exit code, stdout, stderr)."""
     (tmp_path / "prog.servo").write_text(text, encoding="utf-8")
     out, err = io.StringIO(), io.StringIO()
     cwd = os.getcwd()
@@ -147,7 +150,7 @@ def cli_stdout(text: str, tmp_path: Path, *args: str) -> tuple[int, str]:
             rc = cli.main([*args, "prog.servo"])
     finally:
         os.chdir(cwd)
-    return rc, out.getvalue()
+    return rc, out.getvalue(), err.getvalue()
 
 
 # ---- the blocks ---------------------------------------------------------------
@@ -182,39 +185,61 @@ def test_program(block: Block, tmp_path: Path):
     assert not others, f"{block.id}: expected only [{code}], also got:\n{shown}"
 
 
-@pytest.mark.parametrize("block", [b for b in PROGRAMS if b.wrong], ids=[b.id for b in PROGRAMS if b.wrong])
-def test_wrong_example_has_fix(block: Block):
+UNDER_CODES = [b for b in PROGRAMS if CODE_HEADING_RE.match(b.heading)]
+
+
+@pytest.mark.parametrize("block", UNDER_CODES, ids=[b.id for b in UNDER_CODES])
+def test_code_section(block: Block):
+    code = CODE_HEADING_RE.match(block.heading).group(1)
+    if block.info == "servo":
+        return
+    assert block.wrong == code, f"{block.id}: a `wrong={block.wrong}` example under {block.heading!r}"
     fixes = [b for b in BLOCKS if b.path == block.path and b.section == block.section
              and b.line > block.line and b.info == "servo"]
     assert fixes, f"{block.id}: no fixed `servo` example follows the wrong one in its section"
-    assert CODE_HEADING_RE.match(block.heading) and CODE_HEADING_RE.match(block.heading).group(1) == block.wrong, (
-        f"{block.id}: a `wrong={block.wrong}` example belongs under `### {block.wrong} (...)`, not {block.heading!r}")
 
 
 # ---- output shown in text blocks ----------------------------------------------
 
-def shown_output(kind: str) -> list[tuple[Block, Block]]:
-    """(text block, the servo block above it) for text blocks starting with `kind`."""
+def shown_output(pattern: str) -> list[tuple[Block, Block]]:
+    """(text block, the program block above it) for text blocks whose start matches `pattern`."""
     out = []
     for path in doc_files():
         blocks = read_blocks(path)
         for i, b in enumerate(blocks):
-            if b.info == "text" and b.text.startswith(kind):
-                program = next((p for p in reversed(blocks[:i]) if p.info == "servo"), None)
-                assert program is not None, f"{b.id}: no `servo` block above this output"
+            if b.info == "text" and re.match(pattern, b.text):
+                program = next((p for p in reversed(blocks[:i]) if p.info == "servo" or p.wrong), None)
+                assert program is not None, f"{b.id}: no program block above this output"
                 out.append((b, program))
     return out
 
 
-LINT_LINES = shown_output("prog.servo: ")
-PLAN_TABLES = shown_output("frame period P")
-FRAME_TABLES = shown_output("frame:")
+LINT_LINES = shown_output(r"prog\.servo: ")
+LINT_TEXT = shown_output(r"prog\.servo:\d+:\d+: ")
+LINT_JSON = shown_output(r"\{")
+PLAN_TABLES = shown_output(r"frame period P")
+FRAME_TABLES = shown_output(r"frame:")
+
+
+@pytest.mark.parametrize("pair", LINT_TEXT, ids=[b.id for b, _ in LINT_TEXT])
+def test_lint_text(pair, tmp_path: Path):
+    shown, program = pair
+    rc, _, err = cli_output(program.text, tmp_path, "lint")
+    assert rc == (1 if program.wrong and code_severities()[program.wrong] == "error" else 0)
+    assert err.rstrip() == shown.text.rstrip(), f"{shown.id}: servoc lint prints\n{err}"
+
+
+@pytest.mark.parametrize("pair", LINT_JSON, ids=[b.id for b, _ in LINT_JSON])
+def test_lint_json(pair, tmp_path: Path):
+    shown, program = pair
+    _, out, _ = cli_output(program.text, tmp_path, "lint", "--format", "json")
+    assert json.loads(out) == json.loads(shown.text), f"{shown.id}: servoc lint --format json prints\n{out}"
 
 
 @pytest.mark.parametrize("pair", LINT_LINES, ids=[b.id for b, _ in LINT_LINES])
 def test_lint_summary_line(pair, tmp_path: Path):
     shown, program = pair
-    rc, out = cli_stdout(program.text, tmp_path, "lint")
+    rc, out, _ = cli_output(program.text, tmp_path, "lint")
     assert rc == 0
     assert out.strip() == shown.text.strip(), f"{shown.id}: servoc lint prints\n{out}"
 
@@ -222,7 +247,7 @@ def test_lint_summary_line(pair, tmp_path: Path):
 @pytest.mark.parametrize("pair", PLAN_TABLES, ids=[b.id for b, _ in PLAN_TABLES])
 def test_plan_table(pair, tmp_path: Path):
     shown, program = pair
-    rc, out = cli_stdout(program.text, tmp_path, "plan")
+    rc, out, _ = cli_output(program.text, tmp_path, "plan")
     assert rc == 0
     assert out.strip() == shown.text.strip(), f"{shown.id}: servoc plan prints\n{out}"
 
@@ -243,7 +268,7 @@ def test_frame_table(pair, tmp_path: Path):
 
 
 def test_output_examples_exist():
-    assert LINT_LINES and PLAN_TABLES and FRAME_TABLES
+    assert LINT_LINES and LINT_TEXT and LINT_JSON and PLAN_TABLES and FRAME_TABLES
 
 
 # ---- coverage of the diagnostic codes -------------------------------------------
@@ -311,3 +336,21 @@ def test_keyword_list():
     m = re.search(r"\*\*Keywords\*\*[^`]*```text\n(.*?)```", doc_text(), re.S)
     assert m, "the keyword list is missing"
     assert set(m.group(1).split()) == set(keywords()) - {"in-out"}
+
+
+@pytest.mark.parametrize("levels", [12, 13])
+def test_resources_nesting_limit(levels: int, tmp_path: Path):
+    # The docs say: at most 12 levels of nested `repeat`s and `play`s fit.
+    text = ("servo arm = P1.0\npose a { arm: 100 }\npose b { arm: 120 }\nmain {\n" + "repeat 2 {\n" * levels
+            + "move a in 100ms\nmove b in 100ms\n" + "}\n" * levels + "}\n")
+    assert "at most 12 levels" in doc_text()
+    (tmp_path / "prog.servo").write_text(text, encoding="utf-8")
+    source, reporter = api.load_source(str(tmp_path / "prog.servo"))
+    fe = api.front_end(source, reporter)
+    assert fe.plan is not None and not reporter.has_errors
+    unit = api.generate(fe.plan, source, reporter)
+    codes = [d.code for d in reporter.diagnostics if d.is_error]
+    if levels <= 12:
+        assert unit is not None and codes == []
+    else:
+        assert unit is None and codes == ["resources"]

@@ -188,6 +188,12 @@ def programs(draw) -> Prog:
         prog.sequences.append((f"q{j}", _body(draw, names, [n for n, _ in prog.sequences], 1, 1, 3)))
     seqs = [n for n, _ in prog.sequences]
     prog.main = _body(draw, names, seqs, 0, 1, 5)
+    if draw(st.sampled_from([True, True, False])):
+        # A move without duration entered from two different poses: its F is found at run time.
+        a, b, c = (draw(st.sampled_from(names)) for _ in range(3))
+        prog.sequences.append(("again", [("move", c, None, None)] + _body(draw, names, seqs, 1, 0, 2)))
+        prog.main = [("move", a, None, None), ("play", "again"), ("move", b, None, None), ("play", "again")] \
+            + prog.main
     if draw(st.booleans()):
         prog.loop = _body(draw, names, seqs, 1, 0, 2) + [("move", draw(st.sampled_from(names)), None, None)]
     return prog
@@ -264,7 +270,7 @@ def check_program(text: str, frames_cap: int = 400):
 S = [Servo((1, 0), 0, 100, 14), Servo((1, 5), 2, 0, 250), Servo((0, 3), 1, 120, 60), Servo((2, 7), 2, 10, 240)]
 
 
-@settings(max_examples=25, **SETTINGS)
+@settings(max_examples=30, **SETTINGS)
 @given(programs())
 @example(Prog(S, {"a": {"s1_0": 100, "s1_5": 0}, "b": {"s1_0": 114, "s1_5": 250, "s0_3": 180},
                   "c": {"s1_0": 107, "s1_5": 125, "s0_3": 120, "s2_7": 250}},
@@ -309,7 +315,7 @@ main {
 def test_runtime_frames_above_255():
     """Run-time F above 255 frames takes the DDA's wide path (Q = 0, REM = |delta|)."""
     text = """\
-servo a = P0.4 speed 4s/60deg
+servo a = P0.4 speed 1.2s/60deg
 servo b = P0.5
 pose lo { a: 0, b: 0 }
 pose hi { a: 250, b: 10 }
