@@ -134,11 +134,21 @@ class _Checker:
                          help=hint or "the units are deg, us, ms, s, kHz and MHz")
             return
         help_ = ""
-        if unit == "":
-            example = next((u for word, u in (("duration", "ms"), ("period", "ms"), ("angle", "deg"),
-                                              ("clock", "MHz")) if word in need), "")
-            if example:
-                help_ = f"write the unit right after the number, e.g. `{format_number(q.value)}{example}`"
+        example = "" if "position" in need else next(
+            (u for word, u in (("duration", "ms"), ("period", "ms"), ("angle", "deg"), ("clock", "MHz"))
+             if word in need), "")
+        if unit == "" and example:
+            help_ = f"write the unit right after the number, e.g. `{format_number(q.value)}{example}`"
+        elif example == "ms":
+            help_ = "durations are written in `us`, `ms` or `s`, e.g. `300ms`"
+        elif example == "deg":
+            help_ = "angles are written in `deg`, e.g. `60deg`"
+        elif example == "MHz":
+            help_ = "the clock is written `12MHz`"
+        elif "count" in need:
+            help_ = "a count is a bare whole number, e.g. `repeat 3`"
+        elif "position" in need:
+            help_ = "positions are angles (`90deg`), pulse widths (`1500us`) or raw N (`122`)"
         self.r.error("bad-unit", msg, q.span, help=help_)
 
     # ---- conversions ------------------------------------------------------

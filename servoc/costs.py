@@ -5,8 +5,8 @@ needs: the shortest frame period it sustains. A frame is the pulse routines
 of the ports in use (fixed length each, sort and differencing included) plus
 the work between the last port's pulses and the next tick: stepping every
 moving servo, and on the first frame of a move reading its record. The
-constants below are upper bounds of what `benchmarks/measure.py` and
-`tests/test_costs.py` measure in ucsim; the test fails when they drift.
+constants below are upper bounds of what `benchmarks/stress.py` measures in
+ucsim; `tests/test_costs.py` fails when they stop being safe or get wasteful.
 """
 
 from __future__ import annotations

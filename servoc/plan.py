@@ -130,7 +130,7 @@ class Plan:
     speed_tables: tuple[tuple[int, ...], ...]   # per speed class: frames needed for |delta| = 0..250
     class_t_dav_us: tuple[Fraction, ...]    # per speed class: t_DAV
     main: tuple[Step, ...]
-    sequences: tuple[SequencePlan, ...]     # only those reachable from main, in declaration order
+    sequences: tuple[SequencePlan, ...]     # those main can play (directly or not), in declaration order
     moves: tuple[MoveInstance, ...]         # every distinct move instance the program reaches
     total_frames: int | None                # frames until main ends; None if it loops forever
     nesting: int = 0                        # deepest stack of repeats and plays around a statement
@@ -292,9 +292,25 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
     _, total, infinite = walker.walk(main, (None,) * len(channels))
     runtime_frames = any(inst.step.frames is None for inst in walker.instances.values())
     min_p = costs.min_period_us(len(ports), len(channels), runtime_frames, depth)
-    used = [seq_bodies[s.name] for s in program.sequences if s.name in walker.played]
+    # Every sequence main can name, also after a `loop` (code there never runs, but later
+    # stages still walk it and look its sequences up).
+    named = _named_sequences(main, seq_bodies)
+    used = [seq_bodies[s.name] for s in program.sequences if s.name in named]
     return Plan(program, tuple(channels), ports, period, is_default, min_p, tables, tuple(classes),
                 main, tuple(used), tuple(walker.instances.values()), None if infinite else total, depth)
+
+
+def _named_sequences(main: tuple[Step, ...], sequences: dict[str, SequencePlan]) -> set[str]:
+    named: set[str] = set()
+    work = [main]
+    while work:
+        for st in work.pop():
+            if isinstance(st, PlayStep) and st.sequence not in named:
+                named.add(st.sequence)
+                work.append(sequences[st.sequence].body)
+            elif isinstance(st, (RepeatStep, LoopStep)):
+                work.append(st.body)
+    return named
 
 
 def _fix_frames(body: tuple[Step, ...], fixed: dict[int, int]) -> tuple[Step, ...]:
@@ -360,8 +376,11 @@ class _Walker:
                     total += first
                 infinite = infinite or inf
             elif isinstance(st, LoopStep):
-                state, _, _ = self.walk(st.body, state)
-                state, _, _ = self.walk(st.body, state)
+                # A second pass starts where the first ended, unless the first never ends
+                # (a loop inside): then there is no second pass to walk.
+                state, _, inf = self.walk(st.body, state)
+                if not inf:
+                    state, _, _ = self.walk(st.body, state)
                 infinite = True
             else:
                 self.played.add(st.sequence)

@@ -201,7 +201,7 @@ def test_plan_table(capsys, program):
     rows = [re.split(r"\s{2,}", line.strip(), maxsplit=4) for line in lines[2:-1]]
     assert [r[:4] for r in rows] == [["7", "rest", "1", "10.0"], ["8", "reach", "50", "500.0"],
                                       ["10", "rest", "25", "250.0"]]
-    assert rows[0][4] == "arm set (0%), grip set (0%)"
+    assert rows[0][4] == "arm set, grip set"
     assert rows[1][4] == "arm +100 (49%), grip +50 (37%)"
     assert rows[2][4] == "arm -100 (99%), grip -50 (74%)"
     assert lines[-1] == "total: 86 frames = 860 ms, then the last targets repeat"
@@ -213,8 +213,8 @@ def test_plan_csv(capsys, program):
     rows = list(csv.reader(io.StringIO(out)))
     assert rows[0] == ["line", "pose", "frames", "ms", "ease", "servo", "delta", "speed_percent"]
     assert rows[1:] == [
-        ["7", "rest", "1", "10", "linear", "arm", "set", "0"],
-        ["7", "rest", "1", "10", "linear", "grip", "set", "0"],
+        ["7", "rest", "1", "10", "linear", "arm", "set", ""],
+        ["7", "rest", "1", "10", "linear", "grip", "set", ""],
         ["8", "reach", "50", "500", "linear", "arm", "+100", "49"],
         ["8", "reach", "50", "500", "linear", "grip", "+50", "37"],
         ["10", "rest", "25", "250", "linear", "arm", "-100", "99"],

@@ -17,7 +17,7 @@ import pytest
 from servoc import api, codegen, costs
 from servoc.diagnostics import Reporter
 
-from conftest import Instr, build_text, compile_file, parse_listing, pose, servo_decls
+from conftest import build_text, compile_file, parse_listing, pose, servo_decls
 
 pytestmark = pytest.mark.toolchain
 
@@ -290,14 +290,6 @@ def test_sorting_networks_sort_every_zero_one_vector():
                 if v[a] > v[b]:
                     v[a], v[b] = v[b], v[a]
             assert v == sorted(v), (s, k)
-
-
-@pytest.mark.parametrize("s", range(1, 9))
-def test_head_pad_fills_the_head_exactly(s):
-    loops, nops = codegen.head_pad(s)
-    assert loops >= 0 and nops >= 0
-    assert (1 + 2 * loops if loops else 0) + nops + (
-        1 + 4 * s + 2 + 2 + codegen.edges_cycles(s) + 4 + 9 + 2 + 2) == costs.HEAD_CYCLES
 
 
 def test_listing_checks_can_fail(listing_firmware):

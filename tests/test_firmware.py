@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 import pytest
-from hypothesis import HealthCheck, example, given, settings
+from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 
 from servoc import api
@@ -26,7 +26,10 @@ from conftest import assert_exact, build_text, front_end_text, pose, servo_decls
 
 pytestmark = pytest.mark.toolchain
 
-SETTINGS = dict(deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+# Every example compiles and simulates a firmware, so shrinking a failure could take many minutes:
+# it is left out, and a failure prints the whole .servo text instead.
+SETTINGS = dict(deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
 def name(pin: tuple[int, int]) -> str:
@@ -149,13 +152,17 @@ class Prog:
     frame_extra: int = 0
 
 
+def _stmt_move(draw, poses: list[str]):
+    dur = draw(st.one_of(st.none(), st.integers(0, 3)))
+    ease = None if dur is None else draw(st.sampled_from([None, None, "in", "out", "in-out", "linear"]))
+    return ("move", draw(st.sampled_from(poses)), dur, ease)
+
+
 def _stmt(draw, poses: list[str], seqs: list[str], depth: int):
     kinds = ["move", "move", "move", "hold"] + (["repeat"] if depth < 3 else []) + (["play"] if seqs else [])
     kind = draw(st.sampled_from(kinds))
     if kind == "move":
-        dur = draw(st.one_of(st.none(), st.integers(0, 3)))
-        ease = None if dur is None else draw(st.sampled_from([None, None, "in", "out", "in-out", "linear"]))
-        return ("move", draw(st.sampled_from(poses)), dur, ease)
+        return _stmt_move(draw, poses)
     if kind == "hold":
         return ("hold", draw(st.integers(0, 2)))
     if kind == "repeat":
@@ -187,7 +194,7 @@ def programs(draw) -> Prog:
     for j in range(draw(st.integers(0, 2))):
         prog.sequences.append((f"q{j}", _body(draw, names, [n for n, _ in prog.sequences], 1, 1, 3)))
     seqs = [n for n, _ in prog.sequences]
-    prog.main = _body(draw, names, seqs, 0, 1, 5)
+    prog.main = _body(draw, names, seqs, 0, 1, 5) + [_stmt_move(draw, names)]     # some pulse for sure
     if draw(st.sampled_from([True, True, False])):
         # A move without duration entered from two different poses: its F is found at run time.
         a, b, c = (draw(st.sampled_from(names)) for _ in range(3))
@@ -270,13 +277,18 @@ def check_program(text: str, frames_cap: int = 400):
 S = [Servo((1, 0), 0, 100, 14), Servo((1, 5), 2, 0, 250), Servo((0, 3), 1, 120, 60), Servo((2, 7), 2, 10, 240)]
 
 
-@settings(max_examples=30, **SETTINGS)
+@settings(max_examples=40, **SETTINGS)
 @given(programs())
 @example(Prog(S, {"a": {"s1_0": 100, "s1_5": 0}, "b": {"s1_0": 114, "s1_5": 250, "s0_3": 180},
                   "c": {"s1_0": 107, "s1_5": 125, "s0_3": 120, "s2_7": 250}},
               sequences=[("q0", [("move", "c", None, None), ("hold", 0)])],
               main=[("move", "a", None, None), ("play", "q0"), ("move", "b", 2, "in-out"), ("play", "q0"),
                     ("repeat", 2, [("repeat", 2, [("move", "a", 1, "in"), ("play", "q0")]), ("hold", 1)])]))
+@example(Prog(S[1:], {"a": {"s1_5": 0}, "b": {"s1_5": 250, "s0_3": 120}, "c": {"s0_3": 180, "s2_7": 10}},
+              sequences=[("q0", [("move", "b", None, None), ("hold", 0), ("move", "c", 0, "out")]),
+                         ("q1", [("repeat", 2, [("play", "q0"), ("hold", 1)]), ("move", "a", None, None)])],
+              main=[("hold", 2), ("move", "a", 1, None), ("play", "q1")],
+              loop=[("play", "q0"), ("move", "a", None, None)], frame_extra=7))
 def test_motion_programs_match_golden_frames(prog):
     check_program(program_text(prog))
 
@@ -533,9 +545,9 @@ main {
     first = {port_bit: trace.pulses(*port_bit) for port_bit in [(0, 1), (1, 6), (2, 3)]}
     t1 = first[(0, 1)][0][0]
     late_frame = next(j for j, fr in enumerate(expand(plan)) if fr.n[plan.channel_of("late").index] is not None)
-    p1_offset = built.firmware.unit.rise_offsets[plan.ports.index(2)]
+    p2_offset = built.firmware.unit.rise_offsets[plan.ports.index(2)]
     assert late_frame > 3
-    assert first[(2, 3)][0][0] == t1 + late_frame * plan.period_us + p1_offset
+    assert first[(2, 3)][0][0] == t1 + late_frame * plan.period_us + p2_offset
     assert all(w == 500 + 8 * 42 for _, w in first[(2, 3)])
     assert_exact(built.verify(), text)
 

@@ -443,3 +443,77 @@ def test_lint_reports_the_period_on_success(tmp_path, capsys):
     assert rc == 0 and err == ""
     assert out == f"{path}: 1 servo on P1, P = 5.3 ms (default; shortest " + out.split("shortest ")[1]
     assert "program 1 frame = 5.3 ms" in out
+
+
+def test_play_after_a_loop_is_linted_not_crashed():
+    # the sequence is only named after a never-ending statement; lint still walks it
+    text = """servo a = P1.0
+pose p { a: 0 }
+pose q { a: 100 }
+sequence later {
+  move q
+}
+main {
+  loop { }
+  repeat 2 { play later; move p }
+}
+"""
+    fe, diags, _ = diagnose(text)
+    assert [d.code for d in diags] == ["empty-loop", "unreachable"]
+    assert [s.name for s in fe.plan.sequences] == ["later"]
+
+
+def test_infeasible_in_the_second_pass_of_a_loop():
+    text = """servo s = P1.0
+pose a { s: 0 }
+pose c { s: 250 }
+main {
+  move a
+  loop {
+    move a in 100ms
+    move c in 2s
+  }
+}
+"""
+    # pass 1 starts at a (delta 0); every later pass starts at c: 250 DAV in 100 ms
+    assert where(text, "infeasible-speed") == [(7, 5)]
+
+
+def test_no_second_pass_of_a_loop_whose_first_pass_never_ends():
+    # `move a in 100ms` runs once, from no target; the inner loop never gives control back
+    inner = """servo s = P1.0
+pose a { s: 0 }
+pose b { s: 10 }
+pose c { s: 250 }
+sequence forever {
+  loop {
+    move b in 1s
+    move c in 1s
+  }
+}
+main {
+  loop {
+    move a in 100ms
+    BODY
+  }
+}
+"""
+    for body in ("loop { move b in 1s; move c in 1s }", "play forever",
+                 "repeat 2 { play forever }"):
+        text = inner.replace("BODY", body)
+        assert "infeasible-speed" not in codes(text), body
+
+
+@pytest.mark.parametrize("text, help_", [
+    ("servo a = P1.0\npose p { a: 1 }\nmain {\n  move p in 1MHz\n}\n", "durations are written in `us`, `ms` or `s`"),
+    ("servo a = P1.0\npose p { a: 1 }\nmain {\n  repeat 3ms { move p }\n}\n", "e.g. `repeat 3`"),
+    ("servo a = P1.0 speed 1s/1s\npose p { a: 1 }\nmain { move p }\n", "angles are written in `deg`"),
+    ("servo a = P1.0\npose p { a: 3MHz }\nmain { move p }\n", "positions are angles (`90deg`)"),
+    ("target at89c52 clock 12\nservo a = P1.0\npose p { a: 1 }\nmain { move p }\n", "e.g. `12MHz`"),
+    ("frame 6\nservo a = P1.0\npose p { a: 1 }\nmain { move p }\n", "e.g. `6ms`"),
+    ("servo a = P1.0 speed 5/60deg\npose p { a: 1 }\nmain { move p }\n", "e.g. `5ms`"),
+])
+def test_bad_unit_always_says_how_to_write_it(text, help_):
+    _, diags, _ = diagnose(text)
+    assert [d.code for d in diags] == ["bad-unit"]
+    assert help_ in diags[0].help

@@ -357,6 +357,27 @@ main {{
     assert a[39:] == [100] * 6
 
 
+def test_total_frames_when_later_passes_of_a_repeat_differ():
+    plan = plan_of("""frame 10ms
+servo a = P1.0
+pose p0 { a: 0 }
+pose p1 { a: 100 }
+pose p2 { a: 200 }
+main {
+  move p0
+  repeat 3 {
+    move p2
+    move p1
+  }
+}
+""")
+    # pass 1: p2 from 0 is 200 x 2466.67 / 10000 = 49.3 -> 50 frames, p1 from 200: 25;
+    # passes 2 and 3: p2 from 100: 25, p1: 25. 1 + 75 + 2 x 50 = 176
+    assert plan.total_frames == 176
+    a = track(plan, "a", 177)
+    assert a[50] == 200 and a[75] == 100 and a[100] == 200 and a[125] == 100 and a[175] == 100
+
+
 def test_loop_has_no_total():
     plan = plan_of(f"""frame 10ms
 servo a = P1.0 {FAST}
@@ -553,18 +574,21 @@ def programs(draw):
             targets[s] = servos[s]["out"](p)
         poses[f"p{j}"] = targets
         lines.append(f"pose p{j} {{ " + ", ".join(entries) + " }")
+    def move():
+        pose = draw(st.sampled_from(list(poses)))
+        dur = draw(st.one_of(st.none(), st.integers(0, 900)))
+        ease = draw(st.sampled_from(["linear", "in", "out", "in-out"])) if dur is not None else "linear"
+        return ("move", dur, pose, ease)
+
     stmts = []
     for _ in range(draw(st.integers(1, 8))):
-        kind = draw(st.sampled_from(["move", "move", "move_in", "move_in", "hold", "repeat"]))
+        kind = draw(st.sampled_from(["move", "move", "hold", "repeat"]))
         if kind == "hold":
             stmts.append(("hold", draw(st.integers(0, 100)), None, None))
+        elif kind == "move":
+            stmts.append(move())
         else:
-            pose = draw(st.sampled_from(list(poses)))
-            dur = draw(st.integers(0, 900)) if kind != "move" else None
-            ease = draw(st.sampled_from(["linear", "in", "out", "in-out"])) if dur is not None else "linear"
-            stmts.append(("move", dur, pose, ease))
-            if kind == "repeat":
-                stmts[-1] = ("repeat", draw(st.integers(1, 3)), [stmts[-1]], None)
+            stmts.append(("repeat", draw(st.integers(1, 3)), [move() for _ in range(draw(st.integers(1, 2)))], None))
     text_lines = []
     for s in stmts:
         if s[0] == "hold":
@@ -572,7 +596,7 @@ def programs(draw):
         elif s[0] == "move":
             text_lines.append(_move_text(s))
         else:
-            text_lines.append(f"  repeat {s[1]} {{\n  " + _move_text(s[2][0]) + "\n  }")
+            text_lines.append(f"  repeat {s[1]} {{\n  " + "\n  ".join(_move_text(m) for m in s[2]) + "\n  }")
     text = "\n".join(lines) + "\nmain {\n" + "\n".join(text_lines) + "\n}\n"
     return text, dict(servos=servos, poses=poses, stmts=stmts, frame=frame)
 
@@ -655,3 +679,19 @@ def test_expand_follows_the_spec(case):
             assert all(abs(b - a) <= bound for a, b in zip(path, path[1:])), (s, path)
             if ease == "linear":
                 assert bound <= math.ceil(Fraction(abs(n1 - n0), f))
+
+
+def test_sequences_named_after_a_loop_are_planned():
+    plan = plan_of(f"""servo a = P1.0 {FAST}
+pose p {{ a: 0 }}
+pose q {{ a: 100 }}
+sequence inner {{ move p }}
+sequence outer {{ play inner }}
+sequence never {{ move q }}
+main {{
+  loop {{ move p in 100ms; move q in 100ms }}
+  play outer
+}}
+""")
+    assert [s.name for s in plan.sequences] == ["inner", "outer"]
+    assert plan.total_frames is None

@@ -215,3 +215,16 @@ main {
     frames = sorted({m.frame for m in report.mismatches})
     assert frames == [11, 12, 13, 14]         # frame 11 is the move's last, then the hold and the repeat
     assert all(m.measured_us - m.expected_us == 8 for m in report.mismatches)
+
+
+def test_write_to_a_port_without_servos_is_caught(good):
+    """The reset's ANL P1 retargeted to P0, which has no servo: P0's pins change, and that is caught
+    as well as P1's servo lines staying high."""
+    anl, _, _ = instr(good, "ANL", label="reset")
+    assert anl.args[0] == "P1"
+    report = api.verify(good.plan, patched(good, {anl.address + 1: 0x80}), 4)
+    assert not report.ok
+    changed = sorted(m.pin for m in report.mismatches if m.what == "a pin that is not a servo changed")
+    mask = int(anl.args[1].lstrip("#"), 0)
+    assert changed == [f"P0.{b}" for b in range(8) if not mask & (1 << b)]
+    assert {m.servo for m in report.mismatches if "reset" in m.what} == {"a", "b", "c"}

@@ -1,0 +1,197 @@
+"""Tests of the benchmark suite (benchmarks/suite.py, benchmarks/run.py) on its cheap pieces.
+
+The baselines are built with SDCC and run in ucsim like in the benchmark;
+the figures checked are the ones the comparison is about: the hobby frame is
+about 20 ms with inexact widths, the source algorithm is exact except where
+its traps (zero differences) send DJNZ round 256 times, servoc is exact.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+from servoc import sim, toolchain
+from servoc.sim import PortWrite, SimTrace
+
+pytestmark = pytest.mark.toolchain
+
+BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
+
+
+def _load(module_name: str, file_name: str):
+    sys.path.insert(0, str(BENCH))
+    spec = importlib.util.spec_from_file_location(module_name, BENCH / file_name)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[module_name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+suite = _load("suite", "suite.py")          # run.py imports it by this name
+run_cli = _load("bench_run", "run.py")
+
+FRAMES = 12
+TRAP_US = 256 * 8          # DJNZ from 0: 256 DIVs
+
+
+@pytest.fixture(scope="module")
+def hobby():
+    return suite.measure_baseline(suite.build_hobby(), 22_000, FRAMES)
+
+
+@pytest.fixture(scope="module")
+def source_algorithm():
+    return suite.measure_baseline(suite.build_source_algorithm(), 11_000, FRAMES)
+
+
+@pytest.fixture(scope="module")
+def servoc_side():
+    return suite.measure_servoc(FRAMES)
+
+
+def test_baselines_drive_the_same_positions():
+    assert suite.baseline_positions(suite.HOBBY_C) == suite.POSITIONS
+    assert suite.baseline_positions(suite.SOURCE_ASM) == suite.POSITIONS
+    assert re.search(r"pose p \{ s0: 0, s1: 1, s2: 125, s3: 125", suite.positions_source())
+    # both ends, a tie and adjacent values
+    assert {0, 250} <= set(suite.POSITIONS) and len(set(suite.POSITIONS)) < len(suite.POSITIONS)
+    assert any(b - a == 1 for a, b in zip(sorted(suite.POSITIONS), sorted(suite.POSITIONS)[1:]))
+
+
+def test_decoder_on_a_known_trace():
+    # P1.0 and P1.1 rise at 100 and 1100 (period 1000); P1.0 falls after 500 us (N = 0),
+    # P1.1 after 508 and 509 us (N = 1: errors 0 and +1); P1.0 stays high 3 us after reset
+    writes = [PortWrite(3, 1, 0x00)]
+    for rise, w1 in ((100, 508), (1100, 509)):
+        writes += [PortWrite(rise, 1, 0x03), PortWrite(rise + 500, 1, 0x02), PortWrite(rise + w1, 1, 0x00)]
+    trace = SimTrace(tuple(writes), 3000)
+    d = suite.decode(trace, 1, (0, 1), 2)
+    assert d.width_error_us == [[0, 0], [0, 1]]
+    assert d.max_abs_error_us == [0, 1] and d.max_abs_error_all_us == 1
+    assert (d.exact_pulses, d.pulses) == (3, 4)
+    assert d.period_mean_us == 1000 and d.jitter_us == 0
+    assert d.reset_high_us == [3, 3] and d.reset_high_max_us == 3
+    with pytest.raises(ValueError, match="complete pulses"):
+        suite.decode(trace, 1, (0, 1), 3)
+
+
+def test_hobby_baseline(hobby):
+    # a 20 ms frame (longer by the interrupt latencies), inexact widths, lines low only after startup
+    assert 19_500 <= hobby.period_mean_us <= 23_000
+    assert hobby.jitter_us <= 2
+    assert all(0 < e <= 200 for e in hobby.max_abs_error_us)
+    assert hobby.exact_pulses == 0
+    assert hobby.reset_high_max_us is not None and hobby.reset_high_max_us > 20
+
+
+def test_source_algorithm_shows_the_zero_difference_trap(source_algorithm):
+    d = source_algorithm
+    by_line = [set(errs) for errs in d.width_error_us]
+    assert all(len(s) == 1 for s in by_line), "the same widths every frame"
+    err = [next(iter(s)) for s in by_line]
+    # N sorted ascending: 0 (M = 0: 256 DIVs), 1, 60, 125, 125 (M = 0 again), 200, 249, 250
+    assert err[0] == TRAP_US                      # N = 0 as the smallest difference
+    assert sorted((err[2], err[3])) == [TRAP_US, 2 * TRAP_US]   # the tie: one edge each, 256 DIVs apart
+    assert err[4] == err[5] == err[6] == 2 * TRAP_US
+    assert err[1] == err[7] == TRAP_US
+    assert d.reset_high_max_us is not None and d.reset_high_max_us > 500   # P1 not driven low at reset
+    assert 9_000 < d.period_mean_us < 11_000 and d.jitter_us == 0
+
+
+def test_source_algorithm_is_exact_without_its_traps():
+    # the same code with distinct nonzero N: the deduction keeps every edge on the 8 us grid
+    distinct = (3, 1, 125, 126, 200, 249, 250, 60)
+    text = suite.SOURCE_ASM.read_text()
+    text = re.sub(r"^(table:\s*\.db\s+).*$", lambda m: m[1] + ", ".join(map(str, distinct)), text, flags=re.M)
+    trace = suite.simulate_frames(toolchain.assemble(text, name="distinct").hex_text, 1, 5, 7_000)
+    d = suite.decode(trace, 1, distinct, 5)
+    assert d.max_abs_error_all_us == 0
+    assert d.jitter_us == 0
+
+
+def test_servoc_is_exact(servoc_side):
+    d, fe, fw = servoc_side
+    assert d.max_abs_error_all_us == 0 and d.exact_pulses == d.pulses == 8 * FRAMES
+    assert d.period_mean_us == fe.plan.period_us and d.jitter_us <= 2
+    assert d.reset_high_max_us is not None and d.reset_high_max_us <= 20
+    assert fw.rom_bytes <= toolchain.AT89C52_ROM_SIZE
+
+
+def test_hold_search_brackets():
+    # below one port routine nothing is exact; with a long frame the held pose is
+    assert not suite.hold_exact_at(1, suite.PORT_CYCLES, 20)
+    assert suite.hold_exact_at(1, suite.PORT_CYCLES + 512, 20)
+    calls = []
+
+    def ok(p):
+        calls.append(p)
+        return p >= 1234
+
+    assert suite.bisect_shortest(ok, 1000, 2000) == 1234
+    assert suite.bisect_shortest(ok, 1000, 2000, 8) - 1234 in range(0, 8)
+    with pytest.raises(AssertionError):
+        suite.bisect_shortest(ok, 0, 1000)
+
+
+def test_keyframes_and_compile_stages():
+    mem = suite.memory(quick=True)
+    assert mem["bytes_per_keyframe_24_servos"] > 0
+    k = mem["keyframes_fit_confirmed"]
+    assert mem["rom_bytes_at_max_keyframes"] <= toolchain.AT89C52_ROM_SIZE
+    fw, errors = suite._keyframe_build(k + 1)
+    assert fw is None and errors == ["rom-overflow"]
+    assert abs(k - mem["keyframes_fit_estimate"]) <= 3
+    assert 0 < mem["ram_bytes_8_servos"] <= mem["ram_bytes_24_servos"] <= 256
+
+    comp = suite.compiler_time(quick=True)
+    assert set(comp["seconds"]) == set(suite.STAGES)
+    assert all(t > 0 for t in comp["seconds"].values())
+    assert abs(sum(comp["share"].values()) - 1) < 0.01
+    assert comp["without_sdcc_seconds"] < comp["total_seconds"]
+    assert comp["errors"] == []
+
+
+def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_side):
+    # the command end to end, with the slow searches replaced by small fixed results
+    d, fe, fw = servoc_side
+    fake = {
+        "mode": "quick", "positions": list(suite.POSITIONS), "frames_decoded": FRAMES, "seconds": 1.0,
+        "comparison": {"hobby": {"rom_bytes": 1, **hobby.summary()},
+                       "source_algorithm": {"rom_bytes": 2, **source_algorithm.summary()},
+                       "servoc": {"rom_bytes": fw.rom_bytes, "period_chosen_us": fe.plan.period_us, **d.summary()}},
+        "frame_budget": {"port_cycles": suite.PORT_CYCLES,
+                         "worst_case": [{"ports": p, "servos": 8 * p, "runtime_f": False, "shortest_exact_p_us": 9999,
+                                         "resolution_us": 8, "between_frames_cycles": 777, "default_p_us": 5300}
+                                        for p in (1, 2, 3)],
+                         "steady_state": [{"ports": p, "servos": 8 * p, "shortest_exact_p_us": 2540 * p,
+                                           "resolution_us": 1, "between_frames_cycles": 30, "default_p_us": 5300}
+                                          for p in (1, 2, 3)]},
+        "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "bytes_per_keyframe_24_servos": 36.0,
+                   "keyframes_fit_estimate": 146, "keyframes_fit_confirmed": 146, "ram_bytes_8_servos": 196,
+                   "ram_bytes_24_servos": 230},
+        "compiler": {"moves": 100, "errors": [], "seconds": {s: 0.01 for s in suite.STAGES},
+                     "share": {s: 1 / 6 for s in suite.STAGES}, "total_seconds": 0.06, "without_sdcc_seconds": 0.05},
+    }
+    monkeypatch.setattr(run_cli.suite, "run_all", lambda quick, progress=None: fake)
+    out = tmp_path / "r.json"
+    assert run_cli.main(["--quick", "--json", str(out)]) == 0
+    assert json.loads(out.read_text())["comparison"]["servoc"]["max_abs_error_all_us"] == 0
+    text = suite.table(fake)
+    lines = text.splitlines()
+    assert lines[0].startswith("| figure | hobby.c") and lines[1].startswith("|---")
+    assert all(line.count("|") == 5 for line in lines)
+    assert "| max abs width error, all channels (us) | " in text
+    assert "777 (to 8 us)" in text and "146 / 146" in text
+
+
+def test_sim_reports_all_port_writes_of_the_baselines():
+    # the decoder sees P1 only; the baselines must not be writing other ports
+    for hex_text in (suite.build_hobby(), suite.build_source_algorithm()):
+        trace = sim.run(hex_text, 30_000)
+        assert {w.port for w in trace.writes} == {1}

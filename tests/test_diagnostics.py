@@ -1,0 +1,190 @@
+"""servoc.diagnostics: the header, caret display, help line, summary and JSON."""
+
+from __future__ import annotations
+
+import json
+
+from servoc.diagnostics import Diagnostic, Reporter, Severity, render_full, render_short, summary, to_json
+from servoc.source import NO_SPAN, SourceFile, Span
+
+TEXT = "servo arm = P1.0\npose up { arm: 120 }\nmain {\n  move up in 20ms\n}\n"
+
+
+def diag(span: Span, severity=Severity.ERROR, label: str = "", help: str = "", code: str = "test-code",
+         message: str = "something is wrong") -> Diagnostic:
+    return Diagnostic(code, severity, message, span, label, help)
+
+
+def at(text: str, needle: str, occurrence: int = 0) -> Span:
+    start = -1
+    for _ in range(occurrence + 1):
+        start = text.index(needle, start + 1)
+    return Span(start, start + len(needle))
+
+
+def test_header_and_caret_under_the_span():
+    src = SourceFile("arm.servo", TEXT)
+    d = diag(at(TEXT, "move up in 20ms"), label="too fast", help="use `in 300ms`")
+    assert render_full(d, src) == (
+        "arm.servo:4:3: error: something is wrong [test-code]\n"
+        "   4 |   move up in 20ms\n"
+        "     |   ^^^^^^^^^^^^^^^ too fast\n"
+        "     = help: use `in 300ms`")
+
+
+def test_render_short_is_the_spec_format():
+    src = SourceFile("arm.servo", TEXT)
+    assert render_short(diag(at(TEXT, "120"), Severity.WARNING), src) == \
+        "arm.servo:2:16: warning: something is wrong [test-code]"
+
+
+def test_caret_width_is_the_span_width():
+    src = SourceFile("arm.servo", TEXT)
+    out = render_full(diag(at(TEXT, "arm", 1)), src).splitlines()
+    assert out[0].startswith("arm.servo:2:11: ")
+    assert out[1] == "   2 | pose up { arm: 120 }"
+    assert out[2] == "     |           ^^^"
+    assert len(out) == 3      # no help line without help
+
+
+def test_empty_span_gets_one_caret():
+    src = SourceFile("arm.servo", TEXT)
+    start = TEXT.index("20ms")
+    out = render_full(diag(Span(start, start)), src).splitlines()
+    assert out[0].startswith("arm.servo:4:14: ")
+    assert out[2] == "     |" + " " * 14 + "^"
+
+
+def test_tabs_keep_the_caret_aligned():
+    text = "main {\n\tmove\tup\n}\n"
+    src = SourceFile("t.servo", text)
+    out = render_full(diag(at(text, "up")), src).splitlines()
+    # a tab is one column, shown as one space
+    assert out[0].startswith("t.servo:2:7: ")
+    assert out[1] == "   2 |  move up"
+    assert out[2] == "     |       ^^"
+    assert out[1].index("up") == out[2].index("^")
+
+
+def test_control_characters_are_not_printed():
+    text = "pose p { a: 1\x1b[31m }\r\nmain {}\r\n"
+    src = SourceFile("t.servo", text)
+    out = render_full(diag(at(text, "[31m")), src).splitlines()
+    assert "\x1b" not in "".join(out) and "\r" not in "".join(out)
+    assert out[1] == "   1 | pose p { a: 1\ufffd[31m }" + " "
+    assert out[1].index("[") == out[2].index("^")
+
+
+def test_span_over_several_lines_underlines_the_first_line():
+    text = "sequence s {\n  move p\n}\n"
+    src = SourceFile("t.servo", text)
+    out = render_full(diag(Span(0, len(text) - 1), label="declared here"), src).splitlines()
+    assert out[1] == "   1 | sequence s {"
+    assert out[2] == "     | ^^^^^^^^^^^^ declared here"
+
+
+def test_span_at_end_of_file_without_newline():
+    text = "main {\n  move p"
+    src = SourceFile("t.servo", text)
+    end = len(text)
+    out = render_full(diag(Span(end, end)), src).splitlines()
+    assert out[0].startswith("t.servo:2:9: ")
+    assert out[1] == "   2 |   move p"
+    assert out[2] == "     |" + " " * 9 + "^"
+
+
+def test_span_at_end_of_file_after_newline():
+    text = "main {\n"
+    src = SourceFile("t.servo", text)
+    out = render_full(diag(Span(len(text), len(text))), src).splitlines()
+    assert out[0].startswith("t.servo:2:1: ")
+    assert out[1] == "   2 | "
+    assert out[2] == "     | ^"
+
+
+def test_span_past_the_end_is_clamped():
+    text = "main {"
+    src = SourceFile("t.servo", text)
+    out = render_full(diag(Span(4, 40)), src).splitlines()
+    assert out[0].startswith("t.servo:1:5: ")
+    assert out[2] == "     |     ^^"
+
+
+def test_empty_file():
+    src = SourceFile("empty.servo", "")
+    out = render_full(diag(Span(0, 0), help="add `main { ... }`"), src)
+    assert out == ("empty.servo:1:1: error: something is wrong [test-code]\n"
+                   "     = help: add `main { ... }`")
+
+
+def test_no_span_has_no_source_line():
+    src = SourceFile("arm.servo", TEXT)
+    out = render_full(diag(NO_SPAN, help="h"), src).splitlines()
+    assert out == ["arm.servo:1:1: error: something is wrong [test-code]", "     = help: h"]
+
+
+def test_line_numbers_above_9999_keep_the_gutter_aligned():
+    text = "\n" * 12345 + "move p\n"
+    src = SourceFile("t.servo", text)
+    out = render_full(diag(at(text, "p")), src).splitlines()
+    assert out[1] == "12346 | move p"
+    assert out[2] == "      |      ^"
+
+
+def test_wide_text_before_the_span_counts_characters():
+    text = "pose p { a: 1 } # µ°é\nmove x\n"
+    src = SourceFile("t.servo", text)
+    assert render_short(diag(at(text, "x")), src).startswith("t.servo:2:6: ")
+    line1 = render_full(diag(at(text, "é")), src).splitlines()
+    assert line1[0].startswith("t.servo:1:21: ")
+    assert line1[1].index("é") == line1[2].index("^")
+
+
+def test_color_only_when_asked():
+    src = SourceFile("arm.servo", TEXT)
+    d = diag(at(TEXT, "up"), Severity.WARNING, help="h")
+    plain = render_full(d, src, color=False)
+    painted = render_full(d, src, color=True)
+    assert "\x1b[" not in plain
+    assert "\x1b[1;33mwarning\x1b[0m" in painted
+    assert painted.replace("\x1b[1;33m", "").replace("\x1b[1;34m", "").replace("\x1b[0m", "") == plain
+
+
+def test_summary_counts_and_plurals():
+    assert summary([]) == "0 errors, 0 warnings, 0 notes"
+    ds = [diag(NO_SPAN), diag(NO_SPAN, Severity.WARNING), diag(NO_SPAN, Severity.WARNING),
+          diag(NO_SPAN, Severity.NOTE)]
+    assert summary(ds) == "1 error, 2 warnings, 1 note"
+
+
+def test_reporter_sorts_by_position_and_knows_errors():
+    src = SourceFile("arm.servo", TEXT)
+    rep = Reporter(src)
+    rep.warning("w", "second", at(TEXT, "main"))
+    assert not rep.has_errors
+    rep.note("n", "first", at(TEXT, "servo"))
+    rep.error("e", "third", at(TEXT, "move"))
+    assert rep.has_errors
+    assert [d.message for d in rep.sorted()] == ["first", "second", "third"]
+    assert [d.severity for d in rep.sorted()] == [Severity.NOTE, Severity.WARNING, Severity.ERROR]
+
+
+def test_json():
+    src = SourceFile("arm.servo", TEXT)
+    ds = [diag(at(TEXT, "move up in 20ms"), label="too fast", help="use `in 300ms`", code="infeasible-speed",
+               message="servo `arm` cannot move"),
+          diag(NO_SPAN, Severity.NOTE)]
+    data = json.loads(to_json(ds, src))
+    assert data["summary"] == "1 error, 0 warnings, 1 note"
+    first, second = data["diagnostics"]
+    assert first == {"file": "arm.servo", "line": 4, "column": 3, "end_line": 4, "end_column": 18,
+                     "severity": "error", "code": "infeasible-speed", "message": "servo `arm` cannot move",
+                     "label": "too fast", "help": "use `in 300ms`"}
+    assert (second["line"], second["column"], second["severity"]) == (1, 1, "note")
+
+
+def test_json_keeps_unicode_and_quotes_valid():
+    src = SourceFile("a \"b\".servo", "pose p { a: 90deg }\n")
+    data = json.loads(to_json([diag(Span(9, 10), message="N 122 = 90.28° \"x\"")], src))
+    assert data["diagnostics"][0]["message"] == "N 122 = 90.28° \"x\""
+    assert data["diagnostics"][0]["file"] == "a \"b\".servo"
