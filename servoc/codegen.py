@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import jinja2
 
 from . import resources
+from . import costs
 from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
 from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
 from .source import SourceFile
@@ -47,11 +48,9 @@ BLOCK_BYTES = 24            # bytes of one edge block (see pulse.asm.j2)
 CE_CYCLES = 13              # one compare-exchange, either way
 MERGE_CYCLES = 16           # one sorted line after the first, edge or merge
 FIRST_CYCLES = 10           # the smallest line
-STACK_TOP = 0xFF
-STACK_BASE = 0xE0           # the stack lives in 0xE0..0xFF
+STACK_BASE = 0x100 - costs.STACK_BYTES   # the stack lives in 0xE0..0xFF
 STATE_BASE = 0x80           # 4 bytes of motion state per pin: 0x80 + 4 x pin
 CUR_BASE = 0x08             # current N per pin: 0x08 + pin
-ENGINE_STACK = 8            # deepest the runtime itself goes below a program call
 FLAG_EASED, FLAG_NODUR = 1, 2
 TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
 FNEED_TOP = 0x2000          # frames-needed tables: whole pages after the motion data, budgeted below the 8 KB top
@@ -209,9 +208,8 @@ def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
     return rec
 
 
-def _ops(ctx: _Ctx, body: tuple[Step, ...], depth: int, out: list[dict]) -> int:
-    """Flatten statements into template ops; returns the deepest stack use in bytes."""
-    deepest = depth
+def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
+    """Flatten statements into template ops."""
     for st in body:
         where = ctx.where(st.span)
         if isinstance(st, MoveStep):
@@ -223,53 +221,36 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], depth: int, out: list[dict]) -> int:
         elif isinstance(st, RepeatStep):
             lab = ctx.label("rep")
             out.append({"op": "repeat", "label": lab, "count": st.count, "where": where})
-            deepest = max(deepest, _ops(ctx, st.body, depth + 2, out))
+            _ops(ctx, st.body, out)
             out.append({"op": "repeat_end", "label": lab, "where": where})
         elif isinstance(st, LoopStep):
             lab = ctx.label("loop")
             out.append({"op": "loop", "label": lab, "where": where})
-            deepest = max(deepest, _ops(ctx, st.body, depth, out))
+            _ops(ctx, st.body, out)
             out.append({"op": "loop_end", "label": lab, "where": where})
         elif isinstance(st, PlayStep):
             out.append({"op": "play", "label": _seq_label(ctx.plan, st.sequence), "name": st.sequence, "where": where})
-            deepest = max(deepest, depth + 2 + _seq_depth(ctx, st.sequence))
-    return deepest
 
 
 def _seq_label(plan: Plan, name: str) -> str:
     return f"seq{[s.name for s in plan.sequences].index(name) + 1}"
 
 
-def _seq_depth(ctx: _Ctx, name: str) -> int:
-    """Stack bytes a sequence's body adds (repeats and nested plays)."""
-    def depth(body) -> int:
-        d = 0
-        for st in body:
-            if isinstance(st, RepeatStep):
-                d = max(d, 2 + depth(st.body))
-            elif isinstance(st, LoopStep):
-                d = max(d, depth(st.body))
-            elif isinstance(st, PlayStep):
-                d = max(d, 2 + depth(ctx.plan.sequence(st.sequence).body))
-        return d
-    return depth(ctx.plan.sequence(name).body)
-
-
 def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     """Lay out the firmware for a plan (which must have passed lint without errors)."""
     ctx = _Ctx(plan, source, [], {})
     main_ops: list[dict] = []
-    deepest = _ops(ctx, plan.main, 0, main_ops)
+    _ops(ctx, plan.main, main_ops)
     sequences = []
     for seq in plan.sequences:
         ops: list[dict] = []
-        _ops(ctx, seq.body, 0, ops)
+        _ops(ctx, seq.body, ops)
         sequences.append({"label": _seq_label(plan, seq.name), "name": seq.name, "ops": ops,
                           "where": ctx.where(seq.span)})
-    stack_bytes = deepest + ENGINE_STACK
-    if stack_bytes > STACK_TOP - STACK_BASE + 1:
+    stack_bytes = costs.stack_bytes(plan.nesting)
+    if stack_bytes > costs.STACK_BYTES:     # lint's `too-deep` reports this first
         raise CodegenError(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
-                           f"the firmware has {STACK_TOP - STACK_BASE + 1}")
+                           f"the firmware has {costs.STACK_BYTES}")
 
     ram = _Ram()
     ram.symbols += [("ACT", ACT, "per port: lines that have a target (the rise mask); bit address = pin"),

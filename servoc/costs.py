@@ -42,3 +42,19 @@ def min_period_us(port_count: int, channel_count: int, runtime_frames: bool = Fa
 def default_period_us(port_count: int, channel_count: int, runtime_frames: bool = False, nesting: int = 0) -> int:
     """The spec's default P: the shortest sustainable period, never below 5.3 ms."""
     return max(DEFAULT_PERIOD_FLOOR_US, min_period_us(port_count, channel_count, runtime_frames, nesting))
+
+
+# The stack: 32 bytes at the top of the indirect RAM. Each `repeat` keeps its
+# pass counter there and each `play` its return address (2 bytes a level);
+# the runtime goes at most ENGINE_STACK bytes deeper below a program call.
+STACK_BYTES = 32
+ENGINE_STACK = 8
+
+
+def stack_bytes(nesting: int) -> int:
+    """Stack bytes a program with `nesting` levels of repeat/play needs."""
+    return 2 * nesting + ENGINE_STACK
+
+
+def max_nesting() -> int:
+    return (STACK_BYTES - ENGINE_STACK) // 2

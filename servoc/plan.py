@@ -225,18 +225,22 @@ def _needs_runtime_frames(p: Plan) -> bool:
     return any(inst.step.frames is None for inst in p.moves)
 
 
-def nesting(body: tuple, sequences: dict) -> int:
+def nesting(body: tuple, sequences: dict, _memo: dict | None = None) -> int:
     """The deepest stack of `repeat`s and `play`s around any statement (a `loop` costs nothing).
 
-    Works on model statements; `sequences` maps names to model.Sequence."""
+    Works on model statements; `sequences` maps names to model.Sequence. Each sequence's
+    depth is computed once, so sequences that play each other many times stay linear."""
+    memo = {} if _memo is None else _memo
     deepest = 0
     for st in body:
         if isinstance(st, model.Repeat):
-            deepest = max(deepest, 1 + nesting(st.body, sequences))
+            deepest = max(deepest, 1 + nesting(st.body, sequences, memo))
         elif isinstance(st, model.Loop):
-            deepest = max(deepest, nesting(st.body, sequences))
+            deepest = max(deepest, nesting(st.body, sequences, memo))
         elif isinstance(st, model.Play):
-            deepest = max(deepest, 1 + nesting(sequences[st.sequence].body, sequences))
+            if st.sequence not in memo:
+                memo[st.sequence] = nesting(sequences[st.sequence].body, sequences, memo)
+            deepest = max(deepest, 1 + memo[st.sequence])
     return deepest
 
 

@@ -339,18 +339,20 @@ def test_keyword_list():
 
 
 @pytest.mark.parametrize("levels", [12, 13])
-def test_resources_nesting_limit(levels: int, tmp_path: Path):
-    # The docs say: at most 12 levels of nested `repeat`s and `play`s fit.
+def test_nesting_limit(levels: int, tmp_path: Path):
+    # The docs say: at most 12 levels of nested `repeat`s and `play`s fit; lint's too-deep says so first.
     text = ("servo arm = P1.0\npose a { arm: 100 }\npose b { arm: 120 }\nmain {\n" + "repeat 2 {\n" * levels
             + "move a in 100ms\nmove b in 100ms\n" + "}\n" * levels + "}\n")
     assert "at most 12 levels" in doc_text()
     (tmp_path / "prog.servo").write_text(text, encoding="utf-8")
     source, reporter = api.load_source(str(tmp_path / "prog.servo"))
     fe = api.front_end(source, reporter)
-    assert fe.plan is not None and not reporter.has_errors
+    assert fe.plan is not None
+    lint_codes = [d.code for d in reporter.diagnostics if d.is_error]
     unit = api.generate(fe.plan, source, reporter)
     codes = [d.code for d in reporter.diagnostics if d.is_error]
     if levels <= 12:
         assert unit is not None and codes == []
     else:
-        assert unit is None and codes == ["resources"]
+        assert lint_codes == ["too-deep"]
+        assert unit is None and codes == ["too-deep", "resources"]

@@ -29,7 +29,7 @@ REGEN = os.environ.get("SERVOC_REGEN") == "1"
 LINT_CODES = [
     "infeasible-speed", "eased-overspeed", "off-grid-width", "inexact-angle", "period-too-short",
     "period-too-long", "short-gap", "short-hold", "empty-loop", "too-long", "unused-servo", "unused-group",
-    "unused-pose", "unused-sequence", "unreachable", "p0-pull-up",
+    "unused-pose", "unused-sequence", "unreachable", "p0-pull-up", "too-deep",
 ]
 FRONT_CODES = [
     "syntax-error", "duplicate-name", "pin-conflict", "bad-pin", "unknown-name", "wrong-kind", "bad-unit",

@@ -27,4 +27,4 @@ def lint(plan: Plan, reporter: Reporter) -> None:
         fn(plan, reporter)
 
 
-from . import speed, positions, timing, usage, hardware  # noqa: E402,F401  (registers the rules)
+from . import speed, positions, timing, usage, hardware, resources  # noqa: E402,F401  (registers the rules)
