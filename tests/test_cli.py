@@ -7,6 +7,7 @@ import io
 import json
 import os
 import re
+import string
 import subprocess
 import sys
 import tempfile
@@ -291,8 +292,14 @@ def _lint_bytes(data: bytes) -> None:
 
 
 @settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.text(alphabet=string.printable, max_size=300))
+def test_random_printable_text_never_crashes(text):
+    _lint_bytes(text.encode("utf-8"))
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.text(alphabet=st.characters(codec="utf-8", exclude_categories=("Cs",)), max_size=300))
-def test_random_text_never_crashes(text):
+def test_random_unicode_text_never_crashes(text):
     _lint_bytes(text.encode("utf-8"))
 
 

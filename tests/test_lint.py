@@ -517,3 +517,26 @@ def test_bad_unit_always_says_how_to_write_it(text, help_):
     _, diags, _ = diagnose(text)
     assert [d.code for d in diags] == ["bad-unit"]
     assert help_ in diags[0].help
+
+
+def test_sequences_played_many_times_lint_quickly():
+    # s10 plays s9 six times, ..., s1 plays s0 six times: 6^10 paths, walked once per sequence
+    lines = ["servo a = P1.0", "pose p { a: 1 }", "pose q { a: 2 }",
+             "sequence s0 { move p in 10ms; move q in 10ms; move p }"]
+    lines += [f"sequence s{i} {{ " + "; ".join([f"play s{i - 1}"] * 6) + " }" for i in range(1, 11)]
+    fe, diags, _ = diagnose("\n".join(lines + ["main { play s10 }"]) + "\n")
+    assert [d.code for d in diags] == []
+    assert fe.plan.total_frames == 6 ** 10 * (2 + 2 + 1)
+
+
+def test_too_deep_points_at_the_first_level_too_many():
+    from servoc import costs
+    limit = costs.max_nesting()
+    lines = ["servo a = P1.0", "pose p { a: 1 }", "pose q { a: 2 }", "sequence s0 { move p in 10ms; move q in 10ms }"]
+    lines += [f"sequence s{i} {{ play s{i - 1}; play s{i - 1} }}" for i in range(1, 40)]
+    text = "\n".join(lines + ["main { play s39 }"]) + "\n"
+    _, diags, src = diagnose(text)
+    assert [d.code for d in diags] == ["too-deep"]
+    # main's play is level 1, s39's play level 2, ... s(40 - limit)'s play is level limit + 1
+    line, col = src.line_col(diags[0].span.start)
+    assert src.line_text(line).startswith(f"sequence s{40 - limit} {{") and col == len(f"sequence s{40 - limit} {{ ") + 1
