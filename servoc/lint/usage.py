@@ -19,24 +19,15 @@ def _unused(kind: str, items, plan: Plan, reporter: Reporter) -> None:
                              label="declared here", help=f"remove the {kind}, or {_USE[kind]}")
 
 
-@rule("unused-servo", Severity.WARNING)
-def unused_servo(plan: Plan, reporter: Reporter) -> None:
-    _unused("servo", plan.program.servos, plan, reporter)
+def _register_unused(kind: str, declarations: str) -> None:
+    def unused(plan: Plan, reporter: Reporter) -> None:
+        _unused(kind, getattr(plan.program, declarations), plan, reporter)
+    unused.__doc__ = f"A {kind} that nothing uses."
+    rule(f"unused-{kind}", Severity.WARNING)(unused)
 
 
-@rule("unused-group", Severity.WARNING)
-def unused_group(plan: Plan, reporter: Reporter) -> None:
-    _unused("group", plan.program.groups, plan, reporter)
-
-
-@rule("unused-pose", Severity.WARNING)
-def unused_pose(plan: Plan, reporter: Reporter) -> None:
-    _unused("pose", plan.program.poses, plan, reporter)
-
-
-@rule("unused-sequence", Severity.WARNING)
-def unused_sequence(plan: Plan, reporter: Reporter) -> None:
-    _unused("sequence", plan.program.sequences, plan, reporter)
+for _kind, _declarations in (("servo", "servos"), ("group", "groups"), ("pose", "poses"), ("sequence", "sequences")):
+    _register_unused(_kind, _declarations)
 
 
 @rule("unreachable", Severity.WARNING)
