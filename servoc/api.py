@@ -128,9 +128,11 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
     if end > limit:
         reporter.error("rom-overflow",
                        f"the firmware needs {end + (ROM_BYTES - limit)} bytes of code memory, the AT89C52 has {ROM_BYTES}: "
-                       f"runtime {runtime}, program {program}, motion data {data}",
+                       f"runtime {runtime}, program {program}, motion data {data} ("
+                       + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")",
                        NO_SPAN,
-                       help="shorten the program: fewer distinct moves, or sequences played several times")
+                       help="shorten the program: fewer distinct moves (play a sequence several times instead of "
+                            "writing its moves out again), shorter eased moves, or one `speed` for servos of one model")
         return None
     if unit.ram_bytes > RAM_BYTES:
         reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the AT89C52 has {RAM_BYTES}")

@@ -101,6 +101,7 @@ class AsmUnit:
     stack_bytes: int                # deepest stack use of program and runtime
     fneed_pages: tuple[int, ...]    # the top pages the frames-needed tables may reach down to (empty if none):
                                     # the tables follow the motion data page-aligned, so it must end below these
+    data_breakdown: tuple[tuple[str, int], ...] = ()   # motion data bytes by what they serve, largest first
 
 
 def _hex8(v: int) -> str:
@@ -160,6 +161,7 @@ class _Ctx:
     records: list[dict]
     ease_tables: dict[tuple, str]
     labels: int = 0
+    owner: str = "main"              # whose statements are being laid out, for the ROM breakdown
 
     def label(self, prefix: str) -> str:
         self.labels += 1
@@ -203,7 +205,8 @@ def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
         if c.index in targets:
             data.append(str(targets[c.index]))
             notes.append(f"{c.name} N {targets[c.index]}")
-    rec = {"label": f"rec{len(ctx.records) + 1}", "data": data, "notes": notes, "where": ctx.where(step.span)}
+    rec = {"label": f"rec{len(ctx.records) + 1}", "data": data, "notes": notes, "where": ctx.where(step.span),
+           "owner": ctx.owner}
     ctx.records.append(rec)
     return rec
 
@@ -244,6 +247,7 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     sequences = []
     for seq in plan.sequences:
         ops: list[dict] = []
+        ctx.owner = f"sequence `{seq.name}`"
         _ops(ctx, seq.body, ops)
         sequences.append({"label": _seq_label(plan, seq.name), "name": seq.name, "ops": ops,
                           "where": ctx.where(seq.span)})
@@ -333,8 +337,16 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
                   flag_eased=FLAG_EASED, flag_nodur=FLAG_NODUR, channels=plan.channels)
     offsets = tuple(PORT_CYCLES * i for i in range(len(plan.ports)))
     ram_bytes = ram.next + 4 * 24 + stack_bytes
+    breakdown: dict[str, int] = {}
+    for r in ctx.records:
+        breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])
+    if ease_tables:
+        breakdown["eased curve tables"] = sum(len(t["values"]) for t in ease_tables)
+    if fneed:
+        breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
-                   tuple(f["page"] for f in fneed))
+                   tuple(f["page"] for f in fneed),
+                   tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))))
 
 
 def _moves(plan: Plan):
