@@ -220,7 +220,8 @@ def _diagnostics(reporter, args) -> None:
     if args.command != "lint":      # notes are for `servoc lint`; the other commands show what matters
         diags = [d for d in diags if d.severity is not Severity.NOTE]
     if args.format == "json":
-        print(to_json(diags, reporter.source))
+        # lint's only output; the other commands keep standard output for their own result
+        print(to_json(diags, reporter.source), file=sys.stdout if args.command == "lint" else sys.stderr)
         return
     color = _color(sys.stderr)
     for d in diags:

@@ -62,14 +62,20 @@ def test_first_program_outputs_match(tmp_path, monkeypatch, capsys):
     (tmp_path / "prog.servo").write_text(program, encoding="utf-8")
     code, out, err = run_cli(["compile", "prog.servo"], capsys)
     assert code == 1 and err == shown[0] and not (tmp_path / "prog.hex").exists()
+    lines = program.split("\n")
+    assert "With `in 124ms`" in README
+    lines[10] = "  move crouch in 124ms ease in-out"
+    (tmp_path / "prog.servo").write_text("\n".join(lines), encoding="utf-8")
+    code, out, err = run_cli(["compile", "prog.servo"], capsys)
+    assert code == 0 and err == shown[1]
+    (tmp_path / "prog.hex").unlink()
     fixed = "move crouch in 345ms ease in-out"
     assert f"`{fixed}` on line 11" in README
-    lines = program.split("\n")
     lines[10] = "  " + fixed
     (tmp_path / "prog.servo").write_text("\n".join(lines), encoding="utf-8")
     code, out, err = run_cli(["plan", "prog.servo"], capsys)
-    assert code == 0 and out == shown[1]
+    assert code == 0 and out == shown[2]
     code, out, err = run_cli(["compile", "prog.servo"], capsys)
-    assert code == 0 and out == shown[2] and (tmp_path / "prog.hex").exists()
+    assert code == 0 and out == shown[3] and err == "" and (tmp_path / "prog.hex").exists()
     code, out, err = run_cli(["verify", "prog.servo"], capsys)
-    assert code == 0 and out == shown[3]
+    assert code == 0 and out == shown[4]

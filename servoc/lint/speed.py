@@ -24,9 +24,9 @@ def whole_ms_for(frames: int, period_us: int, at_least_us: Fraction = Fraction(0
     return f"{math.ceil(low / 1000)}ms"
 
 
-@rule("infeasible-speed", Severity.ERROR)
-def infeasible_speed(plan: Plan, reporter: Reporter) -> None:
-    """|delta| x t_DAV > F x P: the servo cannot get there in time."""
+def too_fast(plan: Plan) -> dict[int, tuple[Fraction, MoveInstance, int]]:
+    """Moves that ask a servo for |delta| x t_DAV > F x P, by id of their step:
+    (the largest excess in us, the instance, the channel) of the worst context."""
     worst: dict[int, tuple[Fraction, MoveInstance, int]] = {}
     for inst in plan.moves:
         for m in inst.motions:
@@ -35,7 +35,13 @@ def infeasible_speed(plan: Plan, reporter: Reporter) -> None:
             excess = need - inst.frames * plan.period_us
             if excess > 0 and (id(inst.step) not in worst or excess > worst[id(inst.step)][0]):
                 worst[id(inst.step)] = (excess, inst, m.channel)
-    for excess, inst, ch in worst.values():
+    return worst
+
+
+@rule("infeasible-speed", Severity.ERROR)
+def infeasible_speed(plan: Plan, reporter: Reporter) -> None:
+    """|delta| x t_DAV > F x P: the servo cannot get there in time."""
+    for excess, inst, ch in too_fast(plan).values():
         m = next(x for x in inst.motions if x.channel == ch)
         ch_ = plan.channels[ch]
         t_dav = plan.class_t_dav_us[ch_.speed_class]
@@ -56,8 +62,10 @@ def infeasible_speed(plan: Plan, reporter: Reporter) -> None:
 
 @rule("eased-overspeed", Severity.WARNING)
 def eased_overspeed(plan: Plan, reporter: Reporter) -> None:
-    """An eased curve's steepest frame asks for more than the servo's top speed."""
-    seen: set[int] = set()
+    """An eased curve's steepest frame asks for more than the servo's top speed.
+
+    Not said of a move that is infeasible anyway: its error says more."""
+    seen: set[int] = set(too_fast(plan))
     for inst in plan.moves:
         step = inst.step
         if step.ease == "linear" or id(step) in seen:
