@@ -131,7 +131,7 @@ class _Checker:
             lower = [u for u in KNOWN_UNITS if u.lower() == unit.lower()]
             hint = f"did you mean `{format_number(q.value)}{(lower or close)[0]}`?" if (lower or close) else ""
             self.r.error("bad-unit", f"unknown unit `{unit}` in `{text}`; {need} is needed{where}", q.span,
-                         help=hint or "the units are deg, us, ms, s, kHz and MHz")
+                         help=hint or "the units are deg, us, ms, s, Hz, kHz and MHz")
             return
         help_ = ""
         example = "" if "position" in need else next(
@@ -421,7 +421,7 @@ class _Checker:
                 self.st.references.update(found)
             return found
         decl = self.decls.get(text)
-        what = "servo, group or port" if in_pose else "servo or group"
+        what = "servo, group or port"          # ports are allowed in poses and in groups
         if decl is None:
             self.unknown(name, what, ("servo", "group"), tuple(PORTS))
             return None

@@ -524,6 +524,8 @@ def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
             help_ = "the easings are `linear`, `in`, `out` and `in-out`"
         elif kind == "NUMBER" and "NAME" in expected:
             help_ = "names start with a letter or `_`"
+        elif tok.value == "ease" and "IN" in expected:
+            help_ = "an easing needs a duration first: `move POSE in 500ms ease in-out`"
         return message, span, help_
 
     # UnexpectedCharacters: a character no token can start with.
