@@ -58,7 +58,8 @@ class VerifyReport:
             f"{self.period_min}..{self.period_max} us (mean {self.period_mean:.3f})")
         return (f"{'OK' if self.ok else 'FAILED'}: {self.frames} frames, {self.pulses} pulses checked, "
                 f"max error {self.max_error_cycles} cycles, period {period}, "
-                f"servo lines low {self.reset_low_cycles} us after reset")
+                + ("no servo lines" if self.reset_low_cycles is None
+                   else f"servo lines low {self.reset_low_cycles} us after reset"))
 
 
 SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries a pulse
