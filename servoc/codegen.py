@@ -44,7 +44,7 @@ SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
         (2, 4), (3, 5), (1, 4), (3, 6), (1, 2), (3, 4), (5, 6)),
 }
 
-BLOCK_BYTES = 24            # bytes of one edge block (see pulse.asm.j2)
+BLOCK_BYTES = 18            # bytes of one edge block (see pulse.asm.j2)
 CE_CYCLES = 13              # one compare-exchange, either way
 MERGE_CYCLES = 16           # one sorted line after the first, edge or merge
 FIRST_CYCLES = 10           # the smallest line

@@ -98,11 +98,11 @@ def test_longer_head_pad_is_caught(good):
 
 
 def test_shorter_chain_block_is_caught(good):
-    """Two NOPs of P1's first edge block become one 1-cycle instruction: its edge and all later ones early."""
+    """A 2-cycle INC DPTR of P1's first edge block becomes a 1-cycle NOP: its edge and all later ones early."""
     anl, instrs, labels = instr(good, "ANL", label="e1_1")
-    nops = instrs[labels["e1_1"] - 4: labels["e1_1"]]
-    assert [i.op for i in nops] == ["NOP"] * 4
-    report = api.verify(good.plan, patched(good, {nops[0].address: 0x7F, nops[0].address + 1: 0x00}), 5)
+    pads = instrs[labels["e1_1"] - 2: labels["e1_1"]]
+    assert [(i.op, i.args) for i in pads] == [("INC", ("DPTR",))] * 2
+    report = api.verify(good.plan, patched(good, {pads[0].address: 0x00}), 5)
     assert not report.ok
     bad = {(m.frame, m.servo): m for m in report.mismatches}
     for frame in range(1, 6):

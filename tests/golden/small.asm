@@ -430,64 +430,47 @@ fw_sync:
         MOV     A, R0                   ; 1  blocks left empty by merged edges:
         ADD     A, #0xB6               ; 1  (R0 + 1 - first slot) / 2
         RR      A                       ; 1
-        MOV     B, #24                ; 2
+        MOV     B, #18                ; 2
         MUL     AB                      ; 4  jump offset into the chain
         MOV     DPTR, #chain_P1      ; 2
         MOV     R7, #210               ; 1  pad the head to its fixed length
         DJNZ    R7, .                   ; 2 x 210
         NOP                             ; 1
         JMP     @A+DPTR                 ; 2  t = 493 at the first block run
-chain_P1:                            ; 2 blocks of 24 bytes; block j: 8 x count cycles, then its edge
+chain_P1:                            ; 2 blocks of 18 bytes; block j: 8 x count cycles, then its edge
+                                        ; (DPTR is free once the chain is entered: INC DPTR pads 2 cycles in 1 byte)
         MOV     A, 0x4B                ; 1  AND mask of edge 1
         DJNZ    0x4C, w1_1             ; 2  count = N(j) - N(j-1) >= 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
         SJMP    e1_1                 ; 2  count 1: 8 cycles to the edge
-w1_1:   NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+w1_1:   INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
         DJNZ    0x4C, w1_1             ; 2  8 cycles per further DIV
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
 e1_1:   ANL     P1, A                 ; 1  FALL at 500 + 8 N(j)
         MOV     A, 0x4D                ; 1  AND mask of edge 2
         DJNZ    0x4E, w1_2             ; 2  count = N(j) - N(j-1) >= 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
         SJMP    e1_2                 ; 2  count 1: 8 cycles to the edge
-w1_2:   NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+w1_2:   INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
         DJNZ    0x4E, w1_2             ; 2  8 cycles per further DIV
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
 e1_2:   ANL     P1, A                 ; 1  FALL at 500 + 8 N(j)
         NOP                             ; 1  closing block: silent, ends at N = 251
         DJNZ    FIN1, wf1               ; 2
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
         SJMP    ef1                  ; 2
-wf1:    NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+wf1:    INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
         DJNZ    FIN1, wf1               ; 2
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
 ef1:    NOP                             ; 1
 ; ---- P2: one pulse on every line with a target; 2510 cycles whatever the N
         MOV     A, ACT+2              ; 1
@@ -504,46 +487,35 @@ ef1:    NOP                             ; 1
         MOV     A, R0                   ; 1  blocks left empty by merged edges:
         ADD     A, #0xB1               ; 1  (R0 + 1 - first slot) / 2
         RR      A                       ; 1
-        MOV     B, #24                ; 2
+        MOV     B, #18                ; 2
         MUL     AB                      ; 4  jump offset into the chain
         MOV     DPTR, #chain_P2      ; 2
         MOV     R7, #227               ; 1  pad the head to its fixed length
         DJNZ    R7, .                   ; 2 x 227
         JMP     @A+DPTR                 ; 2  t = 493 at the first block run
-chain_P2:                            ; 1 blocks of 24 bytes; block j: 8 x count cycles, then its edge
+chain_P2:                            ; 1 blocks of 18 bytes; block j: 8 x count cycles, then its edge
+                                        ; (DPTR is free once the chain is entered: INC DPTR pads 2 cycles in 1 byte)
         MOV     A, 0x50                ; 1  AND mask of edge 1
         DJNZ    0x51, w2_1             ; 2  count = N(j) - N(j-1) >= 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
         SJMP    e2_1                 ; 2  count 1: 8 cycles to the edge
-w2_1:   NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+w2_1:   INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
         DJNZ    0x51, w2_1             ; 2  8 cycles per further DIV
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
 e2_1:   ANL     P2, A                 ; 1  FALL at 500 + 8 N(j)
         NOP                             ; 1  closing block: silent, ends at N = 251
         DJNZ    FIN2, wf2               ; 2
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
         SJMP    ef2                  ; 2
-wf2:    NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+wf2:    INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
         DJNZ    FIN2, wf2               ; 2
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
-        NOP                             ; 1
+        INC     DPTR                    ; 2
+        INC     DPTR                    ; 2
 ef2:    NOP                             ; 1
         RET
 ; ================================================================ edge preparation, one routine per port size
