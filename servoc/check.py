@@ -21,7 +21,7 @@ import re
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-from . import model, nodes, units
+from . import costs, model, nodes, units
 from .diagnostics import Reporter
 from .printer import format_number, format_quantity
 from .source import Span
@@ -35,6 +35,10 @@ KNOWN_UNITS = ("deg", *units.TIME_UNITS_US, *units.FREQ_UNITS_HZ)
 _PIN_RE = re.compile(r"([Pp])([0-9]+)\.([0-9]+)\Z")
 _POSITION_NEED = "a position (an angle such as `90deg`, a pulse width such as `1500us`, or a raw N such as `122`)"
 _DURATION_NEED = "a duration such as `300ms`"
+
+# Deeper nesting of repeats and plays (sequences playing sequences) is reported as `too-deep` by the
+# checker already, so that the later passes, which walk plays recursively, never see it.
+MAX_LEVELS = 100
 
 _KIND_WORD = {"servo": "a servo", "group": "a group", "pose": "a pose", "sequence": "a sequence"}
 
@@ -248,7 +252,7 @@ class _Checker:
                 calls: list[tuple[str, Span]] = []
                 sequences.append(model.Sequence(n, self.stmts(d.node.body, calls), d.node.span))
                 plays[n] = calls
-        self.recursion(plays)
+        cyclic = self.recursion(plays)
         main: tuple = ()
         main_span = Span(0, 0)
         if mains:
@@ -256,6 +260,8 @@ class _Checker:
             main_span = mains[0].span
         for extra in mains[1:]:
             self.stmts(extra.body, [])
+        if not cyclic:
+            self.deep_nesting(main, sequences, plays)
 
         return model.Program(
             path=self.path, servos=tuple(servos), groups=tuple(groups), poses=tuple(poses),
@@ -440,7 +446,27 @@ class _Checker:
         self.wrong_kind(name, decl.kind, "a " + what)
         return None
 
+    @staticmethod
+    def _resolve(gen):
+        """Run a resolver generator and those it yields, on an explicit stack instead of Python's:
+        a chain of groups or `with` poses may be longer than the interpreter's recursion limit."""
+        stack, value = [gen], None
+        while True:
+            try:
+                request = stack[-1].send(value)
+            except StopIteration as done:
+                stack.pop()
+                if not stack:
+                    return done.value
+                value = done.value
+                continue
+            stack.append(request)
+            value = None
+
     def group(self, text: str, ref: nodes.Name | None = None) -> model.Group | None:
+        return self._resolve(self._group(text, ref))
+
+    def _group(self, text: str, ref: nodes.Name | None):
         if text in self.st.groups:
             return self.st.groups[text]
         if text in self.visiting_groups:
@@ -463,6 +489,10 @@ class _Checker:
                 self.r.warning("duplicate-member", f"`{member.text}` is listed twice in group `{text}`", member.span,
                                help=f"remove the second `{member.text}`; a group holds each servo once")
             written.add(member.text)
+            member_decl = self.decls.get(member.text)
+            if (member_decl is not None and member_decl.kind == "group" and member.text not in self.st.groups
+                    and member.text not in self.visiting_groups):
+                yield self._group(member.text, member)      # resolved here; servos_of then finds it done
             found = self.servos_of(member, in_pose=False)
             if found is None:
                 ok = False
@@ -478,6 +508,9 @@ class _Checker:
     # ---- poses ------------------------------------------------------------
 
     def pose(self, text: str, ref: nodes.Name | None = None) -> model.Pose | None:
+        return self._resolve(self._pose(text, ref))
+
+    def _pose(self, text: str, ref: nodes.Name | None):
         if text in self.st.poses:
             return self.st.poses[text]
         if text in self.visiting_poses:
@@ -492,14 +525,14 @@ class _Checker:
             return None
         decl: nodes.PoseDecl = self.decls[text].node
         self.visiting_poses.append(text)
-        result = self.pose_body(text, decl)
+        result = yield from self.pose_body(text, decl)
         self.visiting_poses.pop()
         if text in self.st.poses:       # part of a cycle, already reported
             return None
         self.st.poses[text] = result
         return result
 
-    def pose_body(self, text: str, decl: nodes.PoseDecl) -> model.Pose | None:
+    def pose_body(self, text: str, decl: nodes.PoseDecl):
         ok = True
         targets: dict[str, model.Target] = {}
         if decl.base is not None:
@@ -512,7 +545,7 @@ class _Checker:
                 ok = False
             else:
                 self.st.references.add(decl.base.text)
-                base = self.pose(decl.base.text, decl.base)
+                base = yield self._pose(decl.base.text, decl.base)
                 if base is None:
                     ok = False
                 else:
@@ -640,8 +673,62 @@ class _Checker:
             return None
         return int(q.value)
 
-    def recursion(self, plays: dict[str, list[tuple[str, Span]]]) -> None:
-        """Report each cycle of `play` between sequences once."""
+    def deep_nesting(self, main: tuple, sequences: list[model.Sequence],
+                     plays: dict[str, list[tuple[str, Span]]]) -> None:
+        """Report `too-deep` here, as lint would, when sequences playing sequences nest repeats and
+        plays more than MAX_LEVELS deep: the later passes walk plays with Python recursion."""
+        bodies = {q.name: q.body for q in sequences}
+        memo: dict[str, int] = {}
+
+        def levels(body: tuple) -> int:     # recursive over blocks only, which the parser keeps shallow
+            deepest = 0
+            for st in body:
+                if isinstance(st, model.Repeat):
+                    deepest = max(deepest, 1 + levels(st.body))
+                elif isinstance(st, model.Loop):
+                    deepest = max(deepest, levels(st.body))
+                elif isinstance(st, model.Play):
+                    deepest = max(deepest, 1 + memo.get(st.sequence, 0))
+            return deepest
+
+        for root in bodies:     # each sequence after those it plays, without recursion (no cycles here)
+            work = [(root, False)]
+            while work:
+                name, ready = work.pop()
+                if name in memo:
+                    continue
+                if ready:
+                    memo[name] = levels(bodies[name])
+                    continue
+                work.append((name, True))
+                work += [(c, False) for c, _ in plays.get(name, []) if c in bodies and c not in memo]
+        depth = levels(main)
+        if depth <= MAX_LEVELS:
+            return
+        limit = costs.max_nesting()
+        body, used, at = main, 0, None
+        while at is None:       # the first repeat or play at level limit + 1, in program order
+            for st in body:
+                if isinstance(st, (model.Repeat, model.Play)):
+                    inner = st.body if isinstance(st, model.Repeat) else bodies[st.sequence]
+                    if used + 1 > limit:
+                        at = st
+                        break
+                    if used + 1 + levels(inner) > limit:
+                        body, used = inner, used + 1
+                        break
+                elif isinstance(st, model.Loop) and used + levels(st.body) > limit:
+                    body = st.body
+                    break
+        word = "play" if isinstance(at, model.Play) else "repeat"
+        self.r.error("too-deep",
+                     f"repeats and plays nest {depth} levels deep, but the firmware's {costs.STACK_BYTES}-byte "
+                     f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
+                     at.span, label=f"level {limit + 1}",
+                     help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
+
+    def recursion(self, plays: dict[str, list[tuple[str, Span]]]) -> bool:
+        """Report each cycle of `play` between sequences once; True when there is one."""
         index: dict[str, int] = {}
         low: dict[str, int] = {}
         stack: list[str] = []
@@ -687,11 +774,13 @@ class _Checker:
                     low[parent] = min(low[parent], low[v])
 
         order = {n: i for i, n in enumerate(plays)}
+        cyclic = False
         for comp in sorted(sccs, key=lambda c: min(order[n] for n in c)):
             members = set(comp)
             start = min(comp, key=order.__getitem__)
             if len(comp) == 1 and start not in [c for c, _ in plays[start]]:
                 continue
+            cyclic = True
             path = self.cycle_path(start, members, plays)
             first_span = next(span for c, span in plays[start] if c == (path[1] if len(path) > 1 else start))
             others = path[1:]
@@ -699,6 +788,7 @@ class _Checker:
             chain = " -> ".join([*path, start])
             self.r.error("recursion", msg, first_span,
                          help=f"{chain}; sequences may play other sequences, but never in a cycle")
+        return cyclic
 
     @staticmethod
     def cycle_path(start: str, members: set[str], plays: dict[str, list[tuple[str, Span]]]) -> list[str]:

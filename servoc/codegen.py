@@ -20,7 +20,7 @@ Firmware shape (AT89C52, 12 MHz, 1 us per machine cycle):
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import jinja2
 
@@ -51,7 +51,8 @@ FIRST_CYCLES = 10           # the smallest line
 STACK_BASE = 0x100 - costs.STACK_BYTES   # the stack lives in 0xE0..0xFF
 STATE_BASE = 0x80           # 4 bytes of motion state per pin: 0x80 + 4 x pin
 CUR_BASE = 0x08             # current N per pin: 0x08 + pin
-FLAG_EASED, FLAG_NODUR = 1, 2
+# Record flags (FLAGS bits 2 and 3 are the runtime's own: records leave them 0).
+FLAG_EASED, FLAG_NODUR, FLAG_F8, FLAG_ALL, FLAG_HOLD, FLAG_END = 0x01, 0x02, 0x10, 0x20, 0x40, 0x80
 TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
 FNEED_TOP = 0x2000          # frames-needed tables: whole pages after the motion data, budgeted below the 8 KB top
 ROM_SIZE = 0x2000
@@ -160,6 +161,7 @@ class _Ctx:
     source: SourceFile
     records: list[dict]
     ease_tables: dict[tuple, str]
+    lists: list[dict] = field(default_factory=list)
     labels: int = 0
     owner: str = "main"              # whose statements are being laid out, for the ROM breakdown
 
@@ -180,15 +182,26 @@ def _static_frames(plan: Plan, step: MoveStep) -> int | None:
     return seen.pop() if len(seen) == 1 else None
 
 
+def _frames_bytes(frames: int) -> tuple[int, list[str]]:
+    """F as one byte (flag F8) when it fits, else two."""
+    if frames < 0x100:
+        return FLAG_F8, [_hex8(frames)]
+    return 0, [_hex8(frames), _hex8(frames >> 8)]
+
+
 def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
     plan = ctx.plan
     frames = _static_frames(plan, step)
     flags = (FLAG_EASED if step.ease != "linear" else 0) | (FLAG_NODUR if frames is None else 0)
-    data: list[str] = [_hex8(flags)]
-    notes: list[str] = [f"flags: {'eased ' if flags & FLAG_EASED else ''}{'runtime-F' if flags & FLAG_NODUR else 'F given'}"]
-    if frames is not None:
-        data += [_hex8(frames), _hex8(frames >> 8)]
-        notes.append(f"F = {frames} frames")
+    data: list[str] = []
+    notes: list[str] = [f"move {step.pose}"]
+    if frames is None:
+        notes.append("F found at run time")
+    else:
+        f8, fb = _frames_bytes(frames)
+        flags |= f8
+        data += fb
+        notes.append(f"F = {frames}")
     if step.ease != "linear":
         key = (step.ease, step.frames)
         if key not in ctx.ease_tables:
@@ -197,31 +210,52 @@ def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
         data += [f"<{lab}", f">{lab}"]
         notes.append(f"ease {step.ease} table {lab}")
     targets = dict(step.targets)
-    for port in plan.ports:
-        chans = [c for c in plan.channels if c.port == port and c.index in targets]
-        data.append(_hex8(sum(1 << c.bit for c in chans)))
-        notes.append(f"P{port}: " + (", ".join(c.name for c in chans) or "none"))
+    if len(targets) == len(plan.channels):
+        flags |= FLAG_ALL
+        notes.append("every servo")
+    else:
+        for port in plan.ports:
+            chans = [c for c in plan.channels if c.port == port and c.index in targets]
+            data.append(_hex8(sum(1 << c.bit for c in chans)))
+            notes.append(f"P{port}: " + (", ".join(c.name for c in chans) or "none"))
     for c in plan.channels:
         if c.index in targets:
             data.append(str(targets[c.index]))
             notes.append(f"{c.name} N {targets[c.index]}")
-    rec = {"label": f"rec{len(ctx.records) + 1}", "data": data, "notes": notes, "where": ctx.where(step.span),
-           "owner": ctx.owner}
-    ctx.records.append(rec)
-    return rec
+    return {"flags": flags, "data": [_hex8(flags)] + data, "notes": notes, "where": ctx.where(step.span),
+            "owner": ctx.owner}
+
+
+def _hold_record(ctx: _Ctx, step: HoldStep) -> dict:
+    f8, fb = _frames_bytes(step.frames)
+    flags = FLAG_HOLD | f8
+    return {"flags": flags, "data": [_hex8(flags)] + fb, "notes": [f"hold F = {step.frames}"],
+            "where": ctx.where(step.span), "owner": ctx.owner}
 
 
 def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
-    """Flatten statements into template ops."""
+    """Flatten statements into template ops; runs of moves and holds become one record list."""
+    run: list[dict] = []
+
+    def flush() -> None:
+        if run:
+            label = f"list{len(ctx.lists) + 1}"
+            ctx.lists.append({"label": label, "records": list(run), "where": run[0]["where"]})
+            ctx.records.extend(run)
+            out.append({"op": "list", "label": label, "wheres": [r["where"] for r in run]})
+            run.clear()
+
     for st in body:
         where = ctx.where(st.span)
         if isinstance(st, MoveStep):
-            rec = _move_record(ctx, st)
-            out.append({"op": "move", "rec": rec["label"], "where": where})
-        elif isinstance(st, HoldStep):
+            run.append(_move_record(ctx, st))
+            continue
+        if isinstance(st, HoldStep):
             if st.frames:
-                out.append({"op": "hold", "frames": st.frames, "where": where})
-        elif isinstance(st, RepeatStep):
+                run.append(_hold_record(ctx, st))
+            continue
+        flush()
+        if isinstance(st, RepeatStep):
             lab = ctx.label("rep")
             out.append({"op": "repeat", "label": lab, "count": st.count, "where": where})
             _ops(ctx, st.body, out)
@@ -233,6 +267,7 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             out.append({"op": "loop_end", "label": lab, "where": where})
         elif isinstance(st, PlayStep):
             out.append({"op": "play", "label": _seq_label(ctx.plan, st.sequence), "name": st.sequence, "where": where})
+    flush()
 
 
 def _seq_label(plan: Plan, name: str) -> str:
@@ -265,7 +300,10 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     flag_bits = [("EASED", _bit(FLAGS, 0), "FLAGS.0: the current move is eased"),
                  ("NODUR", _bit(FLAGS, 1), "FLAGS.1: F is found at run time"),
                  ("LASTF", _bit(FLAGS, 2), "FLAGS.2: this is the move's last frame"),
-                 ("DIRF", _bit(FLAGS, 3), "FLAGS.3: the pin being stepped moves down")]
+                 ("DIRF", _bit(FLAGS, 3), "FLAGS.3: the pin being stepped moves down"),
+                 ("F8", _bit(FLAGS, 4), "FLAGS.4: the record's F is one byte"),
+                 ("ALLF", _bit(FLAGS, 5), "FLAGS.5: the move names every servo: no masks"),
+                 ("HOLDF", _bit(FLAGS, 6), "FLAGS.6: the record is a hold")]
     ram.next = FLAGS + 1
     segf = ram.alloc("SEGF", 2, "F of the current move")
     ram.next = 0x30
@@ -278,6 +316,7 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     ram.alloc("EVAL", 1, "e(k/F) x 256 this frame")
     ram.alloc("TMPD", 1, "scratch: |delta|")
     ram.alloc("TMPL", 1, "scratch")
+    ram.alloc("LPTR", 2, "the record list being run: the next record")
     ports = []
     for port in plan.ports:
         bits = [c.bit for c in plan.channels if c.port == port]
@@ -287,6 +326,7 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
         loops, nops = head_pad(n)
         ports.append({
             "port": port, "s": n,
+            "all_mask": sum(1 << b for b in bits),
             "pins": [{"i": i, "bit": b, "cur": CUR_BASE + 8 * port + b, "mask": 0xFF ^ (1 << b),
                       "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
                      for i, b in enumerate(bits)],
@@ -307,7 +347,7 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
                     "names": ", ".join(s.name for s in plan.program.servos if s.port == port)}
                    for port in sorted({s.port for s in plan.program.servos})]
 
-    nodur = any(r["data"][0] in (_hex8(FLAG_NODUR), _hex8(FLAG_NODUR | FLAG_EASED)) for r in ctx.records)
+    nodur = any(r["flags"] & FLAG_NODUR for r in ctx.records)
     fneed = []
     if nodur:
         for cls, table in enumerate(plan.speed_tables):
@@ -332,9 +372,9 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
                   edge_routines=edge_routines, chans=chans, flag_bits=flag_bits, head_cycles=HEAD_CYCLES,
                   cur_base=CUR_BASE, state_base=STATE_BASE, stack_init=STACK_BASE - 1,
                   ports=ports, reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
-                  records=ctx.records, ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
+                  lists=ctx.lists, flag_end=FLAG_END, ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
                   block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES,
-                  flag_eased=FLAG_EASED, flag_nodur=FLAG_NODUR, channels=plan.channels)
+                  channels=plan.channels)
     offsets = tuple(PORT_CYCLES * i for i in range(len(plan.ports)))
     ram_bytes = ram.next + 4 * 24 + stack_bytes
     breakdown: dict[str, int] = {}

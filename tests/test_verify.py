@@ -116,8 +116,8 @@ def test_shorter_chain_block_is_caught(good):
 def test_wrong_target_in_a_record_is_caught(good):
     """A move record with d's N changed from 33 to 34: one DIV long in the frames of that pose."""
     lines = good.firmware.image.listing.splitlines()
-    rec = next(i for i, line in enumerate(lines) if re.search(r"\brec1:", line))
-    db = next(line for line in lines[rec:] if ".db" in line)
+    rec = next(i for i, line in enumerate(lines) if re.search(r"\blist1:", line))
+    db = next(line for line in lines[rec:] if ".db" in line)      # the list's first record
     address = int(db[6:12], 16)
     values = [int(v.strip(), 0) for v in db.split(".db", 1)[1].split(";")[0].split(",")]
     assert values[-4:] == [10, 120, 250, 33]

@@ -34,14 +34,18 @@ ETAB    = 0x46              ; eased curve table of the current move, minus 1
 EVAL    = 0x48              ; e(k/F) x 256 this frame
 TMPD    = 0x49              ; scratch: |delta|
 TMPL    = 0x4A              ; scratch
-EDGES1  = 0x4B              ; P1: edge blocks, (AND mask, count) each
-FIN1    = 0x4F              ; P1: count of the closing silent block
-EDGES2  = 0x50              ; P2: edge blocks, (AND mask, count) each
-FIN2    = 0x52              ; P2: count of the closing silent block
+LPTR    = 0x4B              ; the record list being run: the next record
+EDGES1  = 0x4D              ; P1: edge blocks, (AND mask, count) each
+FIN1    = 0x51              ; P1: count of the closing silent block
+EDGES2  = 0x52              ; P2: edge blocks, (AND mask, count) each
+FIN2    = 0x54              ; P2: count of the closing silent block
 EASED   = 0x60              ; FLAGS.0: the current move is eased
 NODUR   = 0x61              ; FLAGS.1: F is found at run time
 LASTF   = 0x62              ; FLAGS.2: this is the move's last frame
 DIRF    = 0x63              ; FLAGS.3: the pin being stepped moves down
+F8      = 0x64              ; FLAGS.4: the record's F is one byte
+ALLF    = 0x65              ; FLAGS.5: the move names every servo: no masks
+HOLDF   = 0x66              ; FLAGS.6: the record is a hold
 
 ; ---------------------------------------------------------------- reset
         .org    0x0000
@@ -63,25 +67,48 @@ clear:  MOV     @R0, #0                 ; clear CUR, flags, work and motion stat
 ; ================================================================ runtime
 runtime_start::
 
-; do_move: run one move. DPTR -> record: flags, [F lo, F hi], [ease table - 1],
-; then per port in use: a mask of the pins the pose names and their target N.
-do_move:
+; run_list: run a list of records (moves and holds). DPTR -> the first record;
+; each starts with a flags byte, and 0x80 ends the list.
+run_list:
         CLR     A
         MOVC    A, @A+DPTR
         INC     DPTR
+        JB      ACC.7, rl_end
         MOV     FLAGS, A
-        MOV     SEGF, #0
+        MOV     SEGF, #0                ; F: one or two bytes, or none when found at run time
         MOV     SEGF+1, #0
-        JB      NODUR, dm_f
+        JB      NODUR, rl_kind
         CLR     A
         MOVC    A, @A+DPTR
         INC     DPTR
         MOV     SEGF, A
+        JB      F8, rl_kind
         CLR     A
         MOVC    A, @A+DPTR
         INC     DPTR
         MOV     SEGF+1, A
-dm_f:   JNB     EASED, dm_e
+rl_kind:
+        JB      HOLDF, rl_hold
+        LJMP    do_move                 ; a jump, not a call: do_move goes on at rl_next
+
+rl_hold:
+        MOV     LPTR, DPL
+        MOV     LPTR+1, DPH
+        MOV     FLEFT, SEGF
+        MOV     FLEFT+1, SEGF+1
+        LCALL   do_hold
+rl_next:
+        MOV     DPL, LPTR               ; the next record
+        MOV     DPH, LPTR+1
+        SJMP    run_list
+rl_end: RET
+
+; do_move: run one move, entered by a jump from run_list and going on at rl_next.
+; FLAGS and SEGF are set; DPTR -> the rest of its record:
+; [ease table - 1], per port in use a mask of the pins the pose names (none
+; when it names every servo), then their target N.
+do_move:
+        JNB     EASED, dm_e
         CLR     A
         MOVC    A, @A+DPTR
         INC     DPTR
@@ -92,15 +119,21 @@ dm_f:   JNB     EASED, dm_e
         MOV     ETAB+1, A
 dm_e:
         MOV     MOVB+1, #0              ; P1: nothing moves yet
-        CLR     A
-        MOVC    A, @A+DPTR
-        INC     DPTR
-        MOV     RMASK+1, A              ; pins the pose names
         MOV     MOVB+2, #0              ; P2: nothing moves yet
+        JB      ALLF, dm_all
         CLR     A
         MOVC    A, @A+DPTR
         INC     DPTR
-        MOV     RMASK+2, A              ; pins the pose names
+        MOV     RMASK+1, A              ; P1: pins the pose names
+        CLR     A
+        MOVC    A, @A+DPTR
+        INC     DPTR
+        MOV     RMASK+2, A              ; P2: pins the pose names
+        SJMP    dm_pins
+dm_all:
+        MOV     RMASK+1, #0x09          ; P1: every servo
+        MOV     RMASK+2, #0x40          ; P2: every servo
+dm_pins:
         JNB     0x50, su_8              ; 2  pan (P1.0)
         MOV     R0, #0x10            ; 1
         MOV     R1, #0xA0            ; 1
@@ -134,6 +167,8 @@ su_11:
         MOV     C, DIRF
         MOV     0x46, C
 su_22:
+        MOV     LPTR, DPL               ; the record list goes on after this record
+        MOV     LPTR+1, DPH
         MOV     A, SEGF                 ; F = max(1, F)
         ORL     A, SEGF+1
         JNZ     dm_2f
@@ -213,7 +248,7 @@ st_22:
         JZ      dm_done
         LJMP    dm_frame
 dm_done:
-        RET
+        LJMP    rl_next
 
 ; fleft_dec: FLEFT = FLEFT - 1; A = 0 when it reaches zero
 fleft_dec:
@@ -420,7 +455,7 @@ fw_sync:
         MOV     WM+0, #0xFE          ; 2  its AND mask
         MOV     WN+1, 0x13           ; 2  N of tilt (P1.3)
         MOV     WM+1, #0xF7          ; 2  its AND mask
-        MOV     R0, #0x4E            ; 1  fill blocks from the last one down
+        MOV     R0, #0x50            ; 1  fill blocks from the last one down
         MOV     R6, #0xFF               ; 1
         LCALL   edges2                 ; 2 + 41
         MOV     A, #251                ; 1  closing block count: 251 - largest N >= 1
@@ -428,7 +463,7 @@ fw_sync:
         SUBB    A, WN+1                ; 1
         MOV     FIN1, A                 ; 1
         MOV     A, R0                   ; 1  blocks left empty by merged edges:
-        ADD     A, #0xB6               ; 1  (R0 + 1 - first slot) / 2
+        ADD     A, #0xB4               ; 1  (R0 + 1 - first slot) / 2
         RR      A                       ; 1
         MOV     B, #18                ; 2
         MUL     AB                      ; 4  jump offset into the chain
@@ -439,25 +474,25 @@ fw_sync:
         JMP     @A+DPTR                 ; 2  t = 493 at the first block run
 chain_P1:                            ; 2 blocks of 18 bytes; block j: 8 x count cycles, then its edge
                                         ; (DPTR is free once the chain is entered: INC DPTR pads 2 cycles in 1 byte)
-        MOV     A, 0x4B                ; 1  AND mask of edge 1
-        DJNZ    0x4C, w1_1             ; 2  count = N(j) - N(j-1) >= 1
+        MOV     A, 0x4D                ; 1  AND mask of edge 1
+        DJNZ    0x4E, w1_1             ; 2  count = N(j) - N(j-1) >= 1
         INC     DPTR                    ; 2
         SJMP    e1_1                 ; 2  count 1: 8 cycles to the edge
 w1_1:   INC     DPTR                    ; 2
         INC     DPTR                    ; 2
         INC     DPTR                    ; 2
-        DJNZ    0x4C, w1_1             ; 2  8 cycles per further DIV
+        DJNZ    0x4E, w1_1             ; 2  8 cycles per further DIV
         INC     DPTR                    ; 2
         INC     DPTR                    ; 2
 e1_1:   ANL     P1, A                 ; 1  FALL at 500 + 8 N(j)
-        MOV     A, 0x4D                ; 1  AND mask of edge 2
-        DJNZ    0x4E, w1_2             ; 2  count = N(j) - N(j-1) >= 1
+        MOV     A, 0x4F                ; 1  AND mask of edge 2
+        DJNZ    0x50, w1_2             ; 2  count = N(j) - N(j-1) >= 1
         INC     DPTR                    ; 2
         SJMP    e1_2                 ; 2  count 1: 8 cycles to the edge
 w1_2:   INC     DPTR                    ; 2
         INC     DPTR                    ; 2
         INC     DPTR                    ; 2
-        DJNZ    0x4E, w1_2             ; 2  8 cycles per further DIV
+        DJNZ    0x50, w1_2             ; 2  8 cycles per further DIV
         INC     DPTR                    ; 2
         INC     DPTR                    ; 2
 e1_2:   ANL     P1, A                 ; 1  FALL at 500 + 8 N(j)
@@ -477,7 +512,7 @@ ef1:    NOP                             ; 1
         ORL     P2, A                 ; 1  RISE: t = 0
         MOV     WN+0, 0x1E           ; 2  N of claw (P2.6)
         MOV     WM+0, #0xBF          ; 2  its AND mask
-        MOV     R0, #0x51            ; 1  fill blocks from the last one down
+        MOV     R0, #0x53            ; 1  fill blocks from the last one down
         MOV     R6, #0xFF               ; 1
         LCALL   edges1                 ; 2 + 12
         MOV     A, #251                ; 1  closing block count: 251 - largest N >= 1
@@ -485,7 +520,7 @@ ef1:    NOP                             ; 1
         SUBB    A, WN+0                ; 1
         MOV     FIN2, A                 ; 1
         MOV     A, R0                   ; 1  blocks left empty by merged edges:
-        ADD     A, #0xB1               ; 1  (R0 + 1 - first slot) / 2
+        ADD     A, #0xAF               ; 1  (R0 + 1 - first slot) / 2
         RR      A                       ; 1
         MOV     B, #18                ; 2
         MUL     AB                      ; 4  jump offset into the chain
@@ -495,14 +530,14 @@ ef1:    NOP                             ; 1
         JMP     @A+DPTR                 ; 2  t = 493 at the first block run
 chain_P2:                            ; 1 blocks of 18 bytes; block j: 8 x count cycles, then its edge
                                         ; (DPTR is free once the chain is entered: INC DPTR pads 2 cycles in 1 byte)
-        MOV     A, 0x50                ; 1  AND mask of edge 1
-        DJNZ    0x51, w2_1             ; 2  count = N(j) - N(j-1) >= 1
+        MOV     A, 0x52                ; 1  AND mask of edge 1
+        DJNZ    0x53, w2_1             ; 2  count = N(j) - N(j-1) >= 1
         INC     DPTR                    ; 2
         SJMP    e2_1                 ; 2  count 1: 8 cycles to the edge
 w2_1:   INC     DPTR                    ; 2
         INC     DPTR                    ; 2
         INC     DPTR                    ; 2
-        DJNZ    0x51, w2_1             ; 2  8 cycles per further DIV
+        DJNZ    0x53, w2_1             ; 2  8 cycles per further DIV
         INC     DPTR                    ; 2
         INC     DPTR                    ; 2
 e2_1:   ANL     P2, A                 ; 1  FALL at 500 + 8 N(j)
@@ -585,19 +620,22 @@ runtime_end::
 
 ; ================================================================ program
 main:
-        MOV     DPTR, #rec1              ; small.servo:18  move home
-        LCALL   do_move
+        MOV     DPTR, #list1             ; moves and holds:
+                                        ;   small.servo:18  move home
+        LCALL   run_list
         LCALL   seq1                  ; small.servo:19  play nod
-        MOV     DPTR, #rec2              ; small.servo:20  move look in 120ms ease in-out
-        LCALL   do_move
+        MOV     DPTR, #list2             ; moves and holds:
+                                        ;   small.servo:20  move look in 120ms ease in-out
+        LCALL   run_list
         MOV     A, #0x02                ; small.servo:21  repeat 2 {
         PUSH    ACC                     ; pass counter, low byte
         MOV     A, #0x00
         PUSH    ACC                     ; high byte
 rep1:
         LCALL   seq1                  ; small.servo:22  play nod
-        MOV     DPTR, #rec3              ; small.servo:23  move home in 180ms
-        LCALL   do_move
+        MOV     DPTR, #list3             ; moves and holds:
+                                        ;   small.servo:23  move home in 180ms
+        LCALL   run_list
         LCALL   rep_next                ; end of small.servo:21  repeat 2 {
         JZ      rep1_x
         LJMP    rep1
@@ -610,29 +648,34 @@ main_end:                               ; main has ended: its last targets repea
         SJMP    main_end
 
 seq1:                                  ; small.servo:12  sequence nod {
-        MOV     DPTR, #rec4              ; small.servo:13  move grab
-        LCALL   do_move
-        MOV     FLEFT, #0x02            ; small.servo:14  hold 12ms
-        MOV     FLEFT+1, #0x00          ; 2 frames
-        LCALL   do_hold
+        MOV     DPTR, #list4             ; moves and holds:
+                                        ;   small.servo:13  move grab
+                                        ;   small.servo:14  hold 12ms
+        LCALL   run_list
 
         RET
 program_end::
 
 ; ================================================================ motion data
 data_start::
-rec1:                                  ; small.servo:18  move home
-        .db     0x00, 0x01, 0x00, 0x09, 0x40, 125, 125, 250
-        ; flags: F given; F = 1 frames; P1: pan, tilt; P2: claw; pan N 125; tilt N 125; claw N 250
-rec2:                                  ; small.servo:20  move look in 120ms ease in-out
-        .db     0x01, 0x14, 0x00, <etab1, >etab1, 0x09, 0x00, 100, 130
-        ; flags: eased F given; F = 20 frames; ease in-out table etab1; P1: pan, tilt; P2: none; pan N 100; tilt N 130
-rec3:                                  ; small.servo:23  move home in 180ms
-        .db     0x00, 0x1E, 0x00, 0x09, 0x40, 125, 125, 250
-        ; flags: F given; F = 30 frames; P1: pan, tilt; P2: claw; pan N 125; tilt N 125; claw N 250
-rec4:                                  ; small.servo:13  move grab
-        .db     0x02, 0x08, 0x40, 126, 190
-        ; flags: runtime-F; P1: tilt; P2: claw; tilt N 126; claw N 190
+list1:
+        .db     0x30, 0x01, 125, 125, 250              ; small.servo:18  move home
+        ; move home; F = 1; every servo; pan N 125; tilt N 125; claw N 250
+        .db     0x80                    ; end of list1
+list2:
+        .db     0x11, 0x14, <etab1, >etab1, 0x09, 0x00, 100, 130              ; small.servo:20  move look in 120ms ease in-out
+        ; move look; F = 20; ease in-out table etab1; P1: pan, tilt; P2: none; pan N 100; tilt N 130
+        .db     0x80                    ; end of list2
+list3:
+        .db     0x30, 0x1E, 125, 125, 250              ; small.servo:23  move home in 180ms
+        ; move home; F = 30; every servo; pan N 125; tilt N 125; claw N 250
+        .db     0x80                    ; end of list3
+list4:
+        .db     0x02, 0x08, 0x40, 126, 190              ; small.servo:13  move grab
+        ; move grab; F found at run time; P1: tilt; P2: claw; tilt N 126; claw N 190
+        .db     0x50, 0x02              ; small.servo:14  hold 12ms
+        ; hold F = 2
+        .db     0x80                    ; end of list4
 etab1 = etab1_data - 1          ; e(k/F) x 256 for k = 1..19, ease in-out
 etab1_data:
         .db     2, 6, 14, 24, 37, 53, 70, 88, 108, 128, 148, 168, 186, 203, 219, 232
