@@ -370,7 +370,7 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
                   source=source.path.rsplit("/", 1)[-1], plan=plan, period=plan.period_us, reload=reload, tick_fix=tick_fix,
                   ram=ram.symbols, act=ACT, movb=MOVB, dirb=DIRB, rmask=RMASK, flags=FLAGS,
                   edge_routines=edge_routines, chans=chans, flag_bits=flag_bits, head_cycles=HEAD_CYCLES,
-                  cur_base=CUR_BASE, state_base=STATE_BASE, stack_init=STACK_BASE - 1,
+                  cur_base=CUR_BASE, minus_cur=-CUR_BASE & 0xFF, state_base=STATE_BASE, stack_init=STACK_BASE - 1,
                   ports=ports, reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   lists=ctx.lists, flag_end=FLAG_END, ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
                   block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES,
