@@ -27,7 +27,7 @@ import jinja2
 from . import resources
 from . import costs
 from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
-from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
+from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps
 from .source import SourceFile
 
 # Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19).
@@ -362,7 +362,8 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
             pin_page[c.port * 8 + c.bit] = ">" + fneed[c.speed_class]["label"]
 
     ease_tables = [{"label": lab, "ease": ease, "frames": frames,
-                    "values": list(next(st.ease_table for st in _moves(plan) if (st.ease, st.frames) == (ease, frames)))}
+                    "values": list(next(st.ease_table for st in steps(plan)
+                                   if isinstance(st, MoveStep) and (st.ease, st.frames) == (ease, frames)))}
                    for (ease, frames), lab in ctx.ease_tables.items()]
     reload = 0x10000 - plan.period_us
     tick_fix = (TICK_PARITY - reload) & 0xFF
@@ -387,15 +388,3 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))))
-
-
-def _moves(plan: Plan):
-    def visit(body):
-        for st in body:
-            if isinstance(st, MoveStep):
-                yield st
-            elif isinstance(st, (RepeatStep, LoopStep)):
-                yield from visit(st.body)
-    yield from visit(plan.main)
-    for seq in plan.sequences:
-        yield from visit(seq.body)

@@ -142,6 +142,24 @@ class Plan:
         return next(s for s in self.sequences if s.name == name)
 
 
+def bodies(plan: Plan) -> Iterator[tuple[Step, ...]]:
+    """Every statement list of the program: main, each sequence, and every nested body."""
+    def visit(body: tuple[Step, ...]) -> Iterator[tuple[Step, ...]]:
+        yield body
+        for st in body:
+            if isinstance(st, (RepeatStep, LoopStep)):
+                yield from visit(st.body)
+    yield from visit(plan.main)
+    for seq in plan.sequences:
+        yield from visit(seq.body)
+
+
+def steps(plan: Plan) -> Iterator[Step]:
+    """Every statement of the program, nested ones included."""
+    for body in bodies(plan):
+        yield from body
+
+
 # ----------------------------------------------------------------- easing
 
 def ease_value(ease: str, u: Fraction) -> Union[Fraction, float]:

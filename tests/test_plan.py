@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from servoc import api, costs
 from servoc.diagnostics import render_short
-from servoc.plan import HoldStep, MoveStep, Plan, expand
+from servoc.plan import HoldStep, MoveStep, Plan, expand, steps
 from servoc.source import SourceFile
 
 
@@ -38,33 +38,11 @@ def track(plan: Plan, servo: str, count: int) -> list:
 
 
 def moves(plan: Plan) -> list[MoveStep]:
-    out = []
-
-    def visit(body):
-        for s in body:
-            if isinstance(s, MoveStep):
-                out.append(s)
-            elif hasattr(s, "body"):
-                visit(s.body)
-    visit(plan.main)
-    for seq in plan.sequences:
-        visit(seq.body)
-    return out
+    return [s for s in steps(plan) if isinstance(s, MoveStep)]
 
 
 def holds(plan: Plan) -> list[HoldStep]:
-    out = []
-
-    def visit(body):
-        for s in body:
-            if isinstance(s, HoldStep):
-                out.append(s)
-            elif hasattr(s, "body"):
-                visit(s.body)
-    visit(plan.main)
-    for seq in plan.sequences:
-        visit(seq.body)
-    return out
+    return [s for s in steps(plan) if isinstance(s, HoldStep)]
 
 
 # A servo so fast (1 ms per 74 deg = 10 us per DAV) that no move below is infeasible.

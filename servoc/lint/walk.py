@@ -1,27 +1,8 @@
-"""Helpers shared by lint rules: walking plan steps."""
+"""Helpers shared by lint rules: walking plan steps (`bodies` and `steps` come from the plan)."""
 
 from __future__ import annotations
 
-from typing import Iterator
-
-from ..plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
-
-
-def bodies(plan: Plan) -> Iterator[tuple[Step, ...]]:
-    """Every statement list of the program: main, each sequence, and every nested body."""
-    def visit(body: tuple[Step, ...]) -> Iterator[tuple[Step, ...]]:
-        yield body
-        for st in body:
-            if isinstance(st, (RepeatStep, LoopStep)):
-                yield from visit(st.body)
-    yield from visit(plan.main)
-    for seq in plan.sequences:
-        yield from visit(seq.body)
-
-
-def steps(plan: Plan) -> Iterator[Step]:
-    for body in bodies(plan):
-        yield from body
+from ..plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, bodies, steps  # noqa: F401
 
 
 def never_ends(plan: Plan, body: tuple[Step, ...], _memo: dict | None = None) -> bool:
