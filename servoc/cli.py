@@ -159,9 +159,13 @@ def _main(argv: list[str] | None) -> int:
     assert firmware is not None
     if args.command == "compile":
         out = args.output or os.path.splitext(args.file)[0] + ".hex"
-        if args.asm:
-            api.toolchain.write_atomic(args.asm, firmware.unit.text)
-        api.toolchain.write_atomic(out, firmware.hex_text)
+        for path, text in ((args.asm, firmware.unit.text), (out, firmware.hex_text)):
+            if path:
+                try:
+                    api.toolchain.write_atomic(path, text)
+                except OSError as exc:
+                    sys.stderr.write(f"servoc: error: cannot write {path}: {exc.strerror or exc}\n")
+                    return 2
         print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{api.ROM_BYTES} bytes "
               f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
               f"RAM {firmware.unit.ram_bytes}/{api.RAM_BYTES} bytes (stack {firmware.unit.stack_bytes})")
