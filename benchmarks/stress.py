@@ -11,11 +11,10 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 
-from servoc import api, codegen, toolchain, verify  # noqa: E402
+from servoc import api, codegen, toolchain  # noqa: E402
 from servoc.diagnostics import Reporter  # noqa: E402
 from servoc.source import SourceFile  # noqa: E402
 

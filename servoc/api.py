@@ -22,7 +22,7 @@ from . import verify as _verify
 from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
 
-ROM_BYTES = 0x2000
+ROM_BYTES = toolchain.AT89C52_ROM_SIZE
 RAM_BYTES = 256
 
 

@@ -26,6 +26,7 @@ import jinja2
 
 from . import resources
 from . import costs
+from .toolchain import AT89C52_ROM_SIZE
 from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
 from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps
 from .source import SourceFile
@@ -54,8 +55,7 @@ CUR_BASE = 0x08             # current N per pin: 0x08 + pin
 # Record flags (FLAGS bits 2 and 3 are the runtime's own: records leave them 0).
 FLAG_EASED, FLAG_NODUR, FLAG_F8, FLAG_ALL, FLAG_HOLD, FLAG_END = 0x01, 0x02, 0x10, 0x20, 0x40, 0x80
 TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
-FNEED_TOP = 0x2000          # frames-needed tables: whole pages after the motion data, budgeted below the 8 KB top
-ROM_SIZE = 0x2000
+FNEED_TOP = AT89C52_ROM_SIZE     # frames-needed tables: whole pages after the motion data, budgeted below the 8 KB top
 # Bit-addressable bytes: one bit per pin (port x 8 + bit).
 ACT, MOVB, DIRB, RMASK, FLAGS = 0x20, 0x23, 0x26, 0x29, 0x2C
 
@@ -305,14 +305,14 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
                  ("ALLF", _bit(FLAGS, 5), "FLAGS.5: the move names every servo: no masks"),
                  ("HOLDF", _bit(FLAGS, 6), "FLAGS.6: the record is a hold")]
     ram.next = FLAGS + 1
-    segf = ram.alloc("SEGF", 2, "F of the current move")
+    ram.alloc("SEGF", 2, "F of the current move")
     ram.next = 0x30
-    wn = ram.alloc("WN", 8, "sort work: N")
-    wm = ram.alloc("WM", 8, "sort work: AND masks")
+    ram.alloc("WN", 8, "sort work: N")
+    ram.alloc("WM", 8, "sort work: AND masks")
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
-    segk = ram.alloc("SEGK", 2, "frame number k in the current move")
-    fleft = ram.alloc("FLEFT", 2, "frames left in the current move or hold")
-    etab = ram.alloc("ETAB", 2, "eased curve table of the current move, minus 1")
+    ram.alloc("SEGK", 2, "frame number k in the current move")
+    ram.alloc("FLEFT", 2, "frames left in the current move or hold")
+    ram.alloc("ETAB", 2, "eased curve table of the current move, minus 1")
     ram.alloc("EVAL", 1, "e(k/F) x 256 this frame")
     ram.alloc("TMPD", 1, "scratch: |delta|")
     ram.alloc("TMPL", 1, "scratch")

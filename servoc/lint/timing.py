@@ -7,7 +7,8 @@ from ..plan import HoldStep, LoopStep, MoveStep, Plan, RepeatStep
 from ..units import LONGEST_PULSE_US, TAIL_US, fmt_ms
 from . import rule
 from .speed import fmt_duration
-from .walk import fewest_frames, steps
+from ..plan import steps
+from .walk import fewest_frames
 
 MAX_PERIOD_US = 65535        # Timer2 counts 16 bits of machine cycles
 MAX_FRAMES = 65535           # frames of one move or hold, and passes of one repeat

@@ -5,7 +5,8 @@ from __future__ import annotations
 from ..diagnostics import Reporter, Severity
 from ..plan import LoopStep, Plan, PlayStep, RepeatStep
 from . import rule
-from .walk import bodies, never_ends
+from ..plan import bodies
+from .walk import never_ends
 
 
 _USE = {"servo": "name it in a pose", "group": "name it in a pose", "pose": "`move` to it",

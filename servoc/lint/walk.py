@@ -1,8 +1,8 @@
-"""Helpers shared by lint rules: walking plan steps (`bodies` and `steps` come from the plan)."""
+"""Helpers shared by lint rules: what running a body can do."""
 
 from __future__ import annotations
 
-from ..plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, bodies, steps  # noqa: F401
+from ..plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
 
 
 def never_ends(plan: Plan, body: tuple[Step, ...], _memo: dict | None = None) -> bool:
