@@ -17,7 +17,7 @@ from fractions import Fraction
 
 from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_json
-from .plan import Plan
+from .plan import Plan, verify_frames
 from .starter import starter
 from .units import DAV_DEG, fmt_ms
 
@@ -77,8 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--vcd", metavar="OUT.vcd", help="also write the simulated pin waveforms (needs servoc[vcd])")
     p.add_argument("--hex", metavar="FILE.hex", help="check this HEX (built from FILE.servo) instead of compiling")
     p.add_argument("--frames", type=int, metavar="N",
-                   help="frames to check from the first pulse (default: the whole program and 20 more, "
-                        "or 400 for a program that loops forever)")
+                   help="frames to check from the first pulse (default: the whole program and 20 more; for a "
+                        "program that loops forever, up to its loop and two passes of it, at least 400)")
     return parser
 
 
@@ -170,7 +170,7 @@ def _main(argv: list[str] | None) -> int:
               f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
               f"RAM {firmware.unit.ram_bytes}/{api.RAM_BYTES} bytes (stack {firmware.unit.stack_bytes})")
         return 0
-    frames = args.frames or (400 if plan.total_frames is None else plan.total_frames + 20)
+    frames = args.frames or verify_frames(plan)
     if args.hex:
         try:
             with open(args.hex, encoding="ascii") as f:

@@ -360,6 +360,32 @@ def move_frames_at(step: MoveStep, state: State, tables, classes) -> int:
     return max(1, need)
 
 
+VERIFY_TAIL_FRAMES = 20          # frames checked after main ends (the last targets repeating)
+VERIFY_MAX_FRAMES = 20_000       # the default never asks for more
+
+
+def verify_frames(plan: Plan) -> int:
+    """How many frames `servoc verify` checks by default: the whole program and a tail; for a
+    program that loops forever, everything up to its first `loop` and two passes of it."""
+    if plan.total_frames is not None:
+        return min(VERIFY_MAX_FRAMES, plan.total_frames + VERIFY_TAIL_FRAMES)
+    walker = _Walker({s.name: s for s in plan.sequences}, plan.speed_tables,
+                     tuple(c.speed_class for c in plan.channels))
+    state: State = (None,) * len(plan.channels)
+    frames = 0
+    for st in plan.main:
+        if isinstance(st, LoopStep):
+            state, first, _ = walker.walk(st.body, state)
+            _, later, _ = walker.walk(st.body, state)
+            frames += first + later
+            break
+        state, more, infinite = walker.walk((st,), state)
+        frames += more
+        if infinite:            # a loop inside a repeat or a sequence: what precedes it, and a margin
+            break
+    return min(VERIFY_MAX_FRAMES, max(400, frames + VERIFY_TAIL_FRAMES))
+
+
 class _Walker:
     """Runs the steps over states, not frames: each body is walked once per distinct entry state."""
 

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from servoc import api, costs
 from servoc.diagnostics import render_short
-from servoc.plan import HoldStep, MoveStep, Plan, expand, steps
+from servoc.plan import HoldStep, MoveStep, Plan, expand, steps, verify_frames
 from servoc.source import SourceFile
 
 
@@ -673,3 +673,19 @@ main {{
 """)
     assert [s.name for s in plan.sequences] == ["inner", "outer"]
     assert plan.total_frames is None
+
+
+def test_verify_covers_the_program_or_two_passes_of_its_loop():
+    servos = "frame 5ms\nservo a = P1.0 speed 0.01s/60deg\npose p { a: 0 }\npose q { a: 200 }\n"
+    # finite: every frame and a tail of 20
+    finite = plan_of(servos + "main { move p in 100ms; hold 1s; move q in 1s }\n")
+    assert finite.total_frames == 20 + 200 + 200 and verify_frames(finite) == 420 + 20
+    # forever: the 20 frames before the loop, two passes of 200 + 200, and the tail
+    looping = plan_of(servos + "main { move p in 100ms; loop { move q in 1s; move p in 1s } }\n")
+    assert looping.total_frames is None and verify_frames(looping) == 20 + 2 * 400 + 20
+    # a short loop is still checked for at least 400 frames
+    short = plan_of(servos + "main { move p in 100ms; loop { move q in 50ms; move p in 50ms } }\n")
+    assert verify_frames(short) == 400
+    # and a very long one is capped
+    long_ = plan_of(servos + "main { loop { hold 300s; hold 300s } }\n")
+    assert verify_frames(long_) == 20_000
