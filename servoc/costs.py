@@ -20,10 +20,10 @@ FINAL_N = N_MAX + 1                  # the edge chain closes with a silent block
 PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
 
 # Measured by `benchmarks/stress.py` (shortest P that verifies exactly, worst-case
-# programs): about 106 fixed, 25.6 per nesting level, 101 per servo (a DDA carry
+# programs): about 121 fixed, 26 per nesting level, 101 per servo (a DDA carry
 # on the first frame adds a few), 43 more per servo for a run-time F.
 # Between two frames: tick sync, frame_io's return, the move's bookkeeping.
-FRAME_FIXED_CYCLES = 120
+FRAME_FIXED_CYCLES = 130
 # Per level of `repeat` or `play` that ends and starts again between two frames.
 LEVEL_CYCLES = 28
 # Per servo with pulses, on a move's first frame: record, DDA terms and first step.
