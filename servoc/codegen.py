@@ -28,7 +28,8 @@ from . import resources
 from . import costs
 from .toolchain import AT89C52_ROM_SIZE
 from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
-from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps
+from . import wcet
+from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps, takes_frames
 from .source import SourceFile
 
 # Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19).
@@ -103,6 +104,9 @@ class AsmUnit:
     fneed_pages: tuple[int, ...]    # the top pages the frames-needed tables may reach down to (empty if none):
                                     # the tables follow the motion data page-aligned, so it must end below these
     data_breakdown: tuple[tuple[str, int], ...] = ()   # motion data bytes by what they serve, largest first
+    work_cycles: int | None = None  # longest work between two frames, read from the text (None: unbounded)
+    work_from: str = ""             # where that longest path starts
+    min_period_us: int | None = None   # the shortest frame period this code holds (None: unbounded)
 
 
 def _hex8(v: int) -> str:
@@ -158,7 +162,7 @@ class _Ram:
 @dataclass
 class _Ctx:
     plan: Plan
-    source: SourceFile
+    source: SourceFile | None
     records: list[dict]
     ease_tables: dict[tuple, str]
     lists: list[dict] = field(default_factory=list)
@@ -170,6 +174,8 @@ class _Ctx:
         return f"{prefix}{self.labels}"
 
     def where(self, span) -> str:
+        if self.source is None:
+            return ""
         line, _ = self.source.line_col(span.start)
         text = self.source.line_text(line).split("#")[0].strip()
         return f"{self.source.path.rsplit('/', 1)[-1]}:{line}  {text}"
@@ -245,14 +251,16 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             out.append({"op": "list", "label": label, "wheres": [r["where"] for r in run]})
             run.clear()
 
+    seqs = {s.name: s for s in ctx.plan.sequences}
     for st in body:
+        if not takes_frames((st,), seqs):
+            continue            # takes no frame: no code, so nothing it does can delay a frame
         where = ctx.where(st.span)
         if isinstance(st, MoveStep):
             run.append(_move_record(ctx, st))
             continue
         if isinstance(st, HoldStep):
-            if st.frames:
-                run.append(_hold_record(ctx, st))
+            run.append(_hold_record(ctx, st))
             continue
         flush()
         if isinstance(st, RepeatStep):
@@ -274,7 +282,7 @@ def _seq_label(plan: Plan, name: str) -> str:
     return f"seq{[s.name for s in plan.sequences].index(name) + 1}"
 
 
-def generate(plan: Plan, source: SourceFile) -> AsmUnit:
+def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     """Lay out the firmware for a plan (which must have passed lint without errors)."""
     ctx = _Ctx(plan, source, [], {})
     main_ops: list[dict] = []
@@ -368,7 +376,7 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
     reload = 0x10000 - plan.period_us
     tick_fix = (TICK_PARITY - reload) & 0xFF
     text = render("firmware.asm.j2",
-                  source=source.path.rsplit("/", 1)[-1], plan=plan, period=plan.period_us, reload=reload, tick_fix=tick_fix,
+                  source="" if source is None else source.path.rsplit("/", 1)[-1], plan=plan, period=plan.period_us, reload=reload, tick_fix=tick_fix,
                   ram=ram.symbols, act=ACT, movb=MOVB, dirb=DIRB, rmask=RMASK, flags=FLAGS,
                   edge_routines=edge_routines, chans=chans, flag_bits=flag_bits, head_cycles=HEAD_CYCLES,
                   cur_base=CUR_BASE, minus_cur=-CUR_BASE & 0xFF, state_base=STATE_BASE, stack_init=STACK_BASE - 1,
@@ -385,6 +393,18 @@ def generate(plan: Plan, source: SourceFile) -> AsmUnit:
         breakdown["eased curve tables"] = sum(len(t["values"]) for t in ease_tables)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
+    work, work_from = frame_work(text)
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
-                   tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))))
+                   tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
+                   work, work_from, None if work is None else costs.frame_cycles(len(plan.ports), work))
+
+
+def frame_work(text: str) -> tuple[int | None, str]:
+    """The longest work between two frames in this assembly, and where it starts."""
+    try:
+        code = wcet.Code(text)
+        cycles, at = code.between_frames()
+    except wcet.WcetError as exc:
+        return None, str(exc)
+    return cycles, code.label_at(at)

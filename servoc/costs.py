@@ -1,12 +1,17 @@
-"""The firmware's own cost per frame, in machine cycles (1 us at 12 MHz).
+"""The firmware's frame budget, in machine cycles (1 us at 12 MHz): Plan -> shortest period.
 
-This is the one place the front end learns what the generated firmware
-needs: the shortest frame period it sustains. A frame is the pulse routines
-of the ports in use (fixed length each, sort and differencing included) plus
-the work between the last port's pulses and the next tick: stepping every
-moving servo, and on the first frame of a move reading its record. The
-constants below are upper bounds of what `benchmarks/stress.py` measures in
-ucsim; `tests/test_costs.py` fails when they stop being safe or get wasteful.
+A frame is `frame_io`: the wait for the Timer2 tick, then the pulse routines
+of the ports in use, each of a fixed length (sort and differencing inside its
+first 0.5 ms), then RET. Between two frames the program does its work: the
+longest path from any frame to the next is read from the generated assembly
+itself by `servoc.wcet` (every instruction's cycles, every branch both ways,
+loop bounds from the program's structure). So the shortest period is
+
+    P_min = FRAME_IO_FIXED + PORT_CYCLES x ports + the longest work between frames
+
+and it holds for every state the program can reach: nothing is fitted to a
+benchmark. `tests/test_costs.py` runs adversarial programs in ucsim at their
+own P_min.
 """
 
 from __future__ import annotations
@@ -19,29 +24,20 @@ PRE_RISE_CYCLES = 1                  # MOV A,ACT before the ORL that raises the 
 FINAL_N = N_MAX + 1                  # the edge chain closes with a silent block at N = 251
 PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
 
-# Measured by `benchmarks/stress.py` (shortest P that verifies exactly, worst-case
-# programs): about 121 fixed, 26 per nesting level, 101 per servo (a DDA carry
-# on the first frame adds a few), 43 more per servo for a run-time F.
-# Between two frames: tick sync, frame_io's return, the move's bookkeeping.
-FRAME_FIXED_CYCLES = 130
-# Per level of `repeat` or `play` that ends and starts again between two frames.
-LEVEL_CYCLES = 28
-# Per servo with pulses, on a move's first frame: record, DDA terms and first step.
-CHANNEL_CYCLES = 108
-# Per servo, when some move's F is found at run time (frames-needed lookup).
-RUNTIME_F_CYCLES = 45
+# frame_io around the ports (firmware_templates/runtime.asm.j2): the tick poll
+# (JNB, 2: it sees the tick 0 or 1 cycle late), the sync that takes that cycle
+# back (CLR, MOV, ADD, RRC, JC, NOP: 7), the RET (2), and the poll's phase (2).
+FRAME_IO_FIXED = 2 + 7 + 2 + 2
 
 
-def min_period_us(port_count: int, channel_count: int, runtime_frames: bool = False, nesting: int = 0) -> int:
-    """The shortest frame period the firmware sustains."""
-    per_channel = CHANNEL_CYCLES + (RUNTIME_F_CYCLES if runtime_frames else 0)
-    return (PORT_CYCLES * port_count + FRAME_FIXED_CYCLES + LEVEL_CYCLES * nesting
-            + per_channel * channel_count)
+def frame_cycles(port_count: int, work_cycles: int) -> int:
+    """The shortest frame period for `port_count` ports and the longest work between frames."""
+    return FRAME_IO_FIXED + PORT_CYCLES * port_count + work_cycles
 
 
-def default_period_us(port_count: int, channel_count: int, runtime_frames: bool = False, nesting: int = 0) -> int:
+def default_period_us(min_period: int) -> int:
     """The spec's default P: the shortest sustainable period, never below 5.3 ms."""
-    return max(DEFAULT_PERIOD_FLOOR_US, min_period_us(port_count, channel_count, runtime_frames, nesting))
+    return max(DEFAULT_PERIOD_FLOOR_US, min_period)
 
 
 # The stack: 32 bytes at the top of the indirect RAM. Each `repeat` keeps its

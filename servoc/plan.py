@@ -17,14 +17,14 @@ a move equals the pose; after `main` ends the last frame repeats forever.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Iterator, Union
 
 from . import costs, model
 from .diagnostics import Reporter
 from .source import NO_SPAN, Span
-from .units import N_MAX, frames_for, frames_needed, move_frames, round_half_up
+from .units import DEFAULT_PERIOD_FLOOR_US, N_MAX, frames_for, frames_needed, move_frames, round_half_up
 
 EASE_SCALE = 256     # eased curves are stored as e(k/F) x 256, rounded, clamped to 255
 MAX_TABLE_FRAMES = 65535   # the firmware's frame counters are 16 bits; longer moves are a
@@ -126,7 +126,7 @@ class Plan:
     ports: tuple[int, ...]                  # ports with channels, ascending
     period_us: int                          # frame period P in machine cycles (1 us)
     period_is_default: bool
-    min_period_us: int                      # shortest P the firmware sustains for these ports
+    min_period_us: int                      # shortest P the firmware generated for this plan holds
     speed_tables: tuple[tuple[int, ...], ...]   # per speed class: frames needed for |delta| = 0..250
     class_t_dav_us: tuple[Fraction, ...]    # per speed class: t_DAV
     main: tuple[Step, ...]
@@ -219,28 +219,55 @@ def _moved_servos(program: model.Program) -> set[str]:
 
 
 def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
-    """Plan a checked program. Checks on the result are the linter's job."""
+    """Plan a checked program. Checks on the result are the linter's job.
+
+    The shortest period the firmware holds comes from the code generated for
+    the plan (`budget`); the default P is found by planning again at it until
+    it no longer changes (F, and with it the code, depends on P)."""
     moved = _moved_servos(program)
     servos = sorted((s for s in program.servos if s.name in moved), key=lambda s: s.channel)
     ports = tuple(sorted({s.port for s in servos}))
     depth = nesting(program.main, {q.name: q for q in program.sequences})
     if program.frame_us is not None:
         period = max(1, round_half_up(program.frame_us))
-        return _plan_at(program, servos, ports, period, False, depth)
-    # The default P depends on whether some move's F is left to the run time, and
-    # that depends on P. Try the shorter period the firmware sustains without the
-    # run-time rule; if that plan needs the rule after all, plan at the longer one.
-    fast = costs.default_period_us(len(ports), len(servos), False, depth)
-    result = _plan_at(program, servos, ports, fast, True, depth)
-    if _needs_runtime_frames(result):
-        slow = costs.default_period_us(len(ports), len(servos), True, depth)
-        if slow != fast:
-            result = _plan_at(program, servos, ports, slow, True, depth)
-    return result
+        return budget(_plan_at(program, servos, ports, period, False, depth))
+    period, seen = DEFAULT_PERIOD_FLOOR_US, set()
+    while True:
+        result = budget(_plan_at(program, servos, ports, period, True, depth))
+        want = costs.default_period_us(result.min_period_us)
+        if want == period or (period in seen and want <= period):
+            return result
+        seen.add(period)
+        period = max(want, period) if len(seen) > 4 else want
 
 
-def _needs_runtime_frames(p: Plan) -> bool:
-    return any(inst.step.frames is None for inst in p.moves)
+def budget(p: Plan) -> Plan:
+    """The plan with `min_period_us` read from the firmware generated for it (see costs.py).
+    When no firmware can be generated (a resource limit, reported later), P itself."""
+    from . import codegen, wcet      # codegen builds on the plan types
+    try:
+        unit = codegen.generate(p)
+    except codegen.CodegenError:
+        return replace(p, min_period_us=p.period_us)
+    return replace(p, min_period_us=unit.min_period_us or p.period_us)
+
+
+def takes_frames(body: tuple[Step, ...], sequences: dict[str, "SequencePlan"], _memo: dict | None = None) -> bool:
+    """Whether every pass of `body` takes at least one frame (a move always does; a hold when
+    it is at least half a frame; repeat, loop and play when their body does)."""
+    memo = {} if _memo is None else _memo
+    for st in body:
+        if isinstance(st, MoveStep) or (isinstance(st, HoldStep) and st.frames > 0):
+            return True
+        if isinstance(st, (RepeatStep, LoopStep)) and takes_frames(st.body, sequences, memo):
+            return True
+        if isinstance(st, PlayStep):
+            if st.sequence not in memo:
+                memo[st.sequence] = False          # recursion is a check error; be safe anyway
+                memo[st.sequence] = takes_frames(sequences[st.sequence].body, sequences, memo)
+            if memo[st.sequence]:
+                return True
+    return False
 
 
 def nesting(body: tuple, sequences: dict, _memo: dict | None = None) -> int:
@@ -312,13 +339,11 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
         walker = _Walker(seq_bodies, tables, speed_classes)
         walker.walk(main, (None,) * len(channels))
     _, total, infinite = walker.walk(main, (None,) * len(channels))
-    runtime_frames = any(inst.step.frames is None for inst in walker.instances.values())
-    min_p = costs.min_period_us(len(ports), len(channels), runtime_frames, depth)
     # Every sequence main can name, also after a `loop` (code there never runs, but later
     # stages still walk it and look its sequences up).
     named = _named_sequences(main, seq_bodies)
     used = [seq_bodies[s.name] for s in program.sequences if s.name in named]
-    return Plan(program, tuple(channels), ports, period, is_default, min_p, tables, tuple(classes),
+    return Plan(program, tuple(channels), ports, period, is_default, period, tables, tuple(classes),
                 main, tuple(used), tuple(walker.instances.values()), None if infinite else total, depth)
 
 
@@ -458,9 +483,13 @@ def expand(plan: Plan) -> Iterator[GoldenFrame]:
     last_span = NO_SPAN
     classes = tuple(c.speed_class for c in plan.channels)
 
+    sequences = {s.name: s for s in plan.sequences}
+
     def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         nonlocal last_span
         for st in body:
+            if not takes_frames((st,), sequences):
+                continue        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through
             if isinstance(st, MoveStep):
                 f = move_frames_at(st, tuple(state), plan.speed_tables, classes)
                 start = list(state)

@@ -1,0 +1,230 @@
+"""Worst-case cycle counts read from the generated assembly: AsmUnit text -> cycles.
+
+The firmware's frame budget comes from here, not from measured constants:
+`Code` parses the assembly that codegen wrote (the same text sdas8051
+assembles), gives every instruction its machine cycles (the 8051's own table,
+checked against the assembler's listing in the tests), and finds the longest
+path between two frames.
+
+A frame starts where the program calls `frame_io` (it waits for the Timer2
+tick, then pulses every port in a routine of fixed length). After a frame the
+firmware resumes right behind one of those calls; the longest path from any
+resume point to the next `LCALL frame_io` is the work that must fit between
+two ticks. The analysis is interprocedural: a called routine is followed to
+its RET and back; a RET of the routine the path started in goes on behind
+every call of that routine. Conditional branches count both ways (so a move
+record is charged as if it named every servo and every pin carried). Code
+that loops without reaching a frame is an error, not a guess: the only
+backward branches allowed are counted pad loops (`MOV Rn,#k` then `DJNZ
+Rn,.`) and paths that pass a frame.
+
+One fact comes from code generation rather than from the code: a record
+list (`LCALL run_list`) is never empty and every record in it takes at least
+one frame, so a call of `run_list` always reaches a frame before it returns.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from dataclasses import dataclass
+
+FRAME_ROUTINE = "frame_io"      # LCALL of it: a frame starts (the cut point)
+FRAME_REACHING = {"run_list"}   # calls that always reach a frame before they return
+
+_REGS = {f"R{i}" for i in range(8)}
+_INDIRECT = {"@R0", "@R1"}
+_BRANCH2 = {"JC", "JNC", "JZ", "JNZ", "JB", "JNB", "JBC", "CJNE", "DJNZ"}
+_JUMPS = {"SJMP", "LJMP", "AJMP"}
+_CALLS = {"LCALL", "ACALL"}
+_ONE = {"NOP", "RR", "RL", "RRC", "RLC", "SWAP", "DA", "XCH", "XCHD", "ADD", "ADDC", "SUBB", "CLR", "SETB", "CPL"}
+_TWO = {"MOVC", "MOVX", "PUSH", "POP", "RET", "RETI", "JMP"} | _BRANCH2 | _JUMPS | _CALLS
+
+
+class WcetError(Exception):
+    """The code has a path the analysis cannot bound (an internal error of code generation)."""
+
+
+def cycles_of(op: str, args: tuple[str, ...]) -> int:
+    """Machine cycles of one 8051 instruction (12 clocks each)."""
+    if op in ("MUL", "DIV"):
+        return 4
+    if op in _TWO:
+        return 2
+    if op in _ONE:
+        return 1
+    if op in ("INC", "DEC"):
+        return 2 if args[0] == "DPTR" else 1
+    if op in ("ANL", "ORL", "XRL"):
+        if args[0] == "C":
+            return 2
+        return 2 if args[0] != "A" and args[1].startswith("#") else 1
+    if op == "MOV":
+        dst, src = args
+        if dst == "DPTR" or src == "C":
+            return 2
+        if dst in ("A", "C"):
+            return 1
+        if dst in _REGS or dst in _INDIRECT:
+            return 1 if src == "A" or src.startswith("#") else 2
+        return 1 if src == "A" else 2
+    raise WcetError(f"no cycle count for `{op} {', '.join(args)}`")
+
+
+@dataclass(frozen=True)
+class Instr:
+    index: int
+    op: str
+    args: tuple[str, ...]
+    cycles: int
+    line: int          # 1-based line of the assembly text
+
+
+_LABEL = re.compile(r"^([A-Za-z_.$][\w.$]*)::?\s*(.*)$")
+
+
+class Code:
+    """The instructions of one assembly text, with their labels."""
+
+    def __init__(self, text: str) -> None:
+        self.instrs: list[Instr] = []
+        self.labels: dict[str, int] = {}
+        pending: list[str] = []
+        for lineno, raw in enumerate(text.splitlines(), start=1):
+            code = raw.split(";", 1)[0].strip()
+            m = _LABEL.match(code)
+            if m and not code.startswith("."):
+                pending.append(m.group(1))
+                code = m.group(2).strip()
+            if not code or code.startswith(".") or "=" in code.split(None, 1)[0] or (
+                    len(code.split()) > 1 and code.split()[1] == "="):
+                if code.startswith(".org") or code.startswith(".db") or code.startswith(".bndry"):
+                    pending = []        # labels on data are not code labels
+                continue
+            parts = code.split(None, 1)
+            op = parts[0].upper()
+            args = tuple(a.strip() for a in parts[1].split(",")) if len(parts) > 1 else ()
+            for lab in pending:
+                self.labels[lab] = len(self.instrs)
+            pending = []
+            self.instrs.append(Instr(len(self.instrs), op, args, cycles_of(op, args), lineno))
+        self._call_targets = sorted({self.labels[i.args[0]] for i in self.instrs
+                                     if i.op in _CALLS and i.args[0] in self.labels}
+                                    | ({self.labels["main"]} if "main" in self.labels else set()))
+        self._walk_memo: dict[int, dict[str, int]] = {}
+        self._on_path: set[int] = set()
+
+    # ---------------------------------------------------------------- helpers
+
+    def target(self, ins: Instr) -> int:
+        name = ins.args[-1]
+        if name not in self.labels:
+            raise WcetError(f"line {ins.line}: unknown label `{name}`")
+        return self.labels[name]
+
+    def routine_of(self, i: int) -> int | None:
+        """Entry of the called routine that instruction i belongs to (None: not in one)."""
+        entry = None
+        for t in self._call_targets:
+            if t > i:
+                break
+            entry = t
+        return entry
+
+    def call_sites(self, entry: int) -> list[int]:
+        return [ins.index for ins in self.instrs if ins.op in _CALLS and self.labels.get(ins.args[0]) == entry]
+
+    def label_at(self, i: int) -> str:
+        names = [n for n, j in self.labels.items() if j == i]
+        return names[0] if names else f"instruction {i}"
+
+    # ---------------------------------------------------------------- analysis
+
+    def walk(self, i: int) -> dict[str, int]:
+        """Longest cycles from instruction i to each way out: 'frame' (the LCALL frame_io,
+        its 2 cycles included) and 'ret' (the RET of the routine i is in, included)."""
+        if i in self._walk_memo:
+            return self._walk_memo[i]
+        if i in self._on_path:
+            raise WcetError(f"a loop through {self.label_at(i)} (line {self.instrs[i].line}) reaches no frame")
+        if i >= len(self.instrs):
+            raise WcetError("a path runs off the end of the code")
+        self._on_path.add(i)
+        try:
+            out = self._walk(self.instrs[i])
+        finally:
+            self._on_path.discard(i)
+        self._walk_memo[i] = out
+        return out
+
+    def _walk(self, ins: Instr) -> dict[str, int]:
+        c = ins.cycles
+        if ins.op in _CALLS:
+            name = ins.args[0]
+            if name == FRAME_ROUTINE:
+                return {"frame": c}
+            callee = self.walk(self.target(ins))
+            if name in FRAME_REACHING:
+                return {"frame": c + callee["frame"]}
+            out = {"frame": c + callee["frame"]} if "frame" in callee else {}
+            if "ret" in callee:
+                out = _merge(out, _plus(self.walk(ins.index + 1), c + callee["ret"]))
+            return out
+        if ins.op in ("RET", "RETI"):
+            return {"ret": c}
+        if ins.op == "JMP":
+            raise WcetError(f"line {ins.line}: an indirect jump between frames")
+        if ins.op in _JUMPS:
+            return _plus(self.walk(self.target(ins)), c)
+        if ins.op == "DJNZ" and ins.args[-1] == ".":
+            prev = self.instrs[ins.index - 1]
+            if not (prev.op == "MOV" and prev.args[0] == ins.args[0] and prev.args[1].startswith("#")):
+                raise WcetError(f"line {ins.line}: a pad loop needs `MOV {ins.args[0]},#k` right before it")
+            k = int(prev.args[1][1:], 0) or 256
+            return _plus(self.walk(ins.index + 1), c * k)
+        if ins.op in _BRANCH2:
+            return _plus(_merge(self.walk(ins.index + 1), self.walk(self.target(ins))), c)
+        return _plus(self.walk(ins.index + 1), c)
+
+    def resume(self, i: int) -> int:
+        """Longest cycles from instruction i to the next frame, going on behind the callers
+        of the routine i is in when it returns."""
+        r = self.walk(i)
+        best = r.get("frame", 0)
+        if "ret" in r:
+            entry = self.routine_of(i)
+            sites = [] if entry is None else self.call_sites(entry)
+            if not sites:
+                raise WcetError(f"a RET at {self.label_at(i)} with no caller")
+            best = max(best, max(r["ret"] + self.resume(s + 1) for s in sites))
+        return best
+
+    def between_frames(self) -> tuple[int, int]:
+        """(cycles, resume instruction) of the longest path from any frame to the next."""
+        resumes = [ins.index + 1 for ins in self.instrs if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE]
+        if not resumes:
+            raise WcetError("the code never calls frame_io")
+        limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(limit, 4 * len(self.instrs) + 1000))   # a path visits each instruction once
+        try:
+            return max((self.resume(i), i) for i in resumes)
+        finally:
+            sys.setrecursionlimit(limit)
+
+    def routine_cycles(self, label: str) -> int:
+        """Longest path from `label` to its RET (the routine must not reach a frame)."""
+        r = self.walk(self.labels[label])
+        if "frame" in r or "ret" not in r:
+            raise WcetError(f"{label} is not a plain routine")
+        return r["ret"]
+
+
+def _plus(d: dict[str, int], c: int) -> dict[str, int]:
+    return {k: v + c for k, v in d.items()}
+
+
+def _merge(a: dict[str, int], b: dict[str, int]) -> dict[str, int]:
+    out = dict(a)
+    for k, v in b.items():
+        out[k] = max(out.get(k, v), v)
+    return out
