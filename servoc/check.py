@@ -21,8 +21,9 @@ import re
 from dataclasses import dataclass, field
 from fractions import Fraction
 
-from . import costs, model, nodes, units
+from . import model, nodes, units, walk
 from .diagnostics import Reporter
+from .lint.resources import report_too_deep
 from .printer import format_number, format_quantity
 from .source import Span
 
@@ -261,7 +262,7 @@ class _Checker:
         for extra in mains[1:]:
             self.stmts(extra.body, [])
         if not cyclic:
-            self.deep_nesting(main, sequences, plays)
+            self.deep_nesting(main, sequences, main_span)
 
         return model.Program(
             path=self.path, servos=tuple(servos), groups=tuple(groups), poses=tuple(poses),
@@ -673,59 +674,13 @@ class _Checker:
             return None
         return int(q.value)
 
-    def deep_nesting(self, main: tuple, sequences: list[model.Sequence],
-                     plays: dict[str, list[tuple[str, Span]]]) -> None:
+    def deep_nesting(self, main: tuple, sequences: list[model.Sequence], main_span: Span) -> None:
         """Report `too-deep` here, as lint would, when sequences playing sequences nest repeats and
         plays more than MAX_LEVELS deep: the later passes walk plays with Python recursion."""
-        bodies = {q.name: q.body for q in sequences}
-        memo: dict[str, int] = {}
-
-        def levels(body: tuple) -> int:     # recursive over blocks only, which the parser keeps shallow
-            deepest = 0
-            for st in body:
-                if isinstance(st, model.Repeat):
-                    deepest = max(deepest, 1 + levels(st.body))
-                elif isinstance(st, model.Loop):
-                    deepest = max(deepest, levels(st.body))
-                elif isinstance(st, model.Play):
-                    deepest = max(deepest, 1 + memo.get(st.sequence, 0))
-            return deepest
-
-        for root in bodies:     # each sequence after those it plays, without recursion (no cycles here)
-            work = [(root, False)]
-            while work:
-                name, ready = work.pop()
-                if name in memo:
-                    continue
-                if ready:
-                    memo[name] = levels(bodies[name])
-                    continue
-                work.append((name, True))
-                work += [(c, False) for c, _ in plays.get(name, []) if c in bodies and c not in memo]
-        depth = levels(main)
-        if depth <= MAX_LEVELS:
-            return
-        limit = costs.max_nesting()
-        body, used, at = main, 0, None
-        while at is None:       # the first repeat or play at level limit + 1, in program order
-            for st in body:
-                if isinstance(st, (model.Repeat, model.Play)):
-                    inner = st.body if isinstance(st, model.Repeat) else bodies[st.sequence]
-                    if used + 1 > limit:
-                        at = st
-                        break
-                    if used + 1 + levels(inner) > limit:
-                        body, used = inner, used + 1
-                        break
-                elif isinstance(st, model.Loop) and used + levels(st.body) > limit:
-                    body = st.body
-                    break
-        word = "play" if isinstance(at, model.Play) else "repeat"
-        self.r.error("too-deep",
-                     f"repeats and plays nest {depth} levels deep, but the firmware's {costs.STACK_BYTES}-byte "
-                     f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
-                     at.span, label=f"level {limit + 1}",
-                     help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
+        body_of = {q.name: q.body for q in sequences}.__getitem__
+        depth = walk.nesting(main, body_of)
+        if depth > MAX_LEVELS:
+            report_too_deep(self.r, depth, main, body_of, main_span)
 
     def recursion(self, plays: dict[str, list[tuple[str, Span]]]) -> bool:
         """Report each cycle of `play` between sequences once; True when there is one."""

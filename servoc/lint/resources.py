@@ -2,53 +2,29 @@
 
 from __future__ import annotations
 
-from .. import costs
+from .. import costs, walk
 from ..diagnostics import Reporter, Severity
-from ..plan import LoopStep, Plan, PlayStep, RepeatStep, Step
+from ..plan import Plan
+from ..source import Span
 from . import rule
+from .walk import body_of
 
 
 @rule("too-deep", Severity.ERROR)
 def too_deep(plan: Plan, reporter: Reporter) -> None:
     """Nested repeats and plays keep their counters and return addresses on a 32-byte stack."""
+    if plan.nesting > costs.max_nesting():
+        report_too_deep(reporter, plan.nesting, plan.main, body_of(plan), plan.program.main_span)
+
+
+def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
+    """`too-deep` at the first repeat or play past the limit; any of the three trees will do."""
     limit = costs.max_nesting()
-    if plan.nesting > limit:
-        memo: dict[str, int] = {}
-        st = _first_too_deep(plan, plan.main, 0, limit, memo)
-        word = "play" if isinstance(st, PlayStep) else "repeat"
-        reporter.error(
-            "too-deep",
-            f"repeats and plays nest {plan.nesting} levels deep, but the firmware's {costs.STACK_BYTES}-byte "
-            f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
-            st.span if st is not None else plan.program.main_span, label=f"level {limit + 1}",
-            help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
-
-
-def _levels(plan: Plan, body: tuple[Step, ...], memo: dict[str, int]) -> int:
-    """The deepest stack of repeats and plays inside `body` (memo: per sequence name)."""
-    deepest = 0
-    for st in body:
-        if isinstance(st, RepeatStep):
-            deepest = max(deepest, 1 + _levels(plan, st.body, memo))
-        elif isinstance(st, LoopStep):
-            deepest = max(deepest, _levels(plan, st.body, memo))
-        elif isinstance(st, PlayStep):
-            if st.sequence not in memo:
-                memo[st.sequence] = _levels(plan, plan.sequence(st.sequence).body, memo)
-            deepest = max(deepest, 1 + memo[st.sequence])
-    return deepest
-
-
-def _first_too_deep(plan: Plan, body: tuple[Step, ...], used: int, limit: int,
-                    memo: dict[str, int]) -> Step | None:
-    """The first `repeat` or `play` (in program order) that needs level limit + 1."""
-    for st in body:
-        if isinstance(st, (RepeatStep, PlayStep)):
-            if used + 1 > limit:
-                return st
-            inner = st.body if isinstance(st, RepeatStep) else plan.sequence(st.sequence).body
-            if used + 1 + _levels(plan, inner, memo) > limit:
-                return _first_too_deep(plan, inner, used + 1, limit, memo)
-        elif isinstance(st, LoopStep) and used + _levels(plan, st.body, memo) > limit:
-            return _first_too_deep(plan, st.body, used, limit, memo)
-    return None
+    st = walk.first_too_deep(main, body_of, limit)
+    word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
+    reporter.error(
+        "too-deep",
+        f"repeats and plays nest {depth} levels deep, but the firmware's {costs.STACK_BYTES}-byte "
+        f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
+        st.span if st is not None else main_span, label=f"level {limit + 1}",
+        help="flatten the program: play a sequence once with a larger repeat count instead of nesting")

@@ -2,40 +2,32 @@
 
 from __future__ import annotations
 
-from ..plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step
+from .. import walk
+from ..plan import HoldStep, MoveStep, Plan, RepeatStep, Step
 
 
-def never_ends(plan: Plan, body: tuple[Step, ...], _memo: dict | None = None) -> bool:
+def body_of(plan: Plan):
+    """The plan's `body_of` for the folds of `servoc.walk`."""
+    return lambda name: plan.sequence(name).body
+
+
+def _ends_never(acc: bool, st: Step, inner: bool | None) -> bool:
+    return acc or walk.kind(st) == "loop" or bool(inner)
+
+
+def never_ends(plan: Plan, body: tuple[Step, ...]) -> bool:
     """True when running `body` never finishes (it reaches a `loop`)."""
-    memo = {} if _memo is None else _memo     # per sequence name: sequences may be played many times
-    for st in body:
-        if isinstance(st, LoopStep):
-            return True
-        if isinstance(st, RepeatStep) and never_ends(plan, st.body, memo):
-            return True
-        if isinstance(st, PlayStep):
-            if st.sequence not in memo:
-                memo[st.sequence] = never_ends(plan, plan.sequence(st.sequence).body, memo)
-            if memo[st.sequence]:
-                return True
-    return False
+    return walk.fold(body, body_of(plan), False, _ends_never)
 
 
-def fewest_frames(plan: Plan, body: tuple[Step, ...], _memo: dict | None = None) -> int:
+def _fewest(acc: int, st: Step, inner: int | None) -> int:
+    if isinstance(st, MoveStep):
+        return acc + (st.frames or 1)
+    if isinstance(st, HoldStep):
+        return acc + st.frames
+    return acc + (st.count if isinstance(st, RepeatStep) else 1) * inner
+
+
+def fewest_frames(plan: Plan, body: tuple[Step, ...]) -> int:
     """The fewest frames one pass of `body` can take (a move takes at least one)."""
-    memo = {} if _memo is None else _memo     # per sequence name
-    total = 0
-    for st in body:
-        if isinstance(st, MoveStep):
-            total += st.frames or 1
-        elif isinstance(st, HoldStep):
-            total += st.frames
-        elif isinstance(st, RepeatStep):
-            total += st.count * fewest_frames(plan, st.body, memo)
-        elif isinstance(st, LoopStep):
-            total += fewest_frames(plan, st.body, memo)
-        else:
-            if st.sequence not in memo:
-                memo[st.sequence] = fewest_frames(plan, plan.sequence(st.sequence).body, memo)
-            total += memo[st.sequence]
-    return total
+    return walk.fold(body, body_of(plan), 0, _fewest)
