@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 
 from . import model, nodes, units, walk
-from .diagnostics import Reporter
+from .diagnostics import Label, Reporter
 from .lint.resources import report_too_deep
 from .printer import format_number, format_quantity
 from .source import Span
@@ -117,7 +117,7 @@ class _Checker:
         decl = self.decls[name.text]
         extra = f"; `{name.text}` is declared at line {self.line(decl.name.span)}" if decl else ""
         self.r.error("wrong-kind", f"`{name.text}` is {_KIND_WORD[found]}, but {wanted} is needed here",
-                     name.span, help=help_ or extra.lstrip("; "))
+                     name.span, help=help_ or extra.lstrip("; "), secondary=[Label(decl.name.span, "declared here")])
 
     def unit_error(self, q: nodes.Quantity, need: str, context: str = "") -> None:
         text = format_quantity(q)
@@ -199,7 +199,8 @@ class _Checker:
             if isinstance(item, nodes.MainDecl):
                 if mains:
                     r.error("duplicate-main", "`main` is declared more than once", item.keyword,
-                            help=f"the first `main` is at line {self.line(mains[0].keyword)}; a program has exactly one")
+                            help=f"the first `main` is at line {self.line(mains[0].keyword)}; a program has exactly one",
+                            secondary=[Label(mains[0].keyword, "first declared here")])
                 mains.append(item)
                 continue
             if isinstance(item, (nodes.FrameDecl, nodes.TargetDecl)):
@@ -208,7 +209,8 @@ class _Checker:
                 kw = Span(item.span.start, item.span.start + len(word))
                 if first is not None:
                     r.error("duplicate-setting", f"`{word}` is set more than once", kw,
-                            help=f"the first `{word}` is at line {self.line(first.span)}; keep only one")
+                            help=f"the first `{word}` is at line {self.line(first.span)}; keep only one",
+                            secondary=[Label(Span(first.span.start, first.span.start + len(word)), "first set here")])
                     continue
                 if used_from is not None:
                     what = "main" if isinstance(used_from, nodes.MainDecl) else f"sequence {used_from.name.text}"
@@ -235,7 +237,7 @@ class _Checker:
                 first = self.decls[name.text]
                 r.error("duplicate-name", f"`{name.text}` is already declared", name.span,
                         help=f"{_KIND_WORD[first.kind]} `{name.text}` is declared at line {self.line(first.name.span)}; "
-                             "names must be unique")
+                             "names must be unique", secondary=[Label(first.name.span, "first declared here")])
                 continue
             self.decls[name.text] = _Decl(kind, item, name)
 
@@ -312,7 +314,8 @@ class _Checker:
                 if other is not None:
                     self.r.error("pin-conflict", f"`{name}` and `{other.name.text}` are both on P{port}.{bit}",
                                  decl.pin.span, help=f"one servo per pin: `{other.name.text}` took P{port}.{bit} "
-                                                     f"at line {self.line(other.span)}")
+                                                     f"at line {self.line(other.span)}",
+                                 secondary=[Label(other.pin.span, f"`{other.name.text}` is on P{port}.{bit} here")])
                 else:
                     pins[(port, bit)] = decl
             servo = self.servo_options(decl, port or 0, bit or 0)
@@ -350,7 +353,9 @@ class _Checker:
                 self.r.error("duplicate-option", f"`{word}` is given more than once for servo `{decl.name.text}`",
                              Span(opt.span.start, opt.span.start + len(word)),
                              help="give each option once; the first `{}` is at line {}, column {}".format(
-                                 word, *self.r.source.line_col(seen[type(opt)].span.start)))
+                                 word, *self.r.source.line_col(seen[type(opt)].span.start)),
+                             secondary=[Label(Span(seen[type(opt)].span.start, seen[type(opt)].span.start + len(word)),
+                                              "first given here")])
                 continue
             seen[type(opt)] = opt
             if isinstance(opt, nodes.SpeedOption):
@@ -564,7 +569,8 @@ class _Checker:
                     how = "" if first.target.text == s else f" (through `{first.target.text}`)"
                     self.r.error("duplicate-target", f"pose `{text}` sets servo `{s}` twice",
                                  entry.span, help=f"it is first set{how} at line {self.line(first.span)}; "
-                                                  "each servo may appear once in a pose")
+                                                  "each servo may appear once in a pose",
+                                 secondary=[Label(first.span, "first set here")])
                     ok = False
                     continue
                 set_by[s] = entry
