@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from .. import nodes, walk
-from ..lint.resources import report_too_deep
+from ..lint.rules.too_deep import report_too_deep
 from .context import Context, names
 from .graph import cycles
 
