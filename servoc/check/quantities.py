@@ -65,22 +65,22 @@ def wrong_unit(q: nodes.Quantity, need: str, context: str = "") -> Problem:
     return Problem(msg, help_)
 
 
-def duration_us(q: nodes.Quantity, context: str, need: str = DURATION_NEED) -> Fraction | Problem:
-    if q.unit in units.TIME_UNITS_US:
-        return q.value * units.TIME_UNITS_US[q.unit]
+def _scaled(q: nodes.Quantity, factors: dict[str, Fraction], context: str, need: str) -> Fraction | Problem:
+    if q.unit in factors:
+        return q.value * factors[q.unit]
     return wrong_unit(q, need, context)
+
+
+def duration_us(q: nodes.Quantity, context: str, need: str = DURATION_NEED) -> Fraction | Problem:
+    return _scaled(q, units.TIME_UNITS_US, context, need)
 
 
 def frequency_hz(q: nodes.Quantity, context: str, need: str) -> Fraction | Problem:
-    if q.unit in units.FREQ_UNITS_HZ:
-        return q.value * units.FREQ_UNITS_HZ[q.unit]
-    return wrong_unit(q, need, context)
+    return _scaled(q, units.FREQ_UNITS_HZ, context, need)
 
 
 def angle_deg(q: nodes.Quantity, context: str, need: str) -> Fraction | Problem:
-    if q.unit in ANGLE_UNITS:
-        return q.value
-    return wrong_unit(q, need, context)
+    return _scaled(q, {unit: Fraction(1) for unit in ANGLE_UNITS}, context, need)
 
 
 def position(q: nodes.Quantity, context: str = "") -> model.Position | Problem:
@@ -91,10 +91,8 @@ def position(q: nodes.Quantity, context: str = "") -> model.Position | Problem:
         return model.Position(q.value, "n", int(q.value), q.span)
     if q.unit == "deg":
         return model.Position(q.value, "deg", units.deg_to_n(q.value), q.span)
-    if q.unit in units.TIME_UNITS_US:
-        width = q.value * units.TIME_UNITS_US[q.unit]
-        return model.Position(width, "us", units.width_to_n(width), q.span)
-    return wrong_unit(q, POSITION_NEED, context)
+    width = _scaled(q, units.TIME_UNITS_US, context, POSITION_NEED)
+    return width if isinstance(width, Problem) else model.Position(width, "us", units.width_to_n(width), q.span)
 
 
 def trim(q: nodes.Quantity) -> int | Problem:
