@@ -1,8 +1,10 @@
 """Diagnostics: what every stage reports to the user.
 
 A `Diagnostic` has a code (e.g. ``infeasible-speed``), a severity, a message,
-a span in the source, an optional label shown under the caret and an optional
-help line. `Reporter` collects them; the renderers turn them into the
+a span in the source, an optional label shown under the caret, optional
+secondary labels (another place in the source and what it is, such as "first
+declared here", underlined with `-` below the primary one) and an optional help
+line. `Reporter` collects them; the renderers turn them into the
 ``FILE:LINE:COL: severity: message [code]`` form (the spec's
 ``FILE:LINE:COL: error|warning: message`` with the rule's code at the end), a caret display, or JSON.
 """
@@ -24,6 +26,13 @@ class Severity(str, Enum):
 
 
 @dataclass(frozen=True)
+class Label:
+    """A secondary place a diagnostic points at, e.g. where a name was first declared."""
+    span: Span
+    message: str
+
+
+@dataclass(frozen=True)
 class Diagnostic:
     code: str
     severity: Severity
@@ -31,6 +40,7 @@ class Diagnostic:
     span: Span = NO_SPAN
     label: str = ""
     help: str = ""
+    secondary: tuple[Label, ...] = ()
 
     @property
     def is_error(self) -> bool:
@@ -47,14 +57,17 @@ class Reporter:
     def report(self, diag: Diagnostic) -> None:
         self.diagnostics.append(diag)
 
-    def error(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "") -> None:
-        self.report(Diagnostic(code, Severity.ERROR, message, span, label, help))
+    def error(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "",
+              secondary: tuple[Label, ...] = ()) -> None:
+        self.report(Diagnostic(code, Severity.ERROR, message, span, label, help, tuple(secondary)))
 
-    def warning(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "") -> None:
-        self.report(Diagnostic(code, Severity.WARNING, message, span, label, help))
+    def warning(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "",
+              secondary: tuple[Label, ...] = ()) -> None:
+        self.report(Diagnostic(code, Severity.WARNING, message, span, label, help, tuple(secondary)))
 
-    def note(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "") -> None:
-        self.report(Diagnostic(code, Severity.NOTE, message, span, label, help))
+    def note(self, code: str, message: str, span: Span = NO_SPAN, *, label: str = "", help: str = "",
+              secondary: tuple[Label, ...] = ()) -> None:
+        self.report(Diagnostic(code, Severity.NOTE, message, span, label, help, tuple(secondary)))
 
     @property
     def has_errors(self) -> bool:
@@ -92,8 +105,24 @@ def render_short(diag: Diagnostic, source: SourceFile) -> str:
     return f"{source.path}:{line}:{col}: {diag.severity.value}: {diag.message} [{diag.code}]"
 
 
+def _underline(source: SourceFile, span: Span) -> tuple[int, int, str, int]:
+    """The line of a span, its column, the line's text as shown and how many columns to underline."""
+    line, col = source.line_col(span.start)
+    text = _printable(source.line_text(line))
+    end_line, end_col = source.line_col(max(span.start, span.end - 1))
+    if span.end <= span.start:
+        width = 1
+    elif end_line == line:
+        width = end_col - col + 1
+    else:   # a span over several lines: underline the rest of its first line
+        width = len(text.rstrip()) - col + 1
+    width = max(1, min(width, len(text) - col + 1)) if len(text) >= col else 1
+    return line, col, text, width
+
+
 def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> str:
-    """The one-line header, the source line, a caret under the span, and the help line."""
+    """The one-line header, the source line, a caret under the span, each secondary label's
+    line with `-` under its span, and the help line."""
     line, col = source.line_col(diag.span.start)
     head = f"{source.path}:{line}:{col}: "
     head += _paint(diag.severity.value, diag.severity.value, color)
@@ -101,19 +130,17 @@ def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> st
     out = [head]
     # NO_SPAN means "no place in the file" (e.g. a missing `main`): no source line then.
     if source.text and diag.span != NO_SPAN:
-        text = _printable(source.line_text(line))
-        end_line, end_col = source.line_col(max(diag.span.start, diag.span.end - 1))
-        if diag.span.end <= diag.span.start:
-            width = 1
-        elif end_line == line:
-            width = end_col - col + 1
-        else:   # a span over several lines: underline the rest of its first line
-            width = len(text.rstrip()) - col + 1
-        width = max(1, min(width, len(text) - col + 1)) if len(text) >= col else 1
-        pad = max(4, len(str(line)))
-        out.append(_paint(f"{line:>{pad}} | ", "blue", color) + text)
-        caret = " " * (col - 1) + "^" * width + (f" {diag.label}" if diag.label else "")
-        out.append(_paint(" " * pad + " | ", "blue", color) + _paint(caret, diag.severity.value, color))
+        marks = [(diag.span, "^", diag.label, diag.severity.value)]
+        marks += [(lab.span, "-", lab.message, "blue") for lab in diag.secondary if lab.span != NO_SPAN]
+        shown = [(*_underline(source, span), char, text, style) for span, char, text, style in marks]
+        pad = max(4, *(len(str(m[0])) for m in shown))
+        last = None
+        for at, c, text, width, char, label, style in shown:
+            if at != last:
+                out.append(_paint(f"{at:>{pad}} | ", "blue", color) + text)
+                last = at
+            under = " " * (c - 1) + char * width + (f" {label}" if label else "")
+            out.append(_paint(" " * pad + " | ", "blue", color) + _paint(under, style, color))
     if diag.help:
         out.append(_paint("     = ", "blue", color) + "help: " + diag.help)
     return "\n".join(out)
@@ -129,15 +156,19 @@ def summary(diags: list[Diagnostic]) -> str:
     return ", ".join([n(counts[Severity.ERROR], "error"), n(counts[Severity.WARNING], "warning"), n(counts[Severity.NOTE], "note")])
 
 
+def _where(span: Span, source: SourceFile) -> dict:
+    line, col = source.line_col(span.start)
+    end_line, end_col = source.line_col(span.end)
+    return {"line": line, "column": col, "end_line": end_line, "end_column": end_col}
+
+
 def to_json(diags: list[Diagnostic], source: SourceFile) -> str:
     items = []
     for d in diags:
-        line, col = source.line_col(d.span.start)
-        end_line, end_col = source.line_col(d.span.end)
-        items.append({
-            "file": source.path, "line": line, "column": col,
-            "end_line": end_line, "end_column": end_col,
-            "severity": d.severity.value, "code": d.code, "message": d.message,
-            "label": d.label, "help": d.help,
-        })
+        item = {"file": source.path, **_where(d.span, source),
+                "severity": d.severity.value, "code": d.code, "message": d.message,
+                "label": d.label, "help": d.help}
+        if d.secondary:     # only when there are any, so that other diagnostics keep their form
+            item["labels"] = [{**_where(lab.span, source), "message": lab.message} for lab in d.secondary]
+        items.append(item)
     return json.dumps({"diagnostics": items, "summary": summary(diags)}, indent=2)

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Iterator, Union
 
-from . import costs, model
+from . import costs, model, walk
 from .diagnostics import Reporter
 from .source import NO_SPAN, Span
 from .units import DEFAULT_PERIOD_FLOOR_US, N_MAX, frames_for, frames_needed, move_frames, round_half_up
@@ -144,20 +144,12 @@ class Plan:
 
 def bodies(plan: Plan) -> Iterator[tuple[Step, ...]]:
     """Every statement list of the program: main, each sequence, and every nested body."""
-    def visit(body: tuple[Step, ...]) -> Iterator[tuple[Step, ...]]:
-        yield body
-        for st in body:
-            if isinstance(st, (RepeatStep, LoopStep)):
-                yield from visit(st.body)
-    yield from visit(plan.main)
-    for seq in plan.sequences:
-        yield from visit(seq.body)
+    return walk.bodies([plan.main, *(seq.body for seq in plan.sequences)])
 
 
 def steps(plan: Plan) -> Iterator[Step]:
     """Every statement of the program, nested ones included."""
-    for body in bodies(plan):
-        yield from body
+    return walk.statements([plan.main, *(seq.body for seq in plan.sequences)])
 
 
 # ----------------------------------------------------------------- easing
@@ -203,19 +195,8 @@ State = tuple  # per channel: N or None
 
 
 def _moved_servos(program: model.Program) -> set[str]:
-    names: set[str] = set()
-
-    def visit(body: tuple) -> None:
-        for st in body:
-            if isinstance(st, model.Move):
-                names.update(t.servo for t in st.targets)
-            elif isinstance(st, (model.Repeat, model.Loop)):
-                visit(st.body)
-
-    visit(program.main)
-    for seq in program.sequences:
-        visit(seq.body)
-    return names
+    return {t.servo for st in walk.statements([program.main, *(seq.body for seq in program.sequences)])
+            if isinstance(st, model.Move) for t in st.targets}
 
 
 def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
@@ -227,7 +208,7 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
     moved = _moved_servos(program)
     servos = sorted((s for s in program.servos if s.name in moved), key=lambda s: s.channel)
     ports = tuple(sorted({s.port for s in servos}))
-    depth = nesting(program.main, {q.name: q for q in program.sequences})
+    depth = walk.nesting(program.main, {q.name: q.body for q in program.sequences}.__getitem__)
     if program.frame_us is not None:
         period = max(1, round_half_up(program.frame_us))
         return budget(_plan_at(program, servos, ports, period, False, depth))
@@ -268,25 +249,6 @@ def takes_frames(body: tuple[Step, ...], sequences: dict[str, "SequencePlan"], _
             if memo[st.sequence]:
                 return True
     return False
-
-
-def nesting(body: tuple, sequences: dict, _memo: dict | None = None) -> int:
-    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` costs nothing).
-
-    Works on model statements; `sequences` maps names to model.Sequence. Each sequence's
-    depth is computed once, so sequences that play each other many times stay linear."""
-    memo = {} if _memo is None else _memo
-    deepest = 0
-    for st in body:
-        if isinstance(st, model.Repeat):
-            deepest = max(deepest, 1 + nesting(st.body, sequences, memo))
-        elif isinstance(st, model.Loop):
-            deepest = max(deepest, nesting(st.body, sequences, memo))
-        elif isinstance(st, model.Play):
-            if st.sequence not in memo:
-                memo[st.sequence] = nesting(sequences[st.sequence].body, sequences, memo)
-            deepest = max(deepest, 1 + memo[st.sequence])
-    return deepest
 
 
 def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], period: int,
@@ -348,29 +310,15 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
 
 
 def _named_sequences(main: tuple[Step, ...], sequences: dict[str, SequencePlan]) -> set[str]:
-    named: set[str] = set()
-    work = [main]
-    while work:
-        for st in work.pop():
-            if isinstance(st, PlayStep) and st.sequence not in named:
-                named.add(st.sequence)
-                work.append(sequences[st.sequence].body)
-            elif isinstance(st, (RepeatStep, LoopStep)):
-                work.append(st.body)
-    return named
+    return walk.reachable(main, lambda name: sequences[name].body)
 
 
 def _fix_frames(body: tuple[Step, ...], fixed: dict[int, int]) -> tuple[Step, ...]:
-    out: list[Step] = []
-    for st in body:
+    def fix(st: Step) -> Step:
         if isinstance(st, MoveStep) and id(st) in fixed:
-            st = MoveStep(st.pose, st.targets, fixed[id(st)], st.ease, st.ease_table, st.duration_us, st.span)
-        elif isinstance(st, RepeatStep):
-            st = RepeatStep(st.count, _fix_frames(st.body, fixed), st.span)
-        elif isinstance(st, LoopStep):
-            st = LoopStep(_fix_frames(st.body, fixed), st.span)
-        out.append(st)
-    return tuple(out)
+            return MoveStep(st.pose, st.targets, fixed[id(st)], st.ease, st.ease_table, st.duration_us, st.span)
+        return st
+    return walk.rebuild(body, fix)
 
 
 def move_frames_at(step: MoveStep, state: State, tables, classes) -> int:

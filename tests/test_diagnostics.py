@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 
-from servoc.diagnostics import Diagnostic, Reporter, Severity, render_full, render_short, summary, to_json
+from servoc.diagnostics import Diagnostic, Label, Reporter, Severity, render_full, render_short, summary, to_json
 from servoc.source import NO_SPAN, SourceFile, Span
 
 TEXT = "servo arm = P1.0\npose up { arm: 120 }\nmain {\n  move up in 20ms\n}\n"
@@ -188,3 +188,45 @@ def test_json_keeps_unicode_and_quotes_valid():
     data = json.loads(to_json([diag(Span(9, 10), message="N 122 = 90.28° \"x\"")], src))
     assert data["diagnostics"][0]["message"] == "N 122 = 90.28° \"x\""
     assert data["diagnostics"][0]["file"] == "a \"b\".servo"
+
+
+def test_secondary_labels_render_under_the_primary():
+    src = SourceFile("arm.servo", TEXT)
+    d = Diagnostic("duplicate-name", Severity.ERROR, "`up` is already declared", at(TEXT, "move up"),
+                   secondary=(Label(at(TEXT, "arm", 1), "first declared here"),
+                              Label(at(TEXT, "20ms"), "and here")))
+    assert render_full(d, src).splitlines() == [
+        "arm.servo:4:3: error: `up` is already declared [duplicate-name]",
+        "   4 |   move up in 20ms",
+        "     |   ^^^^^^^",
+        "   2 | pose up { arm: 120 }",
+        "     |           --- first declared here",
+        "   4 |   move up in 20ms",
+        "     |              ---- and here",
+    ]
+
+
+def test_secondary_label_on_the_primary_line_shares_it():
+    src = SourceFile("arm.servo", TEXT)
+    d = Diagnostic("c", Severity.WARNING, "m", at(TEXT, "20ms"), label="here",
+                   secondary=(Label(at(TEXT, "up", 1), "and here"),))
+    assert render_full(d, src).splitlines()[1:] == [
+        "   4 |   move up in 20ms",
+        "     |              ^^^^ here",
+        "     |        -- and here",
+    ]
+
+
+def test_secondary_labels_in_json():
+    src = SourceFile("arm.servo", TEXT)
+    d = Diagnostic("c", Severity.ERROR, "m", at(TEXT, "move up"), secondary=(Label(at(TEXT, "arm", 1), "first"),))
+    (item,) = json.loads(to_json([d], src))["diagnostics"]
+    assert item["labels"] == [{"line": 2, "column": 11, "end_line": 2, "end_column": 14, "message": "first"}]
+    (plain,) = json.loads(to_json([diag(at(TEXT, "move up"))], src))["diagnostics"]
+    assert "labels" not in plain
+
+
+def test_reporter_takes_secondary_labels():
+    rep = Reporter(SourceFile("arm.servo", TEXT))
+    rep.error("c", "m", at(TEXT, "up"), secondary=[Label(at(TEXT, "arm"), "x")])
+    assert rep.diagnostics[0].secondary == (Label(at(TEXT, "arm"), "x"),)

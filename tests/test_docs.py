@@ -118,8 +118,11 @@ def reported_codes(*files: str) -> dict[str, str]:
     return found
 
 
+CHECKER_FILES = tuple(sorted(str(p.relative_to(SERVOC)) for p in (SERVOC / "check").glob("*.py")))
+
+
 def checker_codes() -> dict[str, str]:
-    return reported_codes("check.py", "syntax.py")
+    return reported_codes(*CHECKER_FILES, "syntax.py")
 
 
 def registry_codes() -> dict[str, str]:
@@ -288,7 +291,7 @@ def test_every_code_has_a_wrong_example():
 
 
 def test_every_code_is_documented_with_its_severity():
-    actual = {**reported_codes("check.py", "syntax.py", "api.py"), **registry_codes()}
+    actual = {**reported_codes(*CHECKER_FILES, "syntax.py", "api.py"), **registry_codes()}
     documented = code_severities()
     missing = sorted(set(actual) - set(documented))
     assert not missing, f"codes with no `### CODE (severity)` heading in docs/: {missing}"

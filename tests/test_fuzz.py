@@ -94,7 +94,8 @@ def _inside(text: str, line: int, column: int, what: str) -> None:
 
 def text_diagnostics(run: Run, path: str, text: str, what: str) -> list[Diag]:
     """Parse standard error of a text-format run: every line is a diagnostic header, its source
-    line, its caret line, its help line or the closing summary."""
+    line, its caret line, a secondary label's source line and `-` line, its help line or the
+    closing summary."""
     header = re.compile(rf"^{re.escape(path)}:(\d+):(\d+): (error|warning|note): (.*) \[([a-z0-9-]+)\]$")
     diags: list[Diag] = []
     if run.err == "":
@@ -103,18 +104,24 @@ def text_diagnostics(run: Run, path: str, text: str, what: str) -> list[Diag]:
     lines = run.err[:-1].split("\n")
     summary = SUMMARY_RE.match(lines[-1])
     assert summary, f"{what}: no summary line at the end of\n{run.err}"
+    caret = False           # the header's own source line and caret are shown: later ones are secondary
     for line in lines[:-1]:
         m = header.match(line)
         if m:
             d = Diag(int(m[1]), int(m[2]), m[3], m[5], m[4])
             _inside(text, d.line, d.column, f"{what}: {line}")
             diags.append(d)
+            caret = False
             continue
         src = re.match(r"^ *(\d+) \| ", line)
         if src:
-            assert diags and int(src[1]) == diags[-1].line, f"{what}: source line {line!r} after another header"
+            assert diags, f"{what}: source line {line!r} before any header"
+            assert caret or int(src[1]) == diags[-1].line, f"{what}: source line {line!r} after another header"
             continue
-        assert re.match(r"^ +\| *\^+", line) or line.startswith("     = help: "), \
+        if re.match(r"^ +\| *\^+", line):
+            caret = True
+            continue
+        assert (caret and re.match(r"^ +\| *-+", line)) or line.startswith("     = help: "), \
             f"{what}: unexpected stderr line {line!r}\n{run.err}"
     counts = [sum(d.severity == s for d in diags) for s in ("error", "warning", "note")]
     assert [int(g) for g in summary.groups()] == counts, f"{what}: summary {lines[-1]!r} vs {counts}"

@@ -540,3 +540,17 @@ def test_too_deep_points_at_the_first_level_too_many():
     # main's play is level 1, s39's play level 2, ... s(40 - limit)'s play is level limit + 1
     line, col = src.line_col(diags[0].span.start)
     assert src.line_text(line).startswith(f"sequence s{40 - limit} {{") and col == len(f"sequence s{40 - limit} {{ ") + 1
+
+
+def test_the_registered_severity_is_the_one_reported(monkeypatch):
+    from servoc import lint
+    _, fn = lint.RULES["short-hold"]
+    monkeypatch.setitem(lint.RULES, "short-hold", (Severity.NOTE, fn))
+    _, diags, _ = diagnose("servo a = P1.0\npose p { a: 1 }\nmain { move p; hold 1ms }\n")
+    assert [(d.code, d.severity) for d in diags] == [("short-hold", Severity.NOTE)]
+
+
+def test_every_rule_has_its_own_module():
+    modules = {fn.__module__ for code, (_, fn) in RULES.items() if not code.startswith("unused-")}
+    assert len(modules) == len([c for c in RULES if not c.startswith("unused-")])
+    assert all(m.startswith("servoc.lint.rules.") for m in modules)

@@ -1,0 +1,52 @@
+"""What several lint rules share: how they write durations, and what a plan's moves and bodies do."""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+from ..plan import MoveInstance, Plan
+
+
+def fmt_duration(us: int) -> str:
+    """A duration as the user would write it: `306ms` or `270.3ms`."""
+    ms = Fraction(us, 1000)
+    text = f"{float(ms):.3f}".rstrip("0").rstrip(".")
+    return f"{text}ms"
+
+
+def whole_ms_for(frames: int, period_us: int, at_least_us: Fraction = Fraction(0)) -> str:
+    """The shortest whole-ms `in` duration D >= at_least_us with floor(D/P + 1/2) >= frames, e.g. `306ms`."""
+    low = max(Fraction(at_least_us), (frames - Fraction(1, 2)) * period_us)
+    return f"{math.ceil(low / 1000)}ms"
+
+
+def too_fast(plan: Plan) -> dict[int, tuple[Fraction, MoveInstance, int]]:
+    """Moves that ask a servo for |delta| x t_DAV > F x P, by id of their step:
+    (the largest excess in us, the instance, the channel) of the worst context."""
+    worst: dict[int, tuple[Fraction, MoveInstance, int]] = {}
+    for inst in plan.moves:
+        for m in inst.motions:
+            t_dav = plan.class_t_dav_us[plan.channels[m.channel].speed_class]
+            need = abs(m.delta) * t_dav
+            excess = need - inst.frames * plan.period_us
+            if excess > 0 and (id(inst.step) not in worst or excess > worst[id(inst.step)][0]):
+                worst[id(inst.step)] = (excess, inst, m.channel)
+    return worst
+
+
+def body_of(plan: Plan):
+    """The plan's sequences by name, for the folds of `servoc.walk`."""
+    return lambda name: plan.sequence(name).body
+
+
+def positions(plan: Plan):
+    """Every (pose, target) of the program."""
+    for pose in plan.program.poses:
+        for t in pose.targets:
+            yield pose, t
+
+
+def num(x) -> str:
+    """A Fraction as written: `7` or `7.5`."""
+    return str(x.numerator) if x.denominator == 1 else f"{float(x):g}"

@@ -1,0 +1,30 @@
+"""empty-loop: a loop whose body takes no frames would run forever without a pulse."""
+
+from __future__ import annotations
+
+from ... import walk
+from ...diagnostics import Severity
+from ...plan import HoldStep, LoopStep, MoveStep, Plan, RepeatStep, Step, steps
+from .. import Report, rule
+from ..common import body_of
+
+
+@rule("empty-loop", Severity.ERROR)
+def empty_loop(plan: Plan, report: Report) -> None:
+    for st in steps(plan):
+        if isinstance(st, LoopStep) and fewest_frames(plan, st.body) == 0:
+            report("this loop takes no frames: it would run forever without sending a pulse",
+                   st.span, help="put a `move` or a `hold` of at least one frame inside the loop")
+
+
+def _fewest(acc: int, st: Step, inner: int | None) -> int:
+    if isinstance(st, MoveStep):
+        return acc + (st.frames or 1)
+    if isinstance(st, HoldStep):
+        return acc + st.frames
+    return acc + (st.count if isinstance(st, RepeatStep) else 1) * inner
+
+
+def fewest_frames(plan: Plan, body: tuple[Step, ...]) -> int:
+    """The fewest frames one pass of `body` can take (a move takes at least one)."""
+    return walk.fold(body, body_of(plan), 0, _fewest)

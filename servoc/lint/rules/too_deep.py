@@ -1,0 +1,36 @@
+"""too-deep: nested repeats and plays keep their counters and return addresses on a 32-byte stack.
+
+The checker reports it too, through `report_too_deep`, for programs nested so deeply that the
+later passes cannot walk them; lint reports the rest."""
+
+from __future__ import annotations
+
+from ... import costs, walk
+from ...diagnostics import Reporter, Severity
+from ...plan import Plan
+from ...source import Span
+from .. import RULES, Report, rule
+from ..common import body_of
+
+
+@rule("too-deep", Severity.ERROR)
+def too_deep(plan: Plan, report: Report) -> None:
+    """Nested repeats and plays keep their counters and return addresses on a 32-byte stack."""
+    if plan.nesting > costs.max_nesting():
+        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span)
+
+
+def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
+    """`too-deep` for a program of any of the three trees nested `depth` levels deep."""
+    _report(Report(reporter, "too-deep", RULES["too-deep"][0]), depth, main, body_of, main_span)
+
+
+def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
+    """At the first repeat or play past the limit."""
+    limit = costs.max_nesting()
+    st = walk.first_too_deep(main, body_of, limit)
+    word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
+    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.STACK_BYTES}-byte "
+           f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
+           st.span if st is not None else main_span, label=f"level {limit + 1}",
+           help="flatten the program: play a sequence once with a larger repeat count instead of nesting")

@@ -1,0 +1,23 @@
+"""too-long: a move, hold or repeat that runs more frames or passes than the firmware counts."""
+
+from __future__ import annotations
+
+from ...diagnostics import Severity
+from ...plan import MoveStep, Plan, RepeatStep, steps
+from .. import Report, rule
+
+MAX_FRAMES = 65535           # frames of one move or hold, and passes of one repeat
+
+
+@rule("too-long", Severity.ERROR)
+def too_long(plan: Plan, report: Report) -> None:
+    for st in steps(plan):
+        count = st.count if isinstance(st, RepeatStep) else getattr(st, "frames", None)
+        if count is not None and count > MAX_FRAMES:
+            what = "passes" if isinstance(st, RepeatStep) else "frames"
+            report(f"this statement runs {count} {what}; the firmware counts at most {MAX_FRAMES}",
+                   st.span, help="split it into several statements (e.g. a repeat around a shorter one)")
+    for inst in plan.moves:
+        if isinstance(inst.step, MoveStep) and inst.step.frames is None and inst.frames > MAX_FRAMES:
+            report(f"this move runs {inst.frames} frames; the firmware counts at most {MAX_FRAMES}",
+                   inst.step.span, help="split it into several moves")

@@ -1,0 +1,170 @@
+"""Walking statement trees: one set of traversals for the syntax tree, the model and the plan.
+
+The three trees have the same shape: a `repeat` and a `loop` hold a `body` (a tuple
+of statements), a `play` names a sequence, and the other statements (move, hold)
+are leaves. The functions here see a statement only through `kind`, `children` and
+`callee`, so a new statement needs teaching here once, not in every pass.
+
+Nothing here uses Python recursion: chains of sequences playing sequences can be
+far longer than the interpreter's recursion limit. Sequences are found through
+`body_of(name) -> body`; the fold memoizes them by name, so a sequence played many
+times is walked once. Plays must not form a cycle (the checker reports those first).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any, Callable, Iterable, Iterator
+
+BodyOf = Callable[[str], tuple]
+
+# The statement classes of the three trees, by name: nodes.*Stmt, model.*, plan.*Step.
+_KINDS = {f"{word}{suffix}": word.lower()
+          for word in ("Move", "Hold", "Repeat", "Loop", "Play") for suffix in ("Stmt", "", "Step")}
+
+
+def kind(st: Any) -> str:
+    """'move', 'hold', 'repeat', 'loop' or 'play'."""
+    try:
+        return _KINDS[type(st).__name__]
+    except KeyError:
+        raise TypeError(f"not a statement: {st!r}") from None
+
+
+def children(st: Any) -> tuple:
+    """The statements directly inside `st`: a repeat's or a loop's body; () for the others."""
+    return st.body if kind(st) in ("repeat", "loop") else ()
+
+
+def callee(st: Any) -> str | None:
+    """The name of the sequence a `play` plays (None for the other statements)."""
+    if kind(st) != "play":
+        return None
+    name = getattr(st, "sequence", None)
+    return name if name is not None else st.name.text
+
+
+def bodies(roots: Iterable[tuple]) -> Iterator[tuple]:
+    """Every statement list under the given bodies: each root, then its nested bodies, depth first."""
+    for root in roots:
+        work = [root]
+        while work:
+            body = work.pop()
+            yield body
+            work.extend(reversed([children(st) for st in body if kind(st) in ("repeat", "loop")]))
+
+
+def statements(roots: Iterable[tuple]) -> Iterator[Any]:
+    """Every statement under the given bodies, body by body (as `bodies` lists them)."""
+    for body in bodies(roots):
+        yield from body
+
+
+def reachable(root: tuple, body_of: BodyOf) -> set[str]:
+    """The names of every sequence `root` can play, directly or through other sequences."""
+    named: set[str] = set()
+    work = [root]
+    while work:
+        for st in work.pop():
+            name = callee(st)
+            if name is not None and name not in named:
+                named.add(name)
+                work.append(body_of(name))
+            elif name is None and children(st):
+                work.append(children(st))
+    return named
+
+
+def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any], Any],
+         memo: dict | None = None) -> Any:
+    """Reduce `body` to one value, inside out: `step(acc, st, inner)` for each statement in
+    order, from `start`, where `inner` is the folded value of the statement's own body (a
+    repeat or a loop) or of the sequence it plays, and None for a leaf. `memo` holds the
+    values of sequences by name; pass the same dict to share them between calls."""
+    memo = {} if memo is None else memo
+    # Each frame: [statements, index of the next one, accumulator, the sequence they are the body of].
+    stack: list[list] = [[body, 0, start, None]]
+    done = False                      # a frame just finished: its value is `value`
+    value: Any = None
+    while True:
+        frame = stack[-1]
+        sts, i, acc, _ = frame
+        if i < len(sts) and not done:
+            st = sts[i]
+            name = callee(st)
+            if name is not None and name not in memo:
+                if any(f[3] == name for f in stack):
+                    raise ValueError(f"sequence `{name}` plays itself")
+                stack.append([body_of(name), 0, start, name])
+                continue
+            if name is None and kind(st) in ("repeat", "loop"):
+                stack.append([st.body, 0, start, None])
+                continue
+            frame[2] = step(acc, st, None if name is None else memo[name])
+            frame[1] = i + 1
+        elif done:
+            frame[2] = step(acc, sts[i], value)
+            frame[1] = i + 1
+            done = False
+        else:
+            stack.pop()
+            if frame[3] is not None:
+                memo[frame[3]] = acc
+            if not stack:
+                return acc
+            done, value = True, acc
+
+
+def _deepest(acc: int, st: Any, inner: int | None) -> int:
+    if inner is None:
+        return acc
+    return max(acc, inner + (kind(st) != "loop"))
+
+
+def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:
+    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` costs nothing)."""
+    return fold(body, body_of, 0, _deepest, memo)
+
+
+def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
+    """The first `repeat` or `play`, in program order, at level limit + 1; None if there is none."""
+    memo: dict = {}
+    used = 0
+    while True:
+        for st in body:
+            k = kind(st)
+            if k in ("repeat", "play"):
+                if used + 1 > limit:
+                    return st
+                inner = children(st) if k == "repeat" else body_of(callee(st))
+                if used + 1 + nesting(inner, body_of, memo) > limit:
+                    body, used = inner, used + 1
+                    break
+            elif k == "loop" and used + nesting(st.body, body_of, memo) > limit:
+                body = st.body
+                break
+        else:
+            return None
+
+
+def rebuild(body: tuple, change: Callable[[Any], Any]) -> tuple:
+    """A copy of `body` with `change(st)` in place of each statement, applied inside out
+    (a repeat or loop is given to `change` with its body already rebuilt)."""
+    stack: list[tuple[tuple, list]] = [(body, [])]
+    done: tuple | None = None         # the body just rebuilt, for the block in its parent
+    while True:
+        old, out = stack[-1]
+        i = len(out)
+        if done is not None:
+            out.append(change(dataclasses.replace(old[i], body=done)))
+            done = None
+        elif i < len(old):
+            if kind(old[i]) in ("repeat", "loop"):
+                stack.append((old[i].body, []))
+            else:
+                out.append(change(old[i]))
+        else:
+            stack.pop()
+            if not stack:
+                return tuple(out)
+            done = tuple(out)

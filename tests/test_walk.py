@@ -1,0 +1,90 @@
+"""servoc.walk: one set of traversals for the syntax tree, the model and the plan."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+from servoc import model, nodes, walk
+from servoc.plan import HoldStep, LoopStep, PlayStep, RepeatStep
+from servoc.source import Span
+
+H = model.Hold(1000)
+
+
+def rep(*body, count=2):
+    return model.Repeat(count, tuple(body))
+
+
+def test_kind_children_and_callee_on_all_three_trees():
+    name = nodes.Name("s", Span(0, 1))
+    sp = Span(0, 0)
+    for st, k, kids, called in [
+        (nodes.PlayStmt(name, sp), "play", (), "s"),
+        (nodes.LoopStmt((), sp), "loop", (), None),
+        (model.Play("s"), "play", (), "s"),
+        (model.Repeat(2, (H,)), "repeat", (H,), None),
+        (PlayStep("s"), "play", (), "s"),
+        (LoopStep((HoldStep(1, 1000),)), "loop", (HoldStep(1, 1000),), None),
+        (RepeatStep(3, ()), "repeat", (), None),
+        (H, "hold", (), None),
+    ]:
+        assert (walk.kind(st), walk.children(st), walk.callee(st)) == (k, kids, called)
+    with pytest.raises(TypeError):
+        walk.kind(object())
+
+
+def test_nesting_counts_repeats_and_plays_not_loops():
+    seqs = {"a": (rep(H),), "b": (model.Play("a"), model.Loop((model.Play("a"),)))}
+    assert walk.nesting((H,), seqs.__getitem__) == 0
+    assert walk.nesting((model.Loop((H,)),), seqs.__getitem__) == 0
+    assert walk.nesting((rep(rep(H)), H), seqs.__getitem__) == 2
+    assert walk.nesting((model.Play("b"),), seqs.__getitem__) == 3
+
+
+def test_first_too_deep_in_program_order():
+    inner = rep(H)
+    late = rep(rep(H))
+    main = (inner, model.Loop((late,)))
+    assert walk.first_too_deep(main, {}.__getitem__, 1) is late.body[0]
+    assert walk.first_too_deep(main, {}.__getitem__, 2) is None
+
+
+def test_chains_longer_than_the_recursion_limit():
+    n = sys.getrecursionlimit() * 3
+    seqs = {f"s{i}": (model.Play(f"s{i + 1}"),) for i in range(n)}
+    seqs[f"s{n}"] = (H,)
+    body_of = seqs.__getitem__
+    assert walk.nesting((model.Play("s0"),), body_of) == n + 1
+    at = walk.first_too_deep((model.Play("s0"),), body_of, 12)
+    assert at is seqs["s11"][0]
+    assert walk.reachable((model.Play("s0"),), body_of) == set(seqs)
+
+
+def test_fold_memoizes_sequences_and_refuses_cycles():
+    calls = []
+    seqs = {"a": (H, H), "b": (model.Play("a"),) * 3}
+
+    def count(acc, st, inner):
+        calls.append(st)
+        return acc + (inner if inner is not None else 1)
+    assert walk.fold((model.Play("b"), model.Play("a")), seqs.__getitem__, 0, count) == 8
+    assert len(calls) == 2 + 3 + 2       # a's body once, b's body once, main
+    with pytest.raises(ValueError):
+        walk.nesting((model.Play("x"),), {"x": (model.Play("x"),)}.__getitem__)
+
+
+def test_bodies_and_statements_in_order():
+    a, b = model.Hold(1), model.Hold(2)
+    r = rep(a, model.Loop((b,)))
+    main = (r, H)
+    assert list(walk.bodies([main])) == [main, r.body, r.body[1].body]
+    assert list(walk.statements([main, (a,)])) == [r, H, a, r.body[1], b, a]
+
+
+def test_rebuild_changes_leaves_inside_out():
+    main = (rep(model.Hold(1), model.Loop((model.Hold(2),))), model.Hold(3))
+    out = walk.rebuild(main, lambda st: model.Hold(st.duration_us * 10) if isinstance(st, model.Hold) else st)
+    assert out == (rep(model.Hold(10), model.Loop((model.Hold(20),))), model.Hold(30))
+    assert walk.rebuild((), lambda st: st) == ()
