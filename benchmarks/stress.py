@@ -49,20 +49,29 @@ def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = Fals
     return "\n".join(lines) + "\n"
 
 
-def exact_at(ports: int, per_port: int, period: int, runtime_f: bool = False, frames: int = 400,
-             depth: int | None = None) -> bool:
-    """Build the stress program at `period` (lint's minimum bypassed) and verify it in ucsim."""
+def _plan(ports: int, per_port: int, period: int, runtime_f: bool, depth: int | None):
     text = stress_source(ports, per_port, period, runtime_f, depth)
     source = SourceFile("stress.servo", text)
     reporter = Reporter(source)
     tree = api.parse(source, reporter)
     program = api.check(tree, reporter)
-    plan = api.plan(program, reporter)
+    return source, api.plan(program, reporter)
+
+
+def budget_period(ports: int, per_port: int, runtime_f: bool = False, depth: int | None = None,
+                  period: int = 20000) -> int:
+    """The shortest P servoc's frame budget allows for the stress program (planned at `period`)."""
+    return _plan(ports, per_port, period, runtime_f, depth)[1].min_period_us
+
+
+def exact_at(ports: int, per_port: int, period: int, runtime_f: bool = False, frames: int = 400,
+             depth: int | None = None) -> bool:
+    """Build the stress program at `period` (the budget bypassed) and verify it in ucsim."""
+    source, plan = _plan(ports, per_port, period, runtime_f, depth)
     unit = codegen.generate(plan, source)
     assert bool(unit.fneed_pages) == runtime_f
     image = toolchain.assemble(unit.text, name="stress")
-    fw = api.Firmware(unit, image, 0, 0, 0, 0)
-    return api.verify(plan, fw, frames).ok
+    return api.verify_hex(plan, image.hex_text, frames).ok
 
 
 def shortest_exact_period(ports: int, per_port: int, runtime_f: bool = False, depth: int | None = None) -> int:

@@ -214,7 +214,7 @@ def measure_baseline(hex_text: str, guess_period: int, frames: int = FRAMES) -> 
 
 def measure_servoc(frames: int = FRAMES) -> tuple[Decoded, api.FrontEnd, api.Firmware]:
     fe, fw = build_servoc()
-    trace = api.simulate(fw, api.cycles_needed(fe.plan, frames + 1))
+    trace = api.simulate(fw.hex_text, api.cycles_needed(fe.plan, frames + 1))
     return decode(trace, PORT, POSITIONS, frames), fe, fw
 
 
@@ -239,13 +239,12 @@ def compare(frames: int = FRAMES, progress=None) -> dict:
 # ---------------------------------------------------------------- frame budget
 
 def _build_unchecked(text: str, name: str) -> tuple:
-    """Plan and assemble `text` without lint's minimum-period check (as stress.exact_at does)."""
+    """Plan and assemble `text` at its `frame`, below the budget too (as stress.exact_at does)."""
     source = SourceFile(f"{name}.servo", text)
     reporter = Reporter(source)
     plan = api.plan(api.check(api.parse(source, reporter), reporter), reporter)
     unit = codegen.generate(plan, source)
-    image = toolchain.assemble(unit.text, name=name)
-    return plan, api.Firmware(unit, image, 0, 0, 0, 0)
+    return plan, toolchain.assemble(unit.text, name=name).hex_text
 
 
 def hold_source(ports: int, period: int | None) -> str:
@@ -258,8 +257,8 @@ def hold_source(ports: int, period: int | None) -> str:
 
 
 def hold_exact_at(ports: int, period: int, frames: int = 150) -> bool:
-    plan, fw = _build_unchecked(hold_source(ports, period), "hold")
-    return api.verify(plan, fw, frames).ok
+    plan, hex_text = _build_unchecked(hold_source(ports, period), "hold")
+    return api.verify_hex(plan, hex_text, frames).ok
 
 
 def bisect_shortest(ok, lo: int, hi: int, step: int = 1) -> int:
@@ -283,7 +282,7 @@ def stress_shortest(ports: int, runtime_f: bool, quick: bool) -> tuple[int, int]
     """
     if not quick:
         return stress.shortest_exact_period(ports, 8, runtime_f), 1
-    hi = costs.min_period_us(ports, 8 * ports, runtime_f)
+    hi = stress.budget_period(ports, 8, runtime_f)
 
     def ok(p: int) -> bool:
         return stress.exact_at(ports, 8, p, runtime_f, frames=100)
@@ -320,7 +319,7 @@ def frame_budget(quick: bool, progress=None) -> dict:
             out["worst_case"].append({
                 "ports": ports, "servos": 8 * ports, "runtime_f": rf, "shortest_exact_p_us": p,
                 "resolution_us": res, "between_frames_cycles": p - PORT_CYCLES * ports,
-                "model_min_p_us": costs.min_period_us(ports, 8 * ports, rf),
+                "model_min_p_us": stress.budget_period(ports, 8, rf),
                 "default_p_us": stress_default_period(ports, rf),
                 "search_seconds": round(time.perf_counter() - t0, 1)})
         say(f"shortest exact P, pose held, {ports} port(s)")

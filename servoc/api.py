@@ -26,6 +26,10 @@ ROM_BYTES = toolchain.AT89C52_ROM_SIZE
 RAM_BYTES = 256
 
 
+ToolNotFound = toolchain.ToolNotFound
+write_atomic = toolchain.write_atomic
+
+
 class UsageError(Exception):
     """A problem with how servoc was called (exit status 2)."""
 
@@ -108,11 +112,21 @@ def front_end(source: SourceFile, reporter: Reporter) -> FrontEnd:
 def generate(plan_: _plan.Plan, source: SourceFile, reporter: Reporter) -> codegen.AsmUnit | None:
     """Plan -> assembly text. Resource limits become diagnostics."""
     try:
-        return codegen.generate(plan_, source)
+        unit = codegen.generate(plan_, source)
     except codegen.CodegenError as exc:
         reporter.error("resources", str(exc), plan_.program.main_span,
                        help="simplify the program: fewer nested sequences and repeats")
         return None
+    if unit.min_period_us is None:
+        reporter.error("period-too-short", f"the firmware's work between two frames cannot be bounded: {unit.work_from}",
+                       plan_.program.main_span, help="report this program as a bug in servoc")
+        return None
+    if plan_.period_us < unit.min_period_us:      # lint reports it first; never write firmware that misses it
+        reporter.error("period-too-short",
+                       f"frame period {plan_.period_us} us is shorter than the {unit.min_period_us} us the firmware needs",
+                       plan_.program.frame_span, help=f"use `frame {unit.min_period_us}us` or longer")
+        return None
+    return unit
 
 
 def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
@@ -151,9 +165,9 @@ def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | 
     return fe, assemble(unit, reporter)
 
 
-def simulate(firmware: Firmware, cycles: int) -> _sim.SimTrace:
-    """Run the firmware in ucsim for `cycles` machine cycles, recording every port write."""
-    return _sim.run(firmware.hex_text, cycles)
+def simulate(hex_text: str, cycles: int) -> _sim.SimTrace:
+    """Run an Intel HEX image in ucsim for `cycles` machine cycles, recording every port write."""
+    return _sim.run(hex_text, cycles)
 
 
 def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
@@ -161,11 +175,16 @@ def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
     return _verify.cycles_needed(plan_, frames)
 
 
-def check_trace(plan_: _plan.Plan, firmware: Firmware, trace: _sim.SimTrace, frames: int) -> _verify.VerifyReport:
+def check_trace(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int) -> _verify.VerifyReport:
     """Compare `frames` frames of a simulation, from the first pulse, with the plan's golden frames."""
-    return _verify.verify(plan_, firmware.unit.rise_offsets, trace, frames)
+    return _verify.verify(plan_, trace, frames)
 
 
 def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.VerifyReport:
     """Simulate and compare `frames` frames, from the first pulse, with the plan's golden frames."""
-    return check_trace(plan_, firmware, simulate(firmware, cycles_needed(plan_, frames)), frames)
+    return verify_hex(plan_, firmware.hex_text, frames)
+
+
+def verify_hex(plan_: _plan.Plan, hex_text: str, frames: int) -> _verify.VerifyReport:
+    """Simulate a HEX image (built from this plan, or given) and compare `frames` frames with the plan."""
+    return check_trace(plan_, simulate(hex_text, cycles_needed(plan_, frames)), frames)

@@ -116,14 +116,13 @@ def _main(argv: list[str] | None) -> int:
         sys.stderr.write("servoc: error: --frames must be at least 1\n")
         return 2
 
-    fe = api.front_end(source, reporter)
     firmware = None
     try:
-        if args.command in ("compile", "verify") and fe.plan is not None and not reporter.has_errors:
-            unit = api.generate(fe.plan, source, reporter)
-            if unit is not None:
-                firmware = api.assemble(unit, reporter)
-    except api.toolchain.ToolNotFound as exc:
+        if args.command in ("compile", "verify"):
+            fe, firmware = api.build(source, reporter)
+        else:
+            fe = api.front_end(source, reporter)
+    except api.ToolNotFound as exc:
         _diagnostics(reporter, args)
         sys.stderr.write(f"servoc: error: {exc}\n")
         return 2
@@ -162,7 +161,7 @@ def _main(argv: list[str] | None) -> int:
         for path, text in ((args.asm, firmware.unit.text), (out, firmware.hex_text)):
             if path:
                 try:
-                    api.toolchain.write_atomic(path, text)
+                    api.write_atomic(path, text)
                 except OSError as exc:
                     sys.stderr.write(f"servoc: error: cannot write {path}: {exc.strerror or exc}\n")
                     return 2
@@ -171,6 +170,7 @@ def _main(argv: list[str] | None) -> int:
               f"RAM {firmware.unit.ram_bytes}/{api.RAM_BYTES} bytes (stack {firmware.unit.stack_bytes})")
         return 0
     frames = args.frames or verify_frames(plan)
+    hex_text = firmware.hex_text
     if args.hex:
         try:
             with open(args.hex, encoding="ascii") as f:
@@ -178,17 +178,16 @@ def _main(argv: list[str] | None) -> int:
         except (OSError, UnicodeDecodeError) as exc:
             sys.stderr.write(f"servoc: error: {args.hex}: cannot read an Intel HEX file ({exc})\n")
             return 2
-        firmware = api.Firmware(firmware.unit, api.toolchain.HexImage(hex_text, 0, {}, ""), 0, 0, 0, 0)
     try:
         if _color(sys.stderr):
             sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
-        trace = api.simulate(firmware, api.cycles_needed(plan, frames))
+        trace = api.simulate(hex_text, api.cycles_needed(plan, frames))
         if _color(sys.stderr):
             sys.stderr.write(" " * 60 + "\r")
-    except api.toolchain.ToolNotFound as exc:
+    except api.ToolNotFound as exc:
         sys.stderr.write(f"servoc: error: {exc}\n")
         return 2
-    report = api.check_trace(plan, firmware, trace, frames)
+    report = api.check_trace(plan, trace, frames)
     if args.vcd:
         from .vcd import MissingExtra, write_vcd
         try:
@@ -211,7 +210,7 @@ def _init(name: str) -> int:
         return 2
     stem = os.path.splitext(os.path.basename(path))[0]
     try:
-        api.toolchain.write_atomic(path, starter(stem))
+        api.write_atomic(path, starter(stem))
     except OSError as exc:
         sys.stderr.write(f"servoc: error: cannot write {path}: {exc.strerror or exc}\n")
         return 2

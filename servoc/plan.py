@@ -418,15 +418,24 @@ class _Walker:
 
 @dataclass(frozen=True)
 class GoldenFrame:
-    n: tuple[int | None, ...]   # per channel; None = no pulse (no target yet)
-    exact: tuple[bool, ...]     # per channel: False where an eased curve allows +-1 N
-    span: Span                  # the statement that produced the frame
+    n: tuple[int | None, ...]       # per channel: the N the firmware sends; None = no pulse (no target yet)
+    curve: tuple[int | None, ...]   # per channel: the language's N (differs from n by at most 1, and only
+                                    # on an eased move's intermediate frames, where the firmware reads its table)
+    span: Span                      # the statement that produced the frame
+
+
+def firmware_value(n0: int, n1: int, k: int, frames: int, ease: str, table: tuple[int, ...]) -> int:
+    """The N the firmware computes at frame k (1..F): the spec's formula for linear moves and for
+    frame F; on an eased move's other frames N0 +- round(|delta| x table[k - 1] / 256) (half up)."""
+    if ease == "linear" or k >= frames:
+        return frame_value(n0, n1, k, frames, ease)
+    step = (abs(n1 - n0) * table[k - 1] + EASE_SCALE // 2) // EASE_SCALE
+    return n0 + step if n1 >= n0 else n0 - step
 
 
 def expand(plan: Plan) -> Iterator[GoldenFrame]:
     """Every frame of the program, from the first timer frame; after main, the last repeats forever."""
     count = len(plan.channels)
-    all_exact = (True,) * count
     state: list[int | None] = [None] * count
     last_span = NO_SPAN
     classes = tuple(c.speed_class for c in plan.channels)
@@ -441,20 +450,18 @@ def expand(plan: Plan) -> Iterator[GoldenFrame]:
             if isinstance(st, MoveStep):
                 f = move_frames_at(st, tuple(state), plan.speed_tables, classes)
                 start = list(state)
-                eased = st.ease != "linear"
                 for k in range(1, f + 1):
-                    exact = list(all_exact)
+                    curve = list(state)
                     for ch, n1 in st.targets:
                         n0 = start[ch]
-                        state[ch] = n1 if n0 is None else frame_value(n0, n1, k, f, st.ease)
-                        if eased and k < f and n0 is not None:
-                            exact[ch] = False
+                        state[ch] = n1 if n0 is None else firmware_value(n0, n1, k, f, st.ease, st.ease_table)
+                        curve[ch] = n1 if n0 is None else frame_value(n0, n1, k, f, st.ease)
                     last_span = st.span
-                    yield GoldenFrame(tuple(state), tuple(exact), st.span)
+                    yield GoldenFrame(tuple(state), tuple(curve), st.span)
             elif isinstance(st, HoldStep):
                 for _ in range(st.frames):
                     last_span = st.span
-                    yield GoldenFrame(tuple(state), all_exact, st.span)
+                    yield GoldenFrame(tuple(state), tuple(state), st.span)
             elif isinstance(st, RepeatStep):
                 for _ in range(st.count):
                     yield from run(st.body)
@@ -471,4 +478,4 @@ def expand(plan: Plan) -> Iterator[GoldenFrame]:
 
     yield from run(plan.main)
     while True:
-        yield GoldenFrame(tuple(state), all_exact, last_span)
+        yield GoldenFrame(tuple(state), tuple(state), last_span)

@@ -3,8 +3,9 @@
 The golden frames of `plan.expand` are compared with the pulses ucsim
 recorded, pulse for pulse: frame 1 is the first frame that carries a pulse;
 frame j of port p rises at T1 + (j - 1) P + the port's offset. Every expected
-pulse must be there with exactly 500 + 8 N cycles (eased intermediate frames:
-within one N), no pulse may appear where the plan has none, every rise must
+pulse must be there with exactly 500 + 8 N cycles, N the value the firmware
+computes (on an eased move's intermediate frames it reads its curve table;
+that N must in turn lie within one N of the language's curve), no pulse may appear where the plan has none, every rise must
 be within the allowed jitter of its slot, servo lines must go low within 20
 cycles of reset, and pins that are not servos (on any port, P3 included)
 must never change.
@@ -17,6 +18,7 @@ from dataclasses import dataclass, field
 
 from .plan import Plan, expand
 from .sim import SimTrace
+from .costs import PORT_CYCLES
 from .units import BASE_US, DIV_US
 
 RESET_LOW_CYCLES = 20
@@ -79,12 +81,17 @@ def cycles_needed(plan: Plan, frames: int) -> int:
     return (lead + frames + 2) * plan.period_us + 5000
 
 
-def verify(plan: Plan, rise_offsets: tuple[int, ...], trace: SimTrace, frames: int) -> VerifyReport:
+def rise_offsets(plan: Plan) -> dict[int, int]:
+    """Cycles from the first port's rise to each port's rise: the ports follow each other."""
+    return {port: PORT_CYCLES * i for i, port in enumerate(plan.ports)}
+
+
+def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
     """Compare `frames` frames from the first pulse with what the simulation recorded."""
     mismatches: list[Mismatch] = []
     lead = first_pulse_frame(plan)
     golden = [] if lead is None else list(itertools.islice(expand(plan), lead, lead + frames))
-    port_offset = dict(zip(plan.ports, rise_offsets))
+    port_offset = rise_offsets(plan)
     pulses = {c.index: trace.pulses(c.port, c.bit) for c in plan.channels}
 
     resets = [trace.first_low(s.port, s.bit) for s in plan.program.servos]
@@ -131,10 +138,12 @@ def verify(plan: Plan, rise_offsets: tuple[int, ...], trace: SimTrace, frames: i
             checked += 1
             err = width - exp_us
             slot_err = rise - (t1 + port_offset[ch.port] + (j - 1) * period)
-            if fr.exact[ch.index] or abs(err) > DIV_US or (width - BASE_US) % DIV_US:
-                max_err = max(max_err, abs(err))
-                if err:
-                    mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width, f"width off by {err} cycles"))
+            max_err = max(max_err, abs(err))
+            if err:
+                mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width, f"width off by {err} cycles"))
+            if abs(n - fr.curve[ch.index]) > 1:
+                mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width,
+                                           f"the firmware's N {n} is more than one N off the curve's {fr.curve[ch.index]}"))
             if abs(slot_err) > MAX_JITTER:
                 mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width,
                                            f"rise {slot_err:+d} cycles from its frame slot"))

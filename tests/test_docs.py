@@ -317,16 +317,14 @@ def test_angle_table():
         assert units.fmt_deg(units.n_to_deg(got)) == exact + "°"
 
 
-def test_min_period_formula():
+def test_min_period_formula(tmp_path: Path):
     text = doc_text()
-    formula = (f"P_min = {costs.PORT_CYCLES} × ports + {costs.FRAME_FIXED_CYCLES} + {costs.LEVEL_CYCLES} × nesting "
-               f"+ {costs.CHANNEL_CYCLES} × servos   (+ {costs.RUNTIME_F_CYCLES} × servos when some move's F is "
-               "found at run time)")
-    assert formula in text
-    # the worked examples quote what the model gives
-    assert f"= {costs.min_period_us(3, 24, False, 2)} µs" in text
-    assert f"= {costs.min_period_us(1, 1, False, 0)} µs" in text
-    assert f"= {costs.min_period_us(1, 1, True, 1)} µs" in text
+    assert f"P_min = {costs.FRAME_IO_FIXED} + {costs.PORT_CYCLES} × ports + W" in text
+    # the worked example quotes what servoc reports
+    (tmp_path / "one.servo").write_text("servo arm = P1.0\npose a { arm: 100 }\nmain { move a }\n", encoding="utf-8")
+    source, reporter = api.load_source(str(tmp_path / "one.servo"))
+    plan = api.front_end(source, reporter).plan
+    assert f"one servo on P1 moved by one pose: P_min = {plan.min_period_us} µs" in text
     assert units.DEFAULT_PERIOD_FLOOR_US == 5300 and units.DEFAULT_T_DAV_US == units.Fraction(7400, 3)
     assert "2.467 ms" in text
 

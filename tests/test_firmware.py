@@ -527,7 +527,7 @@ main {
 """
     built = build_text(text)
     plan = built.plan
-    trace = api.simulate(built.firmware, 40 * plan.period_us)
+    trace = api.simulate(built.firmware.hex_text, 40 * plan.period_us)
     servo_pins = {(0, 1), (1, 6), (1, 2), (1, 4), (2, 3), (2, 0)}
     for port, bit in sorted(servo_pins):
         low = trace.first_low(port, bit)
@@ -555,7 +555,7 @@ main {
 def test_untouched_port_never_written():
     text = "servo a = P2.2\npose p { a: 9 }\nmain { move p }\n"
     built = build_text(text)
-    trace = api.simulate(built.firmware, 5 * built.plan.period_us)
+    trace = api.simulate(built.firmware.hex_text, 5 * built.plan.period_us)
     assert trace.port_writes(0) == [] and trace.port_writes(1) == [] and trace.port_writes(3) == []
     assert {w.value | 0x04 for w in trace.port_writes(2)} == {0xFF}
     assert_exact(built.verify(10))

@@ -104,8 +104,8 @@ def check_long_run(text: str, frames: int = FRAMES, stack_reached: bool = False)
     built = build_text(text)
     plan, firmware = built.plan, built.firmware
     cycles = api.cycles_needed(plan, frames)
-    trace = api.simulate(firmware, cycles)
-    report = api.check_trace(plan, firmware, trace, frames)
+    trace = api.simulate(firmware.hex_text, cycles)
+    report = api.check_trace(plan, trace, frames)
     detail = "\n".join(str(m) for m in report.mismatches[:10])
     assert report.ok, f"{report.summary()}\n{detail}\n--- source:\n{text}"
     check_pulses(plan, firmware.unit, trace, frames, text)

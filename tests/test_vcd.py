@@ -226,7 +226,7 @@ def test_missing_pyvcd_raises_missing_extra(tmp_path, monkeypatch):
 # ============================================================ firmware in ucsim
 
 def simulate(plan, firmware, frames: int) -> SimTrace:
-    return api.simulate(firmware, cycles_needed(plan, frames))
+    return api.simulate(firmware.hex_text, cycles_needed(plan, frames))
 
 
 @pytest.mark.toolchain

@@ -163,7 +163,7 @@ def test_trace_of_another_plan_is_caught(good):
     """verify(plan A, trace of firmware B): B moves b to 121 where A says 120."""
     wrong = other({"b: 120": "b: 121"})
     trace = api.simulate(wrong.firmware, verify.cycles_needed(good.plan, 10))
-    report = verify.verify(good.plan, good.firmware.unit.rise_offsets, trace, 10)
+    report = verify.verify(good.plan, trace, 10)
     assert not report.ok
     m = report.mismatches[0]
     assert (m.frame, m.servo, m.pin, m.expected_us, m.measured_us) == (1, "b", "P1.2", 1460, 1468)

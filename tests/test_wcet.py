@@ -1,0 +1,87 @@
+"""servoc.wcet: cycle counts read from the generated assembly.
+
+The cycle table must agree with the assembler's own (sdas8051 prints each
+instruction's clocks in its listing); the path analysis must add up, take
+the costlier branch, follow calls and returns, and refuse a loop that never
+reaches a frame.
+"""
+
+import pytest
+
+from conftest import build_text, parse_listing, pose, servo_decls
+from servoc import codegen, wcet
+
+
+@pytest.mark.toolchain
+def test_cycle_table_matches_the_assembler_on_generated_firmware():
+    pins = [(p, b) for p in range(3) for b in range(8)]
+    names = [f"s{p}_{b}" for p, b in pins]
+    text = (servo_decls(pins) + pose("a", {n: 10 for n in names}) + pose("b", {n: 200 for n in names})
+            + pose("c", {names[0]: 40})
+            + "sequence s { move b in 900ms ease in-out; hold 40ms }\n"
+            + "main { move a in 1s; repeat 3 { play s; move c; move a } }\n")
+    built = build_text(text)
+    listed, _ = parse_listing(built.firmware.image.listing)
+    ours = wcet.Code(built.firmware.unit.text).instrs
+    assert len(ours) == len(listed) > 500
+    wrong = [(o.op, o.args, o.cycles, l.cycles) for o, l in zip(ours, listed) if (o.op, o.cycles) != (l.op, l.cycles)]
+    assert not wrong, wrong[:10]
+
+
+def test_cycles_of_known_instructions():
+    assert wcet.cycles_of("MOV", ("A", "R0")) == 1
+    assert wcet.cycles_of("MOV", ("0x30", "0x31")) == 2
+    assert wcet.cycles_of("MOV", ("R1", "0x31")) == 2
+    assert wcet.cycles_of("MOV", ("0x20", "C")) == 2
+    assert wcet.cycles_of("ANL", ("P1", "#0xFE")) == 2
+    assert wcet.cycles_of("ANL", ("P1", "A")) == 1
+    assert wcet.cycles_of("MUL", ("AB",)) == 4
+    assert wcet.cycles_of("INC", ("DPTR",)) == 2
+    with pytest.raises(wcet.WcetError):
+        wcet.cycles_of("FOO", ())
+
+
+SMALL = """
+main:
+        MOV     A, #1           ; 1
+        LCALL   frame_io        ; 2
+        JZ      skip            ; 2
+        MUL     AB              ; 4
+skip:   LCALL   work            ; 2
+        SJMP    main            ; 2
+work:   NOP                     ; 1
+        RET                     ; 2
+frame_io:
+        RET
+"""
+
+
+def test_longest_path_takes_the_costlier_branch_and_follows_calls():
+    code = wcet.Code(SMALL)
+    cycles, start = code.between_frames()
+    # behind LCALL frame_io: JZ 2 + MUL 4 + LCALL 2 + NOP 1 + RET 2 + SJMP 2 + MOV 1 + LCALL frame_io 2
+    assert cycles == 16
+    assert code.instrs[start].op == "JZ"
+
+
+def test_a_loop_that_reaches_no_frame_is_an_error():
+    looping = SMALL.replace("SJMP    main", "SJMP    skip")
+    with pytest.raises(wcet.WcetError, match="reaches no frame"):
+        wcet.Code(looping).between_frames()
+
+
+def test_counted_pad_loops_are_bounded():
+    padded = SMALL.replace("work:   NOP", "work:   MOV     R7, #5\n        DJNZ    R7, .")
+    # MOV 1 + DJNZ 2 x 5 instead of NOP 1
+    assert wcet.Code(padded).between_frames()[0] == 16 - 1 + 1 + 10
+
+
+def test_generated_code_budget_names_its_start():
+    from servoc.plan import plan as make_plan
+    from conftest import front_end_text
+    fe, _ = front_end_text(servo_decls([(1, 0), (1, 1)]) + pose("a", {"s1_0": 1, "s1_1": 2})
+                           + pose("b", {"s1_0": 100, "s1_1": 3}) + "main { loop { move a in 1s; move b in 1s } }\n")
+    unit = codegen.generate(fe.plan)
+    assert unit.work_cycles and unit.min_period_us == 13 + 2510 + unit.work_cycles
+    assert unit.work_from
+    assert make_plan(fe.plan.program).min_period_us == unit.min_period_us
