@@ -384,7 +384,7 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
                   lists=ctx.lists, flag_end=FLAG_END, ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
                   block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES,
                   channels=plan.channels)
-    offsets = tuple(PORT_CYCLES * i for i in range(len(plan.ports)))
+    offsets = tuple(costs.rise_offsets(plan.ports).values())
     ram_bytes = ram.next + 4 * 24 + stack_bytes
     breakdown: dict[str, int] = {}
     for r in ctx.records:

@@ -30,6 +30,11 @@ PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
 FRAME_IO_FIXED = 2 + 7 + 2 + 2
 
 
+def rise_offsets(ports: tuple[int, ...]) -> dict[int, int]:
+    """Cycles from the first port's rise to each port's rise: the port routines follow each other."""
+    return {port: PORT_CYCLES * i for i, port in enumerate(ports)}
+
+
 def frame_cycles(port_count: int, work_cycles: int) -> int:
     """The shortest frame period for `port_count` ports and the longest work between frames."""
     return FRAME_IO_FIXED + PORT_CYCLES * port_count + work_cycles

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 
 from .plan import Plan, expand
 from .sim import SimTrace
-from .costs import PORT_CYCLES
+from .costs import rise_offsets
 from .units import BASE_US, DIV_US
 
 RESET_LOW_CYCLES = 20
@@ -81,17 +81,12 @@ def cycles_needed(plan: Plan, frames: int) -> int:
     return (lead + frames + 2) * plan.period_us + 5000
 
 
-def rise_offsets(plan: Plan) -> dict[int, int]:
-    """Cycles from the first port's rise to each port's rise: the ports follow each other."""
-    return {port: PORT_CYCLES * i for i, port in enumerate(plan.ports)}
-
-
 def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
     """Compare `frames` frames from the first pulse with what the simulation recorded."""
     mismatches: list[Mismatch] = []
     lead = first_pulse_frame(plan)
     golden = [] if lead is None else list(itertools.islice(expand(plan), lead, lead + frames))
-    port_offset = rise_offsets(plan)
+    port_offset = rise_offsets(plan.ports)
     pulses = {c.index: trace.pulses(c.port, c.bit) for c in plan.channels}
 
     resets = [trace.first_low(s.port, s.bit) for s in plan.program.servos]

@@ -131,13 +131,13 @@ def high_pulses(wave: list[tuple[int, int]]) -> list[tuple[int, int]]:
 
 
 def golden_widths(plan, channel, frames: int) -> list[tuple[int, bool]]:
-    """(500 + 8 N, exact) of `channel` in the first `frames` frames from the first pulse."""
+    """(500 + 8 N, N on the language's curve) of `channel` in the first `frames` frames from the first pulse."""
     lead = first_pulse_frame(plan)
     out = []
     for fr in itertools.islice(expand(plan), lead, lead + frames):
         n = fr.n[channel.index]
         if n is not None:
-            out.append((BASE_US + DIV_US * n, fr.exact[channel.index]))
+            out.append((BASE_US + DIV_US * n, n == fr.curve[channel.index]))
     return out
 
 
