@@ -15,7 +15,7 @@ import os
 from dataclasses import dataclass
 
 from . import check as _check
-from . import codegen, lint as _lint, syntax, toolchain
+from . import codegen, layout, lint as _lint, syntax, toolchain
 from . import plan as _plan
 from . import sim as _sim
 from . import verify as _verify
@@ -23,7 +23,7 @@ from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
 
 ROM_BYTES = toolchain.AT89C52_ROM_SIZE
-RAM_BYTES = 256
+RAM_BYTES = layout.RAM_SIZE
 
 
 ToolNotFound = toolchain.ToolNotFound
@@ -113,9 +113,8 @@ def generate(plan_: _plan.Plan, source: SourceFile, reporter: Reporter) -> codeg
     """Plan -> assembly text. Resource limits become diagnostics."""
     try:
         unit = codegen.generate(plan_, source)
-    except codegen.CodegenError as exc:
-        reporter.error("resources", str(exc), plan_.program.main_span,
-                       help="simplify the program: fewer nested sequences and repeats")
+    except layout.LayoutError as exc:
+        reporter.error(exc.code, str(exc), plan_.program.main_span, help=exc.help)
         return None
     if unit.min_period_us is None:
         reporter.error("period-too-short", f"the firmware's work between two frames cannot be bounded: {unit.work_from}",
@@ -132,26 +131,21 @@ def generate(plan_: _plan.Plan, source: SourceFile, reporter: Reporter) -> codeg
 def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
     """Assembly -> Intel HEX via sdas8051 and sdld, with ROM/RAM checked against the AT89C52."""
     image = toolchain.assemble(unit.text, name="servo")
-    sym = image.symbols
-    runtime = sym["runtime_end"] - sym["runtime_start"]
-    program = sym["program_end"] - sym["runtime_end"]
-    data = sym["data_end"] - sym["data_start"] + 512 * len(unit.fneed_pages)
-    end = sym["data_end"]
-    limit = min(unit.fneed_pages) * 256 if unit.fneed_pages else ROM_BYTES
-    used = toolchain.rom_used(image.hex_text)
-    if end > limit:
+    room = layout.fit(image.symbols, unit.fneed_pages, ROM_BYTES)
+    if not room.fits:
         reporter.error("rom-overflow",
-                       f"the firmware needs {end + (ROM_BYTES - limit)} bytes of code memory, the AT89C52 has {ROM_BYTES}: "
-                       f"runtime {runtime}, program {program}, motion data {data} ("
+                       f"the firmware needs {room.needed} bytes of code memory, the AT89C52 has {ROM_BYTES}: "
+                       f"runtime {room.runtime}, program {room.program}, motion data {room.data} ("
                        + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")",
                        NO_SPAN,
                        help="shorten the program: fewer distinct moves (play a sequence several times instead of "
                             "writing its moves out again), shorter eased moves, or one `speed` for servos of one model")
         return None
     if unit.ram_bytes > RAM_BYTES:
-        reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the AT89C52 has {RAM_BYTES}")
+        reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the AT89C52 has {RAM_BYTES}",
+                       help=layout.RamFull.help)
         return None
-    return Firmware(unit, image, used, runtime, program, data)
+    return Firmware(unit, image, toolchain.rom_used(image.hex_text), room.runtime, room.program, room.data)
 
 
 def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | None]:

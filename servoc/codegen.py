@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import jinja2
 
-from . import resources
+from . import layout, resources
 from . import costs
 from .toolchain import AT89C52_ROM_SIZE
 from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
@@ -50,15 +50,8 @@ BLOCK_BYTES = 18            # bytes of one edge block (see pulse.asm.j2)
 CE_CYCLES = 13              # one compare-exchange, either way
 MERGE_CYCLES = 16           # one sorted line after the first, edge or merge
 FIRST_CYCLES = 10           # the smallest line
-STACK_BASE = 0x100 - costs.STACK_BYTES   # the stack lives in 0xE0..0xFF
-STATE_BASE = 0x80           # 4 bytes of motion state per pin: 0x80 + 4 x pin
-CUR_BASE = 0x08             # current N per pin: 0x08 + pin
-# Record flags (FLAGS bits 2 and 3 are the runtime's own: records leave them 0).
-FLAG_EASED, FLAG_NODUR, FLAG_F8, FLAG_ALL, FLAG_HOLD, FLAG_END = 0x01, 0x02, 0x10, 0x20, 0x40, 0x80
 TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
 FNEED_TOP = AT89C52_ROM_SIZE     # frames-needed tables: whole pages after the motion data, budgeted below the 8 KB top
-# Bit-addressable bytes: one bit per pin (port x 8 + bit).
-ACT, MOVB, DIRB, RMASK, FLAGS = 0x20, 0x23, 0x26, 0x29, 0x2C
 
 
 def edges_cycles(s: int) -> int:
@@ -85,12 +78,7 @@ def head_pad(s: int) -> tuple[int, int]:
     return loops, nops
 
 
-def _bit(byte: int, pin: int) -> int:
-    return (byte - 0x20) * 8 + pin
-
-
-class CodegenError(Exception):
-    """A program that is valid but does not fit the firmware's resources."""
+CodegenError = layout.LayoutError
 
 
 @dataclass(frozen=True)
@@ -109,8 +97,7 @@ class AsmUnit:
     min_period_us: int | None = None   # the shortest frame period this code holds (None: unbounded)
 
 
-def _hex8(v: int) -> str:
-    return f"0x{v & 0xFF:02X}"
+_hex8 = layout.hex8
 
 
 def _hex16(v: int) -> str:
@@ -143,22 +130,6 @@ def render(template: str, **context) -> str:
 
 # ----------------------------------------------------------------- layout
 
-class _Ram:
-    """A bump allocator over direct RAM 0x20..0x7F (0x08..0x1F holds CUR)."""
-
-    def __init__(self) -> None:
-        self.next = 0x20
-        self.symbols: list[tuple[str, int, str]] = []
-
-    def alloc(self, name: str, size: int, what: str) -> int:
-        addr = self.next
-        self.next += size
-        if self.next > 0x80:
-            raise CodegenError("direct RAM is full")
-        self.symbols.append((name, addr, what))
-        return addr
-
-
 @dataclass
 class _Ctx:
     plan: Plan
@@ -188,54 +159,33 @@ def _static_frames(plan: Plan, step: MoveStep) -> int | None:
     return seen.pop() if len(seen) == 1 else None
 
 
-def _frames_bytes(frames: int) -> tuple[int, list[str]]:
-    """F as one byte (flag F8) when it fits, else two."""
-    if frames < 0x100:
-        return FLAG_F8, [_hex8(frames)]
-    return 0, [_hex8(frames), _hex8(frames >> 8)]
-
-
 def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
     plan = ctx.plan
     frames = _static_frames(plan, step)
-    flags = (FLAG_EASED if step.ease != "linear" else 0) | (FLAG_NODUR if frames is None else 0)
-    data: list[str] = []
-    notes: list[str] = [f"move {step.pose}"]
-    if frames is None:
-        notes.append("F found at run time")
-    else:
-        f8, fb = _frames_bytes(frames)
-        flags |= f8
-        data += fb
-        notes.append(f"F = {frames}")
+    notes: list[str] = [f"move {step.pose}", "F found at run time" if frames is None else f"F = {frames}"]
+    label = None
     if step.ease != "linear":
         key = (step.ease, step.frames)
-        if key not in ctx.ease_tables:
-            ctx.ease_tables[key] = f"etab{len(ctx.ease_tables) + 1}"
-        lab = ctx.ease_tables[key]
-        data += [f"<{lab}", f">{lab}"]
-        notes.append(f"ease {step.ease} table {lab}")
+        label = ctx.ease_tables.setdefault(key, f"etab{len(ctx.ease_tables) + 1}")
+        notes.append(f"ease {step.ease} table {label}")
     targets = dict(step.targets)
+    masks = None
     if len(targets) == len(plan.channels):
-        flags |= FLAG_ALL
         notes.append("every servo")
     else:
+        masks = []
         for port in plan.ports:
             chans = [c for c in plan.channels if c.port == port and c.index in targets]
-            data.append(_hex8(sum(1 << c.bit for c in chans)))
+            masks.append(sum(1 << c.bit for c in chans))
             notes.append(f"P{port}: " + (", ".join(c.name for c in chans) or "none"))
-    for c in plan.channels:
-        if c.index in targets:
-            data.append(str(targets[c.index]))
-            notes.append(f"{c.name} N {targets[c.index]}")
-    return {"flags": flags, "data": [_hex8(flags)] + data, "notes": notes, "where": ctx.where(step.span),
-            "owner": ctx.owner}
+    notes += [f"{c.name} N {targets[c.index]}" for c in plan.channels if c.index in targets]
+    flags, data = layout.move_record(frames, label, targets, masks)
+    return {"flags": flags, "data": data, "notes": notes, "where": ctx.where(step.span), "owner": ctx.owner}
 
 
 def _hold_record(ctx: _Ctx, step: HoldStep) -> dict:
-    f8, fb = _frames_bytes(step.frames)
-    flags = FLAG_HOLD | f8
-    return {"flags": flags, "data": [_hex8(flags)] + fb, "notes": [f"hold F = {step.frames}"],
+    flags, data = layout.hold_record(step.frames)
+    return {"flags": flags, "data": data, "notes": [f"hold F = {step.frames}"],
             "where": ctx.where(step.span), "owner": ctx.owner}
 
 
@@ -296,25 +246,13 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
                           "where": ctx.where(seq.span)})
     stack_bytes = costs.stack_bytes(plan.nesting)
     if stack_bytes > costs.STACK_BYTES:     # lint's `too-deep` reports this first
-        raise CodegenError(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
-                           f"the firmware has {costs.STACK_BYTES}")
+        raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
+                                  f"the firmware has {costs.STACK_BYTES}")
 
-    ram = _Ram()
-    ram.symbols += [("ACT", ACT, "per port: lines that have a target (the rise mask); bit address = pin"),
-                    ("MOVB", MOVB, "per port: lines moving in the current move; bit address 0x18 + pin"),
-                    ("DIRB", DIRB, "per port: lines moving down; bit address 0x30 + pin"),
-                    ("RMASK", RMASK, "per port: lines the current record names; bit address 0x48 + pin"),
-                    ("FLAGS", FLAGS, "move flags, bits below")]
-    flag_bits = [("EASED", _bit(FLAGS, 0), "FLAGS.0: the current move is eased"),
-                 ("NODUR", _bit(FLAGS, 1), "FLAGS.1: F is found at run time"),
-                 ("LASTF", _bit(FLAGS, 2), "FLAGS.2: this is the move's last frame"),
-                 ("DIRF", _bit(FLAGS, 3), "FLAGS.3: the pin being stepped moves down"),
-                 ("F8", _bit(FLAGS, 4), "FLAGS.4: the record's F is one byte"),
-                 ("ALLF", _bit(FLAGS, 5), "FLAGS.5: the move names every servo: no masks"),
-                 ("HOLDF", _bit(FLAGS, 6), "FLAGS.6: the record is a hold")]
-    ram.next = FLAGS + 1
+    ram = layout.RamAllocator()
+    ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
-    ram.next = 0x30
+    ram.next = layout.WORK_BASE
     ram.alloc("WN", 8, "sort work: N")
     ram.alloc("WM", 8, "sort work: AND masks")
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
@@ -335,7 +273,7 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
         ports.append({
             "port": port, "s": n,
             "all_mask": sum(1 << b for b in bits),
-            "pins": [{"i": i, "bit": b, "cur": CUR_BASE + 8 * port + b, "mask": 0xFF ^ (1 << b),
+            "pins": [{"i": i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "mask": 0xFF ^ (1 << b),
                       "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
                      for i, b in enumerate(bits)],
             "fin": fin, "edges_cycles": edges_cycles(n),
@@ -348,14 +286,15 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     chans = []
     for c in plan.channels:
         pin = 8 * c.port + c.bit
-        chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": CUR_BASE + pin,
-                      "state": STATE_BASE + 4 * pin, "act_bit": _bit(ACT, pin), "mov_bit": _bit(MOVB, pin),
-                      "dir_bit": _bit(DIRB, pin), "rm_bit": _bit(RMASK, pin)})
+        bits = {name.lower() + "_bit": layout.bit_address(layout.ADDR[name], pin) for name in ("ACT", "MOVB", "DIRB", "RMASK")}
+        chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + pin,
+                      "state": layout.STATE_BASE + layout.STATE_BYTES * pin, "act_bit": bits["act_bit"],
+                      "mov_bit": bits["movb_bit"], "dir_bit": bits["dirb_bit"], "rm_bit": bits["rmask_bit"]})
     reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
                     "names": ", ".join(s.name for s in plan.program.servos if s.port == port)}
                    for port in sorted({s.port for s in plan.program.servos})]
 
-    nodur = any(r["flags"] & FLAG_NODUR for r in ctx.records)
+    nodur = any(r["flags"] & layout.FLAG["NODUR"] for r in ctx.records)
     fneed = []
     if nodur:
         for cls, table in enumerate(plan.speed_tables):
@@ -363,7 +302,7 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
             fneed.append({"cls": cls, "page": page, "label": f"fneed{cls}", "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
                           "t_dav": f"{float(plan.class_t_dav_us[cls]):.1f}"})
         if max(max(t) for t in plan.speed_tables) > 0xFFFF:
-            raise CodegenError("a servo is too slow for the frames-needed tables")
+            raise layout.SlowServo("a servo is too slow for the frames-needed tables")
     pin_page = ["0"] * 24
     for c in plan.channels:
         if fneed:
@@ -376,16 +315,16 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     reload = 0x10000 - plan.period_us
     tick_fix = (TICK_PARITY - reload) & 0xFF
     text = render("firmware.asm.j2",
-                  source="" if source is None else source.path.rsplit("/", 1)[-1], plan=plan, period=plan.period_us, reload=reload, tick_fix=tick_fix,
-                  ram=ram.symbols, act=ACT, movb=MOVB, dirb=DIRB, rmask=RMASK, flags=FLAGS,
-                  edge_routines=edge_routines, chans=chans, flag_bits=flag_bits, head_cycles=HEAD_CYCLES,
-                  cur_base=CUR_BASE, minus_cur=-CUR_BASE & 0xFF, state_base=STATE_BASE, stack_init=STACK_BASE - 1,
+                  source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
+                  reload=reload, tick_fix=tick_fix, ram=ram.symbols, flag_bits=layout.flag_equates(),
+                  end_bit=layout.RECORD_FLAGS[-1].bit, edge_routines=edge_routines, chans=chans,
+                  head_cycles=HEAD_CYCLES, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
+                  state_base=layout.STATE_BASE, stack_base=layout.STACK_BASE,
                   ports=ports, reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
-                  lists=ctx.lists, flag_end=FLAG_END, ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
-                  block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES,
-                  channels=plan.channels)
+                  lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
+                  block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES)
     offsets = tuple(costs.rise_offsets(plan.ports).values())
-    ram_bytes = ram.next + 4 * 24 + stack_bytes
+    ram_bytes = ram.total(24, stack_bytes)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
         breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])

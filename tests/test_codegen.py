@@ -109,7 +109,7 @@ def test_too_deep_nesting_is_a_diagnostic_not_an_exception(tmp_path):
     # api.generate alone reports it too, as a diagnostic, without raising.
     rep = Reporter(source)
     assert api.generate(fe.plan, source, rep) is None
-    assert [d.code for d in rep.diagnostics] == ["resources"]
+    assert [d.code for d in rep.diagnostics] == ["too-deep"]
     assert re.search(r"needs \d+ bytes of stack, the firmware has 32", rep.diagnostics[0].message)
 
 

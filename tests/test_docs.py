@@ -121,6 +121,12 @@ def reported_codes(*files: str) -> dict[str, str]:
 CHECKER_FILES = tuple(sorted(str(p.relative_to(SERVOC)) for p in (SERVOC / "check").glob("*.py")))
 
 
+def layout_codes() -> dict[str, str]:
+    """Codes of the firmware's resource errors (servoc/layout.py: `code = "..."` on each LayoutError)."""
+    from servoc import layout
+    return {cls.code: "error" for cls in layout.LayoutError.__subclasses__()}
+
+
 def checker_codes() -> dict[str, str]:
     return reported_codes(*CHECKER_FILES, "syntax.py")
 
@@ -291,7 +297,7 @@ def test_every_code_has_a_wrong_example():
 
 
 def test_every_code_is_documented_with_its_severity():
-    actual = {**reported_codes(*CHECKER_FILES, "syntax.py", "api.py"), **registry_codes()}
+    actual = {**reported_codes(*CHECKER_FILES, "syntax.py", "api.py"), **layout_codes(), **registry_codes()}
     documented = code_severities()
     missing = sorted(set(actual) - set(documented))
     assert not missing, f"codes with no `### CODE (severity)` heading in docs/: {missing}"
@@ -359,4 +365,4 @@ def test_nesting_limit(levels: int, tmp_path: Path):
         assert unit is not None and codes == []
     else:
         assert lint_codes == ["too-deep"]
-        assert unit is None and codes == ["too-deep", "resources"]
+        assert unit is None and codes == ["too-deep", "too-deep"]

@@ -221,7 +221,7 @@ def check_compile(path: str, text: str, lint_diags: list[Diag]) -> Run:
     if any(d.severity == "error" for d in lint_diags):
         assert run.rc == 1 and diags == lint_shown
     else:   # the front end passed: only resource errors may be added
-        resource = ("resources", "rom-overflow", "ram-overflow")
+        resource = ("too-slow", "too-deep", "rom-overflow", "ram-overflow")
         assert [d for d in diags if d.code not in resource] == lint_shown, (diags, lint_shown)
         assert all(d.severity == "error" for d in diags if d.code in resource)
     after = sorted(os.listdir(folder))

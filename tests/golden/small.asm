@@ -19,6 +19,7 @@ TR2     = 0xCA              ; T2CON.2: Timer2 run
 ; ---------------------------------------------------------------- RAM
 CUR     = 0x08              ; current N of pin p (0..23) at CUR + p
 STATE   = 0x80              ; motion state of pin p at STATE + 4 p: Q|N0, REM|DMAG, ERR lo, ERR hi
+STACK   = 0xE0              ; the stack: STACK..0xFF
 ACT     = 0x20              ; per port: lines that have a target (the rise mask); bit address = pin
 MOVB    = 0x23              ; per port: lines moving in the current move; bit address 0x18 + pin
 DIRB    = 0x26              ; per port: lines moving down; bit address 0x30 + pin
@@ -46,17 +47,18 @@ DIRF    = 0x63              ; FLAGS.3: the pin being stepped moves down
 F8      = 0x64              ; FLAGS.4: the record's F is one byte
 ALLF    = 0x65              ; FLAGS.5: the move names every servo: no masks
 HOLDF   = 0x66              ; FLAGS.6: the record is a hold
+ENDF    = 0x67              ; FLAGS.7: the end of a record list
 
 ; ---------------------------------------------------------------- reset
         .org    0x0000
 reset:
         ANL     P1, #0xF6        ; 2  servo lines low at once: pan, tilt
         ANL     P2, #0xBF        ; 2  servo lines low at once: claw
-        MOV     SP, #0xDF          ; 2  stack in 0xE0..0xFF
+        MOV     SP, #STACK-1            ; 2  the first PUSH writes STACK
         MOV     R0, #CUR
 clear:  MOV     @R0, #0                 ; clear CUR, flags, work and motion state
         INC     R0
-        CJNE    R0, #0xE0, clear
+        CJNE    R0, #STACK, clear
         MOV     RCAP2L, #0x90
         MOV     RCAP2H, #0xE8
         MOV     TL2, #0x90
@@ -68,12 +70,12 @@ clear:  MOV     @R0, #0                 ; clear CUR, flags, work and motion stat
 runtime_start::
 
 ; run_list: run a list of records (moves and holds). DPTR -> the first record;
-; each starts with a flags byte, and 0x80 ends the list.
+; each starts with a flags byte, and one with ENDF (bit 7) ends the list.
 run_list:
         CLR     A
         MOVC    A, @A+DPTR
         INC     DPTR
-        JB      ACC.7, rl_end
+        JB      ACC.7, rl_end            ; ENDF
         MOV     FLAGS, A
         MOV     SEGF, #0                ; F: one or two bytes, or none when found at run time
         MOV     SEGF+1, #0

@@ -1,0 +1,186 @@
+"""The firmware's layout: RAM map, record format and encoder, and how an image fits the chip.
+
+Code generation and the templates take every address, flag and record byte
+from here, and `api.assemble` reads the fit report from here, so each fact
+about the firmware's memory is stated once.
+
+RAM (AT89C52, 256 bytes):
+    0x00-0x07  register bank 0
+    0x08-0x1F  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
+    0x20-0x2C  bit-addressable per-port masks (ACT, MOVB, DIRB, RMASK) and FLAGS
+    0x2D-0x7F  direct variables, sort work and each port's edge blocks (allocated in order)
+    0x80-0xDF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
+    0xE0-0xFF  the stack (STACK_BYTES)
+
+A record list is a run of move and hold records in code memory; each record
+starts with a flags byte (RECORD_FLAGS) and a flags byte with ENDF ends the list.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from . import costs
+
+RAM_SIZE = 256
+CUR_BASE = 0x08                 # current N per pin
+STATE_BASE = 0x80               # motion state, 4 bytes per pin
+STATE_BYTES = 4
+DIRECT_END = 0x80               # direct addressing reaches 0x00..0x7F
+STACK_BASE = RAM_SIZE - costs.STACK_BYTES
+WORK_BASE = 0x30                # sort work and variables after the bit-addressable bytes
+
+# Bit-addressable bytes: (name, address, what). A pin's bit address is (byte - 0x20) x 8 + pin.
+MASK_BYTES = (
+    ("ACT", 0x20, "per port: lines that have a target (the rise mask); bit address = pin"),
+    ("MOVB", 0x23, "per port: lines moving in the current move; bit address 0x18 + pin"),
+    ("DIRB", 0x26, "per port: lines moving down; bit address 0x30 + pin"),
+    ("RMASK", 0x29, "per port: lines the current record names; bit address 0x48 + pin"),
+    ("FLAGS", 0x2C, "move flags, bits below"),
+)
+ADDR = {name: addr for name, addr, _ in MASK_BYTES}
+
+
+def bit_address(byte: int, bit: int) -> int:
+    return (byte - 0x20) * 8 + bit
+
+
+@dataclass(frozen=True)
+class Flag:
+    name: str
+    bit: int
+    what: str
+    in_record: bool = True      # False: the runtime's own bit, records leave it 0
+
+    @property
+    def value(self) -> int:
+        return 1 << self.bit
+
+
+RECORD_FLAGS = (
+    Flag("EASED", 0, "the current move is eased"),
+    Flag("NODUR", 1, "F is found at run time"),
+    Flag("LASTF", 2, "this is the move's last frame", in_record=False),
+    Flag("DIRF", 3, "the pin being stepped moves down", in_record=False),
+    Flag("F8", 4, "the record's F is one byte"),
+    Flag("ALLF", 5, "the move names every servo: no masks"),
+    Flag("HOLDF", 6, "the record is a hold"),
+    Flag("ENDF", 7, "the end of a record list"),
+)
+FLAG = {f.name: f.value for f in RECORD_FLAGS}
+
+
+def flag_equates() -> list[tuple[str, int, str]]:
+    """(name, bit address in FLAGS, what) for the template's equates."""
+    return [(f.name, bit_address(ADDR["FLAGS"], f.bit), f"FLAGS.{f.bit}: {f.what}") for f in RECORD_FLAGS]
+
+
+# ----------------------------------------------------------------- errors
+
+class LayoutError(Exception):
+    """A valid program that does not fit the firmware's resources: a code and a help line."""
+    code = "resources"
+    help = "simplify the program"
+
+
+class RamFull(LayoutError):
+    code = "ram-overflow"
+    help = "use fewer ports or servos: each port in use needs its own edge blocks in direct RAM"
+
+
+class StackTooDeep(LayoutError):
+    code = "too-deep"
+    help = f"nest `repeat` and `play` at most {costs.max_nesting()} levels deep"
+
+
+class SlowServo(LayoutError):
+    code = "too-slow"
+    help = "give the move a duration, or a `speed` the frames-needed table can hold (F < 65536)"
+
+
+class RamAllocator:
+    """A bump allocator over direct RAM from WORK_BASE up to DIRECT_END."""
+
+    def __init__(self) -> None:
+        self.next = WORK_BASE
+        self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)
+
+    def alloc(self, name: str, size: int, what: str) -> int:
+        addr = self.next
+        self.next += size
+        if self.next > DIRECT_END:
+            raise RamFull(f"direct RAM is full: {name} does not fit below 0x{DIRECT_END:02X}")
+        self.symbols.append((name, addr, what))
+        return addr
+
+    def total(self, pins: int, stack: int) -> int:
+        """Bytes of RAM in use: direct RAM, the motion state of every pin and the stack."""
+        return self.next + STATE_BYTES * pins + stack
+
+
+# ----------------------------------------------------------------- records
+
+def hex8(v: int) -> str:
+    return f"0x{v & 0xFF:02X}"
+
+
+def frames_bytes(frames: int) -> tuple[int, list[str]]:
+    """F as one byte (flag F8) when it fits, else two (low, high)."""
+    if frames < 0x100:
+        return FLAG["F8"], [hex8(frames)]
+    return 0, [hex8(frames), hex8(frames >> 8)]
+
+
+def move_record(frames: int | None, ease_label: str | None, targets: dict[int, int],
+                masks: list[int] | None) -> tuple[int, list[str]]:
+    """(flags, bytes) of a move record: flags, [F], [curve table], [per-port masks], target N per named pin.
+    `masks` is None when the move names every servo."""
+    flags = (FLAG["EASED"] if ease_label else 0) | (FLAG["NODUR"] if frames is None else 0)
+    data: list[str] = []
+    if frames is not None:
+        f8, fb = frames_bytes(frames)
+        flags |= f8
+        data += fb
+    if ease_label:
+        data += [f"<{ease_label}", f">{ease_label}"]
+    if masks is None:
+        flags |= FLAG["ALLF"]
+    else:
+        data += [hex8(m) for m in masks]
+    data += [str(n) for _, n in sorted(targets.items())]
+    return flags, [hex8(flags)] + data
+
+
+def hold_record(frames: int) -> tuple[int, list[str]]:
+    f8, fb = frames_bytes(frames)
+    flags = FLAG["HOLDF"] | f8
+    return flags, [hex8(flags)] + fb
+
+
+# ----------------------------------------------------------------- fit report
+
+@dataclass(frozen=True)
+class Fit:
+    """How an assembled image uses code memory (bytes)."""
+    runtime: int          # the runtime routines
+    program: int          # the program's native control flow
+    data: int             # move records, curve tables and frames-needed tables
+    end: int              # first address after the motion data
+    limit: int            # the motion data must end at or below this address
+    needed: int           # code memory the image needs in all
+
+    @property
+    def fits(self) -> bool:
+        return self.end <= self.limit
+
+
+def fit(symbols: dict[str, int], fneed_pages: tuple[int, ...], rom_size: int) -> Fit:
+    """The fit report from the image's section labels (runtime_start, runtime_end, program_end,
+    data_start, data_end) and the pages the frames-needed tables take at the top."""
+    runtime = symbols["runtime_end"] - symbols["runtime_start"]
+    program = symbols["program_end"] - symbols["runtime_end"]
+    tables = 512 * len(fneed_pages)
+    data = symbols["data_end"] - symbols["data_start"] + tables
+    end = symbols["data_end"]
+    limit = min(fneed_pages) * 256 if fneed_pages else rom_size
+    return Fit(runtime, program, data, end, limit, end + (rom_size - limit))
