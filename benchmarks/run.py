@@ -3,19 +3,20 @@
     .venv/bin/python benchmarks/run.py            # full run, a few minutes
     .venv/bin/python benchmarks/run.py --quick    # reduced run, under a minute
 
-See benchmarks/suite.py for what is measured and how.
+See benchmarks/suite.py for what is reported, benchmarks/baselines.py and
+benchmarks/budget.py for how it is measured.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
+from pathlib import Path
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import suite
 
-import suite  # noqa: E402
+BENCH_DIR = Path(__file__).resolve().parent
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -26,7 +27,7 @@ def main(argv: list[str] | None = None) -> int:
                     help="where to write the results (default: benchmarks/results.json, "
                          "benchmarks/results_quick.json with --quick)")
     args = ap.parse_args(argv)
-    out = args.json or str(suite.BENCH_DIR / ("results_quick.json" if args.quick else "results.json"))
+    out = args.json or str(BENCH_DIR / ("results_quick.json" if args.quick else "results.json"))
 
     def progress(text: str) -> None:
         print(f"[bench] {text}", file=sys.stderr, flush=True)

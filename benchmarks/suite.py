@@ -1,21 +1,13 @@
-"""The benchmark suite: servoc's firmware against two baselines, and the compiler's own figures.
+"""The benchmark report: servoc's firmware against two baselines, and the compiler's own figures.
 
-Baselines (benchmarks/baselines/), each driving 8 servos on P1 with the same
-positions `POSITIONS`:
-- hobby.c: C for `sdcc -mmcs51 --model-small`, a 20 ms frame in eight 2.5 ms
-  Timer0 slots;
-- source_algorithm.asm: the source note's cycle transcribed plainly for
-  sdas8051 (rise together, bubble sort, differences, DJNZ delays, 2.8 ms tail).
-
-All three firmwares run in ucsim and go through the same decoder
-(`SimTrace.pulses` and `SimTrace.first_low`): width error per channel
-(measured width minus 500 + 8 N), frame period (mean rise-to-rise), jitter
-(max - min rise-to-rise) and how long the lines stay high after reset.
-
-servoc's own figures: cycles between frames (shortest exactly verified P
-minus the port routines) for the worst-case programs of `stress.py` and for a
-program holding a pose, the default P it picks, ROM (runtime, per keyframe,
-keyframes that fit 8 KB), RAM, and the time of each compiler stage.
+- `compare`: servoc's firmware and the two baselines (baselines.py) drive the
+  same 8 servos on P1 and go through one decoder: width error per channel,
+  frame period, jitter, lines high after reset, ROM.
+- `budget.frame_budget`: the shortest P servoc reports next to the shortest
+  that verifies exactly in ucsim, for the worst-case stress programs and a
+  held pose (budget.py), and the default P servoc picks.
+- `memory`: ROM (runtime, per keyframe, keyframes that fit 8 KB) and RAM.
+- `compiler_time`: the time of each compiler stage.
 
 `run_all(quick)` returns everything as one JSON-ready dict; `table(results)`
 renders it as a markdown table. benchmarks/run.py is the command line.
@@ -23,199 +15,43 @@ renders it as a markdown table. benchmarks/run.py is the command line.
 
 from __future__ import annotations
 
-import os
 import random
-import re
-import shutil
 import statistics
-import subprocess
-import sys
-import tempfile
 import time
-from dataclasses import asdict, dataclass
-from pathlib import Path
 
-BENCH_DIR = Path(__file__).resolve().parent
-sys.path.insert(0, str(BENCH_DIR.parent))
-sys.path.insert(0, str(BENCH_DIR))
+from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
+                       measure_baseline, positions_source)
+from budget import frame_budget, hold_source
+from servoc import api, toolchain
+from servoc.diagnostics import Reporter
+from servoc.source import SourceFile
 
-import stress  # noqa: E402
-
-from servoc import api, codegen, costs, sim, toolchain  # noqa: E402
-from servoc.diagnostics import Reporter  # noqa: E402
-from servoc.source import SourceFile  # noqa: E402
-from servoc.units import BASE_US, DEFAULT_PERIOD_FLOOR_US, DIV_US  # noqa: E402
-
-BASELINE_DIR = BENCH_DIR / "baselines"
-HOBBY_C = BASELINE_DIR / "hobby.c"
-SOURCE_ASM = BASELINE_DIR / "source_algorithm.asm"
-
-POSITIONS = (0, 1, 125, 125, 200, 249, 250, 60)
-"""N of P1.0..P1.7 in all three firmwares: both ends, a tie, adjacent values."""
-PORT = 1
-FRAMES = 50
 ROM_SIZE = toolchain.AT89C52_ROM_SIZE
-PORT_CYCLES = codegen.PORT_CYCLES
-
-
-def expected_width(n: int) -> int:
-    return BASE_US + DIV_US * n
-
-
-# ---------------------------------------------------------------- firmwares
-
-class BuildError(Exception):
-    """A baseline or a benchmark program did not build."""
-
-
-def baseline_positions(path: Path) -> tuple[int, ...]:
-    """The 8 positions written in a baseline's source (its first 8-number list)."""
-    text = path.read_text()
-    if path.suffix == ".c":
-        m = re.search(r"position\[SERVOS\]\s*=\s*\{([^}]*)\}", text)
-        numbers = m[1] if m else ""
-    else:
-        m = re.search(r"^table:\s*\.db\s+(.*)$", text, re.M)
-        numbers = m[1] if m else ""
-    return tuple(int(x, 0) for x in numbers.split(",") if x.strip())
-
-
-def build_hobby(path: Path = HOBBY_C) -> str:
-    """Compile hobby.c with SDCC (small model) and return the HEX text."""
-    sdcc = _tool("sdcc")
-    packihx = toolchain.find_tool("packihx")
-    with tempfile.TemporaryDirectory(prefix="servoc-bench-") as tmp:
-        src = Path(tmp) / "hobby.c"
-        src.write_text(path.read_text())
-        proc = subprocess.run([sdcc, "-mmcs51", "--model-small", "hobby.c"], cwd=tmp, capture_output=True,
-                              text=True, stdin=subprocess.DEVNULL, timeout=120, check=False)
-        ihx = Path(tmp) / "hobby.ihx"
-        if proc.returncode != 0 or not ihx.is_file():
-            raise BuildError(f"sdcc failed on {path}:\n{proc.stdout}{proc.stderr}")
-        proc = subprocess.run([packihx, "hobby.ihx"], cwd=tmp, capture_output=True, text=True,
-                              stdin=subprocess.DEVNULL, timeout=60, check=False)
-        if proc.returncode != 0 or not proc.stdout.strip():
-            raise BuildError(f"packihx failed on hobby.ihx:\n{proc.stderr}")
-        return proc.stdout
-
-
-def build_source_algorithm(path: Path = SOURCE_ASM) -> str:
-    """Assemble source_algorithm.asm with sdas8051/sdld and return the HEX text."""
-    return toolchain.assemble(path.read_text(), name="source_algorithm").hex_text
-
-
-def _tool(name: str) -> str:
-    found = shutil.which(name)
-    if found is None:
-        raise BuildError(f"{name} not found on PATH (Debian/Ubuntu: apt-get install sdcc)")
-    return found
-
-
-def positions_source(frame: str | None = None) -> str:
-    """The .servo program for POSITIONS on P1: raw N, set at once, then held."""
-    lines = [] if frame is None else [f"frame {frame}"]
-    lines += [f"servo s{b} = P{PORT}.{b}" for b in range(8)]
-    pose = ", ".join(f"s{b}: {n}" for b, n in enumerate(POSITIONS))
-    lines += [f"pose p {{ {pose} }}", "main {", "  move p in 100ms", "  hold 1s", "}"]
-    return "\n".join(lines) + "\n"
 
 
 def compile_text(text: str, name: str = "bench.servo") -> tuple[api.FrontEnd, api.Firmware | None, Reporter]:
-    """Compile .servo text through servoc.api, from a temporary file like the CLI."""
-    with tempfile.TemporaryDirectory(prefix="servoc-bench-") as tmp:
-        path = os.path.join(tmp, name)
-        with open(path, "w", encoding="utf-8") as f:
-            f.write(text)
-        source, reporter = api.load_source(path)
-        fe, fw = api.build(source, reporter)
+    """Compile .servo text through servoc.api (`api.build`)."""
+    source = SourceFile(name, text)
+    reporter = Reporter(source)
+    fe, fw = api.build(source, reporter)
     return fe, fw, reporter
 
 
-def build_servoc(text: str | None = None) -> tuple[api.FrontEnd, api.Firmware]:
-    fe, fw, reporter = compile_text(text or positions_source(), "positions.servo")
+def build_servoc(text: str | None = None, name: str = "positions.servo") -> tuple[api.FrontEnd, api.Firmware]:
+    """Compile a program that must build (by default the positions program)."""
+    fe, fw, reporter = compile_text(text or positions_source(), name)
     errors = [f"{d.code}: {d.message}" for d in reporter.diagnostics if d.is_error]
     if fw is None or errors:
-        raise BuildError("servoc did not compile the positions program: " + "; ".join(errors))
+        raise BuildError(f"servoc did not compile {name}: " + "; ".join(errors))
     return fe, fw
 
 
-# ---------------------------------------------------------------- decoder
-
-@dataclass
-class Decoded:
-    """The same figures for every firmware, from its SimTrace."""
-
-    frames: int                     # pulses decoded per channel
-    width_error_us: list[list[int]]  # per channel, per pulse: width - (500 + 8 N)
-    max_abs_error_us: list[int]     # per channel
-    max_abs_error_all_us: int
-    exact_pulses: int               # pulses with zero error, all channels
-    pulses: int
-    period_mean_us: float           # mean rise-to-rise over all channels
-    period_min_us: int
-    period_max_us: int
-    jitter_us: int                  # max over channels of (max - min rise-to-rise)
-    reset_high_us: list[int | None]  # first_low per line
-    reset_high_max_us: int | None
-
-    def summary(self) -> dict:
-        d = asdict(self)
-        del d["width_error_us"]
-        d["width_errors_seen_us"] = [sorted(set(e)) for e in self.width_error_us]
-        return d
-
-
-def decode(trace: sim.SimTrace, port: int, positions: tuple[int, ...], frames: int) -> Decoded:
-    """Widths, periods and reset figures of `frames` pulses per line of `port`."""
-    errors: list[list[int]] = []
-    periods: list[int] = []
-    jitter = 0
-    for bit, n in enumerate(positions):
-        pulses = trace.pulses(port, bit)[:frames]
-        if len(pulses) < frames:
-            raise ValueError(f"P{port}.{bit}: only {len(pulses)} complete pulses, {frames} needed")
-        errors.append([w - expected_width(n) for _, w in pulses])
-        rr = [b[0] - a[0] for a, b in zip(pulses, pulses[1:])]
-        periods += rr
-        jitter = max(jitter, max(rr) - min(rr))
-    firsts = [trace.first_low(port, bit) for bit in range(len(positions))]
-    known = [f for f in firsts if f is not None]
-    max_abs = [max(abs(e) for e in errs) for errs in errors]
-    return Decoded(
-        frames=frames,
-        width_error_us=errors,
-        max_abs_error_us=max_abs,
-        max_abs_error_all_us=max(max_abs),
-        exact_pulses=sum(e == 0 for errs in errors for e in errs),
-        pulses=sum(len(errs) for errs in errors),
-        period_mean_us=round(statistics.fmean(periods), 3),
-        period_min_us=min(periods),
-        period_max_us=max(periods),
-        jitter_us=jitter,
-        reset_high_us=firsts,
-        reset_high_max_us=None if len(known) < len(firsts) else max(known),
-    )
-
-
-def simulate_frames(hex_text: str, port: int, frames: int, guess_period: int) -> sim.SimTrace:
-    """Simulate until every line of `port` has `frames` complete pulses (doubling the guess)."""
-    cycles = (frames + 3) * guess_period + 20_000
-    for _ in range(6):
-        trace = sim.run(hex_text, cycles, ports=(port,))
-        if all(len(trace.pulses(port, b)) >= frames for b in range(8)):
-            return trace
-        cycles *= 2
-    return trace
-
-
-def measure_baseline(hex_text: str, guess_period: int, frames: int = FRAMES) -> Decoded:
-    return decode(simulate_frames(hex_text, PORT, frames, guess_period), PORT, POSITIONS, frames)
-
+# ---------------------------------------------------------------- comparison
 
 def measure_servoc(frames: int = FRAMES) -> tuple[Decoded, api.FrontEnd, api.Firmware]:
+    """servoc's firmware for POSITIONS, measured like the baselines."""
     fe, fw = build_servoc()
-    trace = api.simulate(fw.hex_text, api.cycles_needed(fe.plan, frames + 1))
-    return decode(trace, PORT, POSITIONS, frames), fe, fw
+    return measure_baseline(fw.hex_text, fe.plan.period_us, frames), fe, fw
 
 
 def compare(frames: int = FRAMES, progress=None) -> dict:
@@ -233,103 +69,6 @@ def compare(frames: int = FRAMES, progress=None) -> dict:
     say("servoc: positions program, ucsim")
     dec, fe, fw = measure_servoc(frames)
     out["servoc"] = {"rom_bytes": fw.rom_bytes, "period_chosen_us": fe.plan.period_us, **dec.summary()}
-    return out
-
-
-# ---------------------------------------------------------------- frame budget
-
-def _build_unchecked(text: str, name: str) -> tuple:
-    """Plan and assemble `text` at its `frame`, below the budget too (as stress.exact_at does)."""
-    source = SourceFile(f"{name}.servo", text)
-    reporter = Reporter(source)
-    plan = api.plan(api.check(api.parse(source, reporter), reporter), reporter)
-    unit = codegen.generate(plan, source)
-    return plan, toolchain.assemble(unit.text, name=name).hex_text
-
-
-def hold_source(ports: int, period: int | None) -> str:
-    """8 servos per port set at once to POSITIONS, then a held pose (and main's end)."""
-    lines = [] if period is None else [f"frame {period}us"]
-    lines += [f"servo s{p}_{b} = P{p}.{b}" for p in range(ports) for b in range(8)]
-    pose = ", ".join(f"s{p}_{b}: {POSITIONS[b]}" for p in range(ports) for b in range(8))
-    lines += [f"pose p {{ {pose} }}", "main {", "  move p in 1ms", "  hold 300ms", "}"]
-    return "\n".join(lines) + "\n"
-
-
-def hold_exact_at(ports: int, period: int, frames: int = 150) -> bool:
-    plan, hex_text = _build_unchecked(hold_source(ports, period), "hold")
-    return api.verify_hex(plan, hex_text, frames).ok
-
-
-def bisect_shortest(ok, lo: int, hi: int, step: int = 1) -> int:
-    """Smallest P in (lo, hi] with ok(P), to within `step`, assuming ok is monotone and ok(hi)."""
-    if not ok(hi):
-        raise AssertionError(f"not exact even at P = {hi} us")
-    while hi - lo > step:
-        mid = (lo + hi) // 2
-        if ok(mid):
-            hi = mid
-        else:
-            lo = mid
-    return hi
-
-
-def stress_shortest(ports: int, runtime_f: bool, quick: bool) -> tuple[int, int]:
-    """(shortest exact P, resolution) of stress.py's worst-case program, 8 servos per port.
-
-    Full: `stress.shortest_exact_period` (1 us). Quick: fewer, shorter checks
-    below the cost model's bound, to 8 us (the figure is an upper bound).
-    """
-    if not quick:
-        return stress.shortest_exact_period(ports, 8, runtime_f), 1
-    hi = stress.budget_period(ports, 8, runtime_f)
-
-    def ok(p: int) -> bool:
-        return stress.exact_at(ports, 8, p, runtime_f, frames=100)
-
-    while not ok(hi):
-        hi += 512
-    return bisect_shortest(ok, max(PORT_CYCLES * ports, hi - 1024), hi, 8), 8
-
-
-def default_period(text: str) -> int:
-    source = SourceFile("default.servo", text)
-    reporter = Reporter(source)
-    plan = api.plan(api.check(api.parse(source, reporter), reporter), reporter)
-    errors = [d.code for d in reporter.diagnostics if d.is_error]
-    if errors:
-        raise BuildError(f"default-period program has errors: {errors}")
-    return plan.period_us
-
-
-def stress_default_period(ports: int, runtime_f: bool) -> int:
-    text = stress.stress_source(ports, 8, DEFAULT_PERIOD_FLOOR_US, runtime_f)
-    return default_period("".join(text.splitlines(keepends=True)[1:]))   # without its `frame` line
-
-
-def frame_budget(quick: bool, progress=None) -> dict:
-    say = progress or (lambda s: None)
-    out: dict = {"port_cycles": PORT_CYCLES, "worst_case": [], "steady_state": []}
-    kinds = [False] if quick else [False, True]
-    for ports in (1, 2, 3):
-        for rf in kinds:
-            say(f"shortest exact P, stress program, {ports} port(s){' run-time F' if rf else ''}")
-            t0 = time.perf_counter()
-            p, res = stress_shortest(ports, rf, quick)
-            out["worst_case"].append({
-                "ports": ports, "servos": 8 * ports, "runtime_f": rf, "shortest_exact_p_us": p,
-                "resolution_us": res, "between_frames_cycles": p - PORT_CYCLES * ports,
-                "model_min_p_us": stress.budget_period(ports, 8, rf),
-                "default_p_us": stress_default_period(ports, rf),
-                "search_seconds": round(time.perf_counter() - t0, 1)})
-        say(f"shortest exact P, pose held, {ports} port(s)")
-        step = 2 if quick else 1
-        p = bisect_shortest(lambda q: hold_exact_at(ports, q, 100 if quick else 150),
-                            PORT_CYCLES * ports, PORT_CYCLES * ports + 512, step)
-        out["steady_state"].append({
-            "ports": ports, "servos": 8 * ports, "shortest_exact_p_us": p, "resolution_us": step,
-            "between_frames_cycles": p - PORT_CYCLES * ports,
-            "default_p_us": default_period(hold_source(ports, None))})
     return out
 
 
@@ -355,7 +94,7 @@ def memory(quick: bool, progress=None) -> dict:
     say = progress or (lambda s: None)
     say("ROM and RAM: positions program, keyframe programs")
     _fe8, fw8 = build_servoc()
-    _fe24, fw24 = build_servoc(hold_source(3, None))
+    _fe24, fw24 = build_servoc(hold_source(3, None), "hold.servo")
     k = 10 if quick else 20
     fw_k, err_k = _keyframe_build(k)
     fw_2k, err_2k = _keyframe_build(2 * k)
@@ -489,8 +228,27 @@ def run_all(quick: bool = False, progress=None) -> dict:
     return results
 
 
-def _ports(n: int) -> str:
-    return {1: "1 port (P0) x 8 servos", 2: "2 ports (P0, P1) x 8", 3: "3 ports (P0-P2) x 8"}[n]
+def _servos(ports: int) -> str:
+    return {1: "8 servos on P0", 2: "16 servos on P0-P1", 3: "24 servos on P0-P2"}[ports]
+
+
+def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
+    """Per program: servoc's shortest P against the shortest exact in ucsim, cycles between frames, default P."""
+    rows = []
+    cases = [(w, "worst case", ", run-time F" if w["runtime_f"] else "") for w in fb["worst_case"]]
+    cases += [(st, "pose held", "") for st in fb["steady_state"]]
+    for x, what, kind in cases:
+        res = "" if x["resolution_us"] == 1 else f" (to {x['resolution_us']} us)"
+        name = f"{what}, {_servos(x['ports'])}{kind}"
+        rows += [
+            (f"servoc: shortest P reported / shortest exact in ucsim / difference, {name} (us)", "", "",
+             f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{res} / {x['difference_us']:+d}"),
+            (f"servoc: cycles between frames (shortest exact P - port routines), {name}", "", "",
+             f"{x['between_frames_cycles']}{res}"),
+        ]
+        if not kind:
+            rows.append((f"servoc: default P, {name} (us)", "", "", f"{x['default_p_us']}"))
+    return rows
 
 
 def _fmt_list(xs) -> str:
@@ -515,23 +273,7 @@ def table(r: dict) -> str:
     cmp("lines high after reset, first_low max (us)", "reset_high_max_us")
     cmp("ROM bytes", "rom_bytes")
     fb, mem, comp = r["frame_budget"], r["memory"], r["compiler"]
-    for w in fb["worst_case"]:
-        res = "" if w["resolution_us"] == 1 else f" (to {w['resolution_us']} us)"
-        kind = ", run-time F" if w["runtime_f"] else ""
-        rows.append((f"servoc: cycles between frames, worst case, {_ports(w['ports'])}{kind}", "", "",
-                     f"{w['between_frames_cycles']}{res}"))
-    for st in fb["steady_state"]:
-        res = "" if st["resolution_us"] == 1 else f" (to {st['resolution_us']} us)"
-        rows.append((f"servoc: cycles between frames, pose held, {_ports(st['ports'])}", "", "",
-                     f"{st['between_frames_cycles']}{res}"))
-    for w in fb["worst_case"]:
-        if w["ports"] in (1, 3) and not w["runtime_f"]:
-            rows.append((f"servoc: shortest exact P / default P, worst case, {w['servos']} servos (us)", "", "",
-                         f"{w['shortest_exact_p_us']} / {w['default_p_us']}"))
-    for st in fb["steady_state"]:
-        if st["ports"] in (1, 3):
-            rows.append((f"servoc: shortest exact P / default P, pose held, {st['servos']} servos (us)", "", "",
-                         f"{st['shortest_exact_p_us']} / {st['default_p_us']}"))
+    rows += _budget_rows(fb)
     rows += [
         ("servoc: ROM runtime bytes, 8 / 24 servos", "", "",
          f"{mem['runtime_bytes_8_servos']} / {mem['runtime_bytes_24_servos']}"),

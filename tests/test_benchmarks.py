@@ -1,4 +1,4 @@
-"""Tests of the benchmark suite (benchmarks/suite.py, benchmarks/run.py) on its cheap pieces.
+"""Tests of the benchmarks (baselines.py, budget.py, suite.py, run.py) on their cheap pieces.
 
 The baselines are built with SDCC and run in ucsim like in the benchmark;
 the figures checked are the ones the comparison is about: the hobby frame is
@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from servoc import sim, toolchain
+from servoc import api, toolchain
 from servoc.sim import PortWrite, SimTrace
 
 pytestmark = pytest.mark.toolchain
@@ -25,7 +25,7 @@ BENCH = Path(__file__).resolve().parent.parent / "benchmarks"
 
 
 def _load(module_name: str, file_name: str):
-    sys.path.insert(0, str(BENCH))
+    """Load a benchmark module under the name the others import it by (so load them in import order)."""
     spec = importlib.util.spec_from_file_location(module_name, BENCH / file_name)
     module = importlib.util.module_from_spec(spec)
     sys.modules[module_name] = module
@@ -33,7 +33,9 @@ def _load(module_name: str, file_name: str):
     return module
 
 
-suite = _load("suite", "suite.py")          # run.py imports it by this name
+baselines = _load("baselines", "baselines.py")
+budget = _load("budget", "budget.py")
+suite = _load("suite", "suite.py")
 run_cli = _load("bench_run", "run.py")
 
 FRAMES = 12
@@ -42,12 +44,12 @@ TRAP_US = 256 * 8          # DJNZ from 0: 256 DIVs
 
 @pytest.fixture(scope="module")
 def hobby():
-    return suite.measure_baseline(suite.build_hobby(), 22_000, FRAMES)
+    return baselines.measure_baseline(baselines.build_hobby(), 22_000, FRAMES)
 
 
 @pytest.fixture(scope="module")
 def source_algorithm():
-    return suite.measure_baseline(suite.build_source_algorithm(), 11_000, FRAMES)
+    return baselines.measure_baseline(baselines.build_source_algorithm(), 11_000, FRAMES)
 
 
 @pytest.fixture(scope="module")
@@ -56,12 +58,12 @@ def servoc_side():
 
 
 def test_baselines_drive_the_same_positions():
-    assert suite.baseline_positions(suite.HOBBY_C) == suite.POSITIONS
-    assert suite.baseline_positions(suite.SOURCE_ASM) == suite.POSITIONS
-    assert re.search(r"pose p \{ s0: 0, s1: 1, s2: 125, s3: 125", suite.positions_source())
+    assert baselines.baseline_positions(baselines.HOBBY_C) == baselines.POSITIONS
+    assert baselines.baseline_positions(baselines.SOURCE_ASM) == baselines.POSITIONS
+    assert re.search(r"pose p \{ s0: 0, s1: 1, s2: 125, s3: 125", baselines.positions_source())
     # both ends, a tie and adjacent values
-    assert {0, 250} <= set(suite.POSITIONS) and len(set(suite.POSITIONS)) < len(suite.POSITIONS)
-    assert any(b - a == 1 for a, b in zip(sorted(suite.POSITIONS), sorted(suite.POSITIONS)[1:]))
+    assert {0, 250} <= set(baselines.POSITIONS) and len(set(baselines.POSITIONS)) < len(baselines.POSITIONS)
+    assert any(b - a == 1 for a, b in zip(sorted(baselines.POSITIONS), sorted(baselines.POSITIONS)[1:]))
 
 
 def test_decoder_on_a_known_trace():
@@ -71,14 +73,14 @@ def test_decoder_on_a_known_trace():
     for rise, w1 in ((100, 508), (1100, 509)):
         writes += [PortWrite(rise, 1, 0x03), PortWrite(rise + 500, 1, 0x02), PortWrite(rise + w1, 1, 0x00)]
     trace = SimTrace(tuple(writes), 3000)
-    d = suite.decode(trace, 1, (0, 1), 2)
+    d = baselines.decode(trace, 1, (0, 1), 2)
     assert d.width_error_us == [[0, 0], [0, 1]]
     assert d.max_abs_error_us == [0, 1] and d.max_abs_error_all_us == 1
     assert (d.exact_pulses, d.pulses) == (3, 4)
     assert d.period_mean_us == 1000 and d.jitter_us == 0
     assert d.reset_high_us == [3, 3] and d.reset_high_max_us == 3
     with pytest.raises(ValueError, match="complete pulses"):
-        suite.decode(trace, 1, (0, 1), 3)
+        baselines.decode(trace, 1, (0, 1), 3)
 
 
 def test_hobby_baseline(hobby):
@@ -107,10 +109,10 @@ def test_source_algorithm_shows_the_zero_difference_trap(source_algorithm):
 def test_source_algorithm_is_exact_without_its_traps():
     # the same code with distinct nonzero N: the deduction keeps every edge on the 8 us grid
     distinct = (3, 1, 125, 126, 200, 249, 250, 60)
-    text = suite.SOURCE_ASM.read_text()
+    text = baselines.SOURCE_ASM.read_text()
     text = re.sub(r"^(table:\s*\.db\s+).*$", lambda m: m[1] + ", ".join(map(str, distinct)), text, flags=re.M)
-    trace = suite.simulate_frames(toolchain.assemble(text, name="distinct").hex_text, 1, 5, 7_000)
-    d = suite.decode(trace, 1, distinct, 5)
+    trace = baselines.simulate_frames(toolchain.assemble(text, name="distinct").hex_text, 1, 5, 7_000)
+    d = baselines.decode(trace, 1, distinct, 5)
     assert d.max_abs_error_all_us == 0
     assert d.jitter_us == 0
 
@@ -125,18 +127,18 @@ def test_servoc_is_exact(servoc_side):
 
 def test_hold_search_brackets():
     # below one port routine nothing is exact; with a long frame the held pose is
-    assert not suite.hold_exact_at(1, suite.PORT_CYCLES, 20)
-    assert suite.hold_exact_at(1, suite.PORT_CYCLES + 512, 20)
+    assert not budget.hold_exact_at(1, budget.PORT_CYCLES, 20)
+    assert budget.hold_exact_at(1, budget.PORT_CYCLES + 512, 20)
     calls = []
 
     def ok(p):
         calls.append(p)
         return p >= 1234
 
-    assert suite.bisect_shortest(ok, 1000, 2000) == 1234
-    assert suite.bisect_shortest(ok, 1000, 2000, 8) - 1234 in range(0, 8)
+    assert budget.shortest_period(ok, 1000, 2000) == 1234
+    assert budget.shortest_period(ok, 1000, 2000, 8) - 1234 in range(0, 8)
     with pytest.raises(AssertionError):
-        suite.bisect_shortest(ok, 0, 1000)
+        budget.shortest_period(ok, 0, 1000)
 
 
 def test_keyframes_and_compile_stages():
@@ -161,17 +163,19 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     # the command end to end, with the slow searches replaced by small fixed results
     d, fe, fw = servoc_side
     fake = {
-        "mode": "quick", "positions": list(suite.POSITIONS), "frames_decoded": FRAMES, "seconds": 1.0,
+        "mode": "quick", "positions": list(baselines.POSITIONS), "frames_decoded": FRAMES, "seconds": 1.0,
         "comparison": {"hobby": {"rom_bytes": 1, **hobby.summary()},
                        "source_algorithm": {"rom_bytes": 2, **source_algorithm.summary()},
                        "servoc": {"rom_bytes": fw.rom_bytes, "period_chosen_us": fe.plan.period_us, **d.summary()}},
-        "frame_budget": {"port_cycles": suite.PORT_CYCLES,
-                         "worst_case": [{"ports": p, "servos": 8 * p, "runtime_f": False, "shortest_exact_p_us": 9999,
-                                         "resolution_us": 8, "between_frames_cycles": 777, "default_p_us": 5300}
-                                        for p in (1, 2, 3)],
-                         "steady_state": [{"ports": p, "servos": 8 * p, "shortest_exact_p_us": 2540 * p,
+        "frame_budget": {"port_cycles": budget.PORT_CYCLES,
+                         "worst_case": [{"ports": p, "servos": 8 * p, "runtime_f": rf, "reported_min_p_us": 10020,
+                                         "shortest_exact_p_us": 9999, "difference_us": 21, "resolution_us": 8,
+                                         "between_frames_cycles": 777, "default_p_us": 5300}
+                                        for p in (1, 3) for rf in (False, True)],
+                         "steady_state": [{"ports": p, "servos": 8 * p, "reported_min_p_us": 2600 * p,
+                                           "shortest_exact_p_us": 2540 * p, "difference_us": 60 * p,
                                            "resolution_us": 1, "between_frames_cycles": 30, "default_p_us": 5300}
-                                          for p in (1, 2, 3)]},
+                                          for p in (1, 3)]},
         "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "bytes_per_keyframe_24_servos": 36.0,
                    "keyframes_fit_estimate": 146, "keyframes_fit_confirmed": 146, "ram_bytes_8_servos": 196,
                    "ram_bytes_24_servos": 230},
@@ -188,10 +192,13 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     assert all(line.count("|") == 5 for line in lines)
     assert "| max abs width error, all channels (us) | " in text
     assert "777 (to 8 us)" in text and "146 / 146" in text
+    assert ("| servoc: shortest P reported / shortest exact in ucsim / difference, worst case, 24 servos on P0-P2, "
+            "run-time F (us) |  |  | 10020 / 9999 (to 8 us) / +21 |") in text
+    assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 |" in text
 
 
 def test_sim_reports_all_port_writes_of_the_baselines():
     # the decoder sees P1 only; the baselines must not be writing other ports
-    for hex_text in (suite.build_hobby(), suite.build_source_algorithm()):
-        trace = sim.run(hex_text, 30_000)
+    for hex_text in (baselines.build_hobby(), baselines.build_source_algorithm()):
+        trace = api.simulate(hex_text, 30_000)
         assert {w.port for w in trace.writes} == {1}

@@ -16,7 +16,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 
-import stress  # noqa: E402
+import budget  # noqa: E402
 
 from conftest import build_text, front_end_text  # noqa: E402
 from servoc import costs  # noqa: E402
@@ -92,10 +92,10 @@ def test_a_period_below_the_minimum_is_refused():
 
 def test_worst_case_bound_is_close():
     """Cutting a fifth off the stress program's between-frame budget breaks it in ucsim."""
-    p_min = stress.budget_period(1, 8)
-    assert stress.exact_at(1, 8, p_min, frames=200)
+    p_min = budget.budget_period(1, 8)
+    assert budget.exact_at(1, 8, p_min, frames=200)
     work = p_min - costs.frame_cycles(1, 0)
-    assert not stress.exact_at(1, 8, p_min - work // 5, frames=200)
+    assert not budget.exact_at(1, 8, p_min - work // 5, frames=200)
 
 
 NAMES = ("a", "b", "c")

@@ -1,0 +1,212 @@
+"""The frame budget in ucsim: the shortest frame period P at which a firmware verifies exactly.
+
+One search, `shortest_period`: a binary search over P with a predicate
+ok(P) ("the firmware built at P verifies exactly"), to 1 us or to a coarser
+step in quick mode. It runs on two kinds of programs, built at P with
+servoc's own budget bypassed (`build_unchecked`) so that P can go below it:
+
+- stress programs (`stress_source`): every servo moves on every frame
+  (one-frame moves), so each frame reads a new move record, computes DDA
+  terms and steps every servo, with nested repeats and a sequence ending
+  together; with `runtime_f` a move without duration is played from two
+  different poses, so its F is found at run time from the frames-needed
+  tables. The worst case of the firmware's work between frames.
+- held-pose programs (`hold_source`): 8 servos per port set at once to
+  POSITIONS, then held. The steady state.
+
+`frame_budget` puts the shortest exact P next to the shortest P servoc
+reports for the same program (`Plan.min_period_us`, read from the generated
+code) and the default P it picks.
+
+    .venv/bin/python benchmarks/budget.py    # shortest exact P of the stress programs, 1 to 24 servos
+"""
+
+from __future__ import annotations
+
+import time
+
+from baselines import POSITIONS, BuildError
+from servoc import api, codegen, costs
+from servoc.diagnostics import Reporter
+from servoc.plan import Plan
+from servoc.source import SourceFile
+from servoc.units import DEFAULT_PERIOD_FLOOR_US
+
+PORT_CYCLES = costs.PORT_CYCLES
+QUICK_STEP = 8
+"""Resolution (us) of the stress programs' search in quick mode; the figure is then an upper bound."""
+
+
+def shortest_period(ok, lo: int, hi: int, step: int = 1) -> int:
+    """Smallest P in (lo, hi] with ok(P), to within `step`; ok must be monotone, ok(lo) false, ok(hi) true."""
+    if not ok(hi):
+        raise AssertionError(f"not exact even at P = {hi} us")
+    while hi - lo > step:
+        mid = (lo + hi) // 2
+        if ok(mid):
+            hi = mid
+        else:
+            lo = mid
+    return hi
+
+
+# ---------------------------------------------------------------- building at any P
+
+def plan_text(text: str, name: str = "bench", below_budget: bool = False) -> tuple[SourceFile, Plan]:
+    """The source and plan of .servo text (parse, check, plan, lint through servoc.api).
+
+    Any error is a BuildError, except `period-too-short` when `below_budget`."""
+    source = SourceFile(f"{name}.servo", text)
+    reporter = Reporter(source)
+    fe = api.front_end(source, reporter)
+    errors = [d.code for d in reporter.diagnostics if d.is_error]
+    if fe.plan is None or set(errors) - ({"period-too-short"} if below_budget else set()):
+        raise BuildError(f"{name}: {errors}")
+    return source, fe.plan
+
+
+def build_unchecked(text: str, name: str) -> tuple[Plan, api.Firmware]:
+    """Plan and assemble `text` at its own `frame`, also below the shortest P servoc allows
+    (`api.generate` refuses that, so the code comes from `codegen.generate` itself)."""
+    source, plan = plan_text(text, name, below_budget=True)
+    reporter = Reporter(source)
+    fw = api.assemble(codegen.generate(plan, source), reporter)
+    if fw is None:
+        raise BuildError(f"{name}: " + "; ".join(d.message for d in reporter.diagnostics))
+    return plan, fw
+
+
+def exact(plan: Plan, fw: api.Firmware, frames: int) -> bool:
+    """Does the firmware verify exactly in ucsim over `frames` frames, or more: enough to play every
+    move instance once, so that a loop longer than `frames` is seen whole?"""
+    frames = max(frames, sum(m.frames for m in plan.moves) + 2)
+    return api.verify_hex(plan, fw.hex_text, frames).ok
+
+
+# ---------------------------------------------------------------- worst case: stress programs
+
+def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = False, depth: int | None = None) -> str:
+    pins = [(p, b) for p in range(ports) for b in range(per_port)]
+    lines = [f"frame {period}us"]
+    speed = "" if runtime_f else " speed 0.001s/60deg"
+    for i, (p, b) in enumerate(pins):
+        lines.append(f"servo s{i} = P{p}.{b}{speed}")
+    low = ", ".join(f"s{i}: {(7 * i) % 40}" for i in range(len(pins)))
+    high = ", ".join(f"s{i}: {250 - (11 * i) % 40}" for i in range(len(pins)))
+    far = ", ".join(f"s{i}: {240 + i % 10}" for i in range(len(pins)))
+    lines += [f"pose lo {{ {low} }}", f"pose hi {{ {high} }}", f"pose far {{ {far} }}"]
+    if runtime_f:
+        # `move far` is entered from `lo` and from `hi`: its F is found at run time
+        lines += ["sequence go { move far }", "main {", "  loop {",
+                  "    move lo in 700ms", "    play go", "    move hi in 100ms", "    play go", "  }", "}"]
+    elif depth is not None:
+        # `depth` repeats all ending after the same frame, then all starting again
+        body = [f"move hi in {period}us", f"move lo in {period}us"]
+        for _ in range(depth):
+            body = ["repeat 1 {"] + body + ["}"]
+        lines += ["main {", "  loop {"] + body + ["  }", "}"]
+    else:
+        # every frame a new one-frame move: record, DDA terms and a step for every servo
+        lines += ["sequence step {", "  repeat 2 { repeat 2 {", f"    move hi in {period}us",
+                  f"    move lo in {period}us", "  } }", "}", "main {", "  loop {",
+                  "    repeat 3 { play step }", "  }", "}"]
+    return "\n".join(lines) + "\n"
+
+
+def budget_period(ports: int, per_port: int, runtime_f: bool = False, depth: int | None = None,
+                  period: int = 20000) -> int:
+    """The shortest P servoc reports for the stress program (planned at `period`)."""
+    return plan_text(stress_source(ports, per_port, period, runtime_f, depth), "stress")[1].min_period_us
+
+
+def exact_at(ports: int, per_port: int, period: int, runtime_f: bool = False, frames: int = 400,
+             depth: int | None = None) -> bool:
+    """Build the stress program at `period` (the budget bypassed) and verify it in ucsim."""
+    plan, fw = build_unchecked(stress_source(ports, per_port, period, runtime_f, depth), "stress")
+    assert bool(fw.unit.fneed_pages) == runtime_f
+    return exact(plan, fw, frames)
+
+
+def shortest_exact_period(ports: int, per_port: int = 8, runtime_f: bool = False, depth: int | None = None,
+                          quick: bool = False) -> int:
+    """The shortest P (us) at which the stress program verifies exactly: searched below the P servoc
+    reports, to 1 us over 400 frames, or in quick mode to QUICK_STEP us over 100 frames."""
+    frames = 100 if quick else 400
+    return shortest_period(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth),
+                           PORT_CYCLES * ports,        # never enough: no time between frames
+                           budget_period(ports, per_port, runtime_f, depth),
+                           QUICK_STEP if quick else 1)
+
+
+def stress_default_period(ports: int, runtime_f: bool) -> int:
+    """The P servoc picks for the stress program without a `frame` line."""
+    text = stress_source(ports, 8, DEFAULT_PERIOD_FLOOR_US, runtime_f)
+    return plan_text(text.split("\n", 1)[1], "default")[1].period_us
+
+
+# ---------------------------------------------------------------- steady state: a held pose
+
+def hold_source(ports: int, period: int | None) -> str:
+    """8 servos per port set at once to POSITIONS, then a held pose (and main's end)."""
+    lines = [] if period is None else [f"frame {period}us"]
+    lines += [f"servo s{p}_{b} = P{p}.{b}" for p in range(ports) for b in range(8)]
+    pose = ", ".join(f"s{p}_{b}: {POSITIONS[b]}" for p in range(ports) for b in range(8))
+    lines += [f"pose p {{ {pose} }}", "main {", "  move p in 1ms", "  hold 300ms", "}"]
+    return "\n".join(lines) + "\n"
+
+
+def hold_exact_at(ports: int, period: int, frames: int = 150) -> bool:
+    return exact(*build_unchecked(hold_source(ports, period), "hold"), frames)
+
+
+def hold_shortest(ports: int, quick: bool) -> tuple[int, int]:
+    """(shortest exact P, resolution) of the held pose: the port routines and a little more."""
+    step = 2 if quick else 1
+    frames = 100 if quick else 150
+    p = shortest_period(lambda q: hold_exact_at(ports, q, frames), PORT_CYCLES * ports, PORT_CYCLES * ports + 512,
+                        step)
+    return p, step
+
+
+# ---------------------------------------------------------------- the figures
+
+def frame_budget(quick: bool, progress=None) -> dict:
+    """Shortest exact P against servoc's reported and default P, worst case and pose held.
+
+    Full: 1, 2 and 3 ports, with and without run-time F, to 1 us. Quick: 1 and 3 ports, to QUICK_STEP us."""
+    say = progress or (lambda s: None)
+    out: dict = {"port_cycles": PORT_CYCLES, "worst_case": [], "steady_state": []}
+    for ports in (1, 3) if quick else (1, 2, 3):
+        for rf in (False, True):
+            say(f"shortest exact P, stress program, {ports} port(s){', run-time F' if rf else ''}")
+            t0 = time.perf_counter()
+            reported = budget_period(ports, 8, rf)
+            p = shortest_exact_period(ports, 8, rf, quick=quick)
+            out["worst_case"].append({
+                "ports": ports, "servos": 8 * ports, "runtime_f": rf,
+                "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
+                "resolution_us": QUICK_STEP if quick else 1, "between_frames_cycles": p - PORT_CYCLES * ports,
+                "default_p_us": stress_default_period(ports, rf),
+                "search_seconds": round(time.perf_counter() - t0, 1)})
+        say(f"shortest exact P, pose held, {ports} port(s)")
+        p, step = hold_shortest(ports, quick)
+        plan = plan_text(hold_source(ports, None), "hold")[1]
+        out["steady_state"].append({
+            "ports": ports, "servos": 8 * ports, "reported_min_p_us": plan.min_period_us,
+            "shortest_exact_p_us": p, "difference_us": plan.min_period_us - p, "resolution_us": step,
+            "between_frames_cycles": p - PORT_CYCLES * ports, "default_p_us": plan.period_us})
+    return out
+
+
+def main() -> None:
+    """Print the shortest exact P of the stress programs, 1 to 24 servos, next to servoc's."""
+    for ports, per_port in [(1, 1), (1, 4), (1, 8), (2, 8), (3, 1), (3, 8)]:
+        for rf in (False, True):
+            p = shortest_exact_period(ports, per_port, rf)
+            print(f"ports={ports} servos={ports * per_port:2d} runtime_f={rf!s:5}: shortest exact P = {p} us "
+                  f"(servoc reports {budget_period(ports, per_port, rf)} us), "
+                  f"between frames {p - PORT_CYCLES * ports} cycles", flush=True)
+
+
+if __name__ == "__main__":
+    main()
