@@ -21,9 +21,11 @@ from . import sim as _sim
 from . import verify as _verify
 from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
+from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target
 
-ROM_BYTES = toolchain.AT89C52_ROM_SIZE
-RAM_BYTES = layout.RAM_SIZE
+ROM_BYTES = DEFAULT_TARGET.chip.code_bytes      # the default chip's (reports name the target's own)
+RAM_BYTES = DEFAULT_TARGET.chip.ram_bytes
+
 
 
 ToolNotFound = toolchain.ToolNotFound
@@ -129,20 +131,24 @@ def generate(plan_: _plan.Plan, source: SourceFile, reporter: Reporter) -> codeg
 
 
 def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
-    """Assembly -> Intel HEX via sdas8051 and sdld, with ROM/RAM checked against the AT89C52."""
+    """Assembly -> Intel HEX via sdas8051 and sdld, with ROM/RAM checked against the target chip."""
+    chip = unit.target.chip
     image = toolchain.assemble(unit.text, name="servo")
-    room = layout.fit(image.symbols, unit.fneed_pages, ROM_BYTES)
+    room = layout.fit(image.symbols, unit.fneed_pages, chip.code_bytes)
     if not room.fits:
+        bigger = [c.display for c in CHIPS.values() if c.code_bytes >= room.needed]
         reporter.error("rom-overflow",
-                       f"the firmware needs {room.needed} bytes of code memory, the AT89C52 has {ROM_BYTES}: "
+                       f"the firmware needs {room.needed} bytes of code memory, the {chip.display} has {chip.code_bytes}: "
                        f"runtime {room.runtime}, program {room.program}, motion data {room.data} ("
                        + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")",
                        NO_SPAN,
                        help="shorten the program: fewer distinct moves (play a sequence several times instead of "
-                            "writing its moves out again), shorter eased moves, or one `speed` for servos of one model")
+                            "writing its moves out again), shorter eased moves, or one `speed` for servos of one model"
+                            + (f"; or build for a chip with more code memory: `target {bigger[0].lower().rstrip('+')}`"
+                               if bigger else ""))
         return None
-    if unit.ram_bytes > RAM_BYTES:
-        reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the AT89C52 has {RAM_BYTES}",
+    if unit.ram_bytes > chip.ram_bytes:
+        reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the {chip.display} has {chip.ram_bytes}",
                        help=layout.RamFull.help)
         return None
     return Firmware(unit, image, toolchain.rom_used(image.hex_text), room.runtime, room.program, room.data)
@@ -159,9 +165,10 @@ def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | 
     return fe, assemble(unit, reporter)
 
 
-def simulate(hex_text: str, cycles: int) -> _sim.SimTrace:
-    """Run an Intel HEX image in ucsim for `cycles` machine cycles, recording every port write."""
-    return _sim.run(hex_text, cycles)
+def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET) -> _sim.SimTrace:
+    """Run an Intel HEX image in ucsim for `cycles` machine cycles of `target`, recording every port
+    write (a 6T chip runs as ucsim's 12-clock core at twice its crystal: the same machine cycle)."""
+    return _sim.run(hex_text, cycles, xtal_hz=target.sim_hz)
 
 
 def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
@@ -181,4 +188,4 @@ def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.Verify
 
 def verify_hex(plan_: _plan.Plan, hex_text: str, frames: int) -> _verify.VerifyReport:
     """Simulate a HEX image (built from this plan, or given) and compare `frames` frames with the plan."""
-    return check_trace(plan_, simulate(hex_text, cycles_needed(plan_, frames)), frames)
+    return check_trace(plan_, simulate(hex_text, cycles_needed(plan_, frames), plan_.program.target), frames)

@@ -26,9 +26,9 @@ import jinja2
 
 from . import layout, resources
 from . import costs
-from .toolchain import AT89C52_ROM_SIZE
 from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
 from . import wcet
+from .target import DEFAULT as DEFAULT_TARGET, Target
 from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps, takes_frames
 from .source import SourceFile
 
@@ -51,7 +51,6 @@ CE_CYCLES = 13              # one compare-exchange, either way
 MERGE_CYCLES = 16           # one sorted line after the first, edge or merge
 FIRST_CYCLES = 10           # the smallest line
 TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
-FNEED_TOP = AT89C52_ROM_SIZE     # frames-needed tables: whole pages after the motion data, budgeted below the 8 KB top
 
 
 def edges_cycles(s: int) -> int:
@@ -95,6 +94,7 @@ class AsmUnit:
     work_cycles: int | None = None  # longest work between two frames, read from the text (None: unbounded)
     work_from: str = ""             # where that longest path starts
     min_period_us: int | None = None   # the shortest frame period this code holds (None: unbounded)
+    target: Target = DEFAULT_TARGET    # the chip it is built for
 
 
 _hex8 = layout.hex8
@@ -298,7 +298,7 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     fneed = []
     if nodur:
         for cls, table in enumerate(plan.speed_tables):
-            page = (FNEED_TOP >> 8) - 2 * (len(plan.speed_tables) - cls)
+            page = (plan.program.target.chip.code_bytes >> 8) - 2 * (len(plan.speed_tables) - cls)   # at the top
             fneed.append({"cls": cls, "page": page, "label": f"fneed{cls}", "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
                           "t_dav": f"{float(plan.class_t_dav_us[cls]):.1f}"})
         if max(max(t) for t in plan.speed_tables) > 0xFFFF:
@@ -336,7 +336,8 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
-                   work, work_from, None if work is None else costs.frame_cycles(len(plan.ports), work))
+                   work, work_from, None if work is None else costs.frame_cycles(len(plan.ports), work),
+                   plan.program.target)
 
 
 def frame_work(text: str) -> tuple[int | None, str]:

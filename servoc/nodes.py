@@ -96,10 +96,11 @@ class FrameDecl:
 
 @dataclass(frozen=True)
 class TargetDecl:
-    """`target CHIP [clock FREQ]`."""
+    """`target CHIP [clock FREQ] [mode 12T|6T]`."""
     chip: Name
     clock: Quantity | None
     span: Span
+    mode: tuple[Name, Quantity] | None = None     # the word (must be `mode`) and `12T` or `6T`
 
 
 @dataclass(frozen=True)

@@ -225,18 +225,19 @@ def _script(hex_name: str, limit_name: str, ports: Iterable[int]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _limit_vcd(cycles: int) -> str:
-    # One event half a machine cycle before the limit, in ns (12 MHz:
-    # 1 cycle = 1000 ns), so the stop is the first instruction boundary at
+def _limit_vcd(cycles: int, xtal_hz: int = XTAL_HZ) -> str:
+    # One event half a machine cycle before the limit, in ps (12 MHz:
+    # 1 cycle = 1000000 ps), so the stop is the first instruction boundary at
     # or after `cycles` whatever the floating-point rounding.
-    event_ns = cycles * 1000 - 500
+    cycle_ps = CLOCKS_PER_CYCLE * 10**12 / xtal_hz
+    event_ps = round((cycles - 0.5) * cycle_ps)
     return (
-        "$timescale 1ns $end\n"
+        "$timescale 1ps $end\n"
         "$scope module servoc_limit $end\n"
         "$var wire 8 ! variables[0xf0] $end\n"
         "$upscope $end\n"
         "$enddefinitions $end\n"
-        f"#{event_ns}\n"
+        f"#{event_ps}\n"
         "b00000001 !\n"
     )
 
@@ -247,6 +248,7 @@ def run(
     *,
     timeout: float = 120,
     ports: Iterable[int] = (0, 1, 2, 3),
+    xtal_hz: int = XTAL_HZ,
 ) -> SimTrace:
     """Simulate `hex_text` from reset for at least `cycles` machine cycles.
 
@@ -268,9 +270,9 @@ def run(
     with tempfile.TemporaryDirectory(prefix="servoc-sim-") as tmp:
         tmpdir = Path(tmp)
         (tmpdir / "fw.ihx").write_text(hex_text, encoding="ascii")
-        (tmpdir / "limit.vcd").write_text(_limit_vcd(cycles), encoding="ascii")
+        (tmpdir / "limit.vcd").write_text(_limit_vcd(cycles, xtal_hz), encoding="ascii")
         (tmpdir / "run.cmd").write_text(_script("fw.ihx", "limit.vcd", port_list), encoding="ascii")
-        argv = [s51, "-b", "-t", CPU_TYPE, "-X", "12M", "-C", "run.cmd"]
+        argv = [s51, "-b", "-t", CPU_TYPE, "-X", str(xtal_hz), "-C", "run.cmd"]
         try:
             proc = subprocess.Popen(
                 argv,

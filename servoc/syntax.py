@@ -183,10 +183,12 @@ class _Builder(Transformer_NonRecursive):
     def frame_decl(self, meta, ch):
         return nodes.FrameDecl(_quantity(ch[0]), _span(meta))
 
-    # target_decl: "target" NAME ("clock" NUMBER)?
+    # target_decl: "target" NAME ("clock" NUMBER)? (NAME NUMBER)?     the second NAME: `mode`
     def target_decl(self, meta, ch):
-        clock = _quantity(ch[1]) if len(ch) > 1 else None
-        return nodes.TargetDecl(_name(ch[0]), clock, _span(meta))
+        chip, *rest = ch
+        clock = _quantity(rest.pop(0)) if rest and rest[0].type == "NUMBER" else None
+        mode = (_name(rest[0]), _quantity(rest[1])) if rest else None
+        return nodes.TargetDecl(_name(chip), clock, _span(meta), mode)
 
     # servo_decl: "servo" NAME "=" PIN _servo_option*
     def servo_decl(self, meta, ch):

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from servoc import model, units
+from servoc import model, units, target
 from servoc.check import check
 from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
@@ -62,7 +62,7 @@ def test_spec_example_servos():
     assert s["hip_r"].reverse and not s["hip_l"].reverse
     assert s["hip_l"].t_dav_us == units.DEFAULT_T_DAV_US
     assert s["knee_l"].t_dav_us == units.t_dav_from_speed(Fraction(250_000), Fraction(60)) == Fraction(9250, 3)
-    assert prog.frame_us == 6000 and prog.target == "at89c52" and prog.clock_hz == 12_000_000
+    assert prog.frame_us == 6000 and prog.target.chip.name == "at89c52" and prog.target.clock_hz == 12_000_000
 
 
 def test_spec_example_poses_and_statements():
@@ -214,9 +214,9 @@ def test_references_leave_unused_names_out():
 def test_speed_and_settings():
     prog = ok("target AT89S52 clock 12000kHz\nframe 5.5ms\nservo a = P1.0 speed 100ms/30deg" + MAIN)
     assert prog.servos[0].t_dav_us == Fraction(100_000) * Fraction(74, 100) / 30
-    assert prog.target == "at89s52" and prog.clock_hz == 12_000_000 and prog.frame_us == 5500
+    assert prog.target.chip.name == "at89s52" and prog.target.clock_hz == 12_000_000 and prog.frame_us == 5500
     default = ok(MAIN)
-    assert default.frame_us is None and default.target == "at89c52"
+    assert default.frame_us is None and default.target.chip.name == "at89c52"
 
 
 def test_statements_convert_units():
@@ -292,14 +292,32 @@ def test_recursion_names_the_cycle():
     assert "sequence `a` plays itself" in msg
 
 
-def test_unsupported_target_explains_the_timing():
+def test_unknown_chip_lists_the_known_ones_closest_first():
     (msg,) = messages("target at89c2051" + MAIN, "unsupported-target")
-    assert "12 MHz 12-clock 8051" in msg
+    assert "an 8051 without Timer2" in msg
+    known = msg.split("256 B RAM): ")[1].split(", ")
+    assert sorted(known) == sorted(target.CHIPS) and known[0].startswith("at89c")
+    (msg,) = messages("target stc89c53rc" + MAIN, "unsupported-target")
+    assert msg.split("256 B RAM): ")[1].startswith("stc89c5")
 
 
 def test_target_chips_are_case_insensitive():
-    for chip in ("at89c52", "AT89C52", "at89s52", "STC89C52"):
-        assert ok(f"target {chip} clock 12MHz" + MAIN).target == chip.lower()
+    for chip, name in (("at89c52", "at89c52"), ("AT89C52", "at89c52"), ("at89s52", "at89s52"),
+                       ("STC89C52", "stc89c52rc"), ("stc89c52RC", "stc89c52rc"), ("AT89C55WD", "at89c55wd"),
+                       ("STC89C58RD", "stc89c58rd")):
+        assert ok(f"target {chip} clock 12MHz" + MAIN).target.chip.name == name
+
+
+def test_clock_mode_and_timing_errors_name_what_works():
+    (msg,) = messages("target at89c52 clock 30MHz" + MAIN, "bad-clock")
+    assert "up to 24 MHz" in msg
+    (msg,) = messages("target at89s52 mode 6T" + MAIN, "unsupported-target")
+    assert "no 6T mode" in msg
+    (msg,) = messages("target stc89c52rc clock 11.0592MHz" + MAIN, "unsupported-target")
+    assert "1.0851 µs" in msg and "`clock 12MHz`" in msg and "`clock 6MHz mode 6T`" in msg
+    six = ok("target stc89c52rc clock 6MHz mode 6T" + MAIN).target
+    assert six.six_t and six.cycle_us == 1 and six.sim_hz == 12_000_000
+    assert ok("servo mode = P1.0\npose low { mode: 3 }\nmain { move low }\n").servos[0].name == "mode"
 
 
 def test_bad_unit_says_what_was_expected():

@@ -49,5 +49,5 @@ def check(tree: nodes.Program, reporter: Reporter, path: str) -> model.Program |
         groups=tuple(g for n in ctx.declared("group") if (g := ctx.groups.get(n)) is not None),
         poses=tuple(p for n in ctx.declared("pose") if (p := ctx.poses.get(n)) is not None),
         sequences=tuple(ctx.sequences), main=ctx.main, frame_us=ctx.frame_us, target=ctx.target,
-        clock_hz=ctx.clock_hz, references=frozenset(ctx.references), main_span=ctx.main_span,
+        references=frozenset(ctx.references), main_span=ctx.main_span,
         frame_span=ctx.frame_span)

@@ -11,11 +11,10 @@ from typing import Any
 from .. import model, nodes
 from ..diagnostics import Label, Reporter
 from ..source import Span
+from ..target import DEFAULT as DEFAULT_TARGET, Target
 from .quantities import Problem
 
 PORTS = {"P0": 0, "P1": 1, "P2": 2}
-CHIPS = ("at89c52", "at89s52", "stc89c52")
-CLOCK_HZ = 12_000_000
 
 KIND_WORD = {"servo": "a servo", "group": "a group", "pose": "a pose", "sequence": "a sequence"}
 
@@ -36,8 +35,7 @@ class Context:
     mains: list[nodes.MainDecl] = field(default_factory=list)
     frame_us: Fraction | None = None                              # settings pass
     frame_span: Span = Span(0, 0)
-    target: str = "at89c52"
-    clock_hz: int = CLOCK_HZ
+    target: Target = DEFAULT_TARGET
     servos: dict[str, model.Servo] = field(default_factory=dict)  # servos pass, declaration order
     order: dict[str, int] = field(default_factory=dict)          # servo -> declaration index
     servo_limits: dict[str, nodes.LimitOption] = field(default_factory=dict)

@@ -9,10 +9,8 @@ from ..diagnostics import Label
 from ..printer import format_quantity
 from ..source import Span
 from . import quantities
-from .context import CHIPS, CLOCK_HZ, Context
-
-TIMING_HELP = "the firmware's timing is built for a 12 MHz 12-clock 8051 (AT89C52, AT89S52 or STC89C52)"
-
+from ..target import CHIPS, DEFAULT_CHIP, chip as find_chip, DEFAULT_CLOCK_HZ, Target, closest, fmt_hz
+from .context import Context
 
 def settings(tree: nodes.Program, ctx: Context) -> None:
     r = ctx.r
@@ -41,7 +39,7 @@ def settings(tree: nodes.Program, ctx: Context) -> None:
             ctx.frame_span = item.span
             ctx.frame_us = frame(item, ctx)
         else:
-            ctx.target, ctx.clock_hz = target(item, ctx)
+            ctx.target = target(item, ctx)
 
 
 def frame(item: nodes.FrameDecl, ctx: Context) -> Fraction | None:
@@ -57,15 +55,46 @@ def frame(item: nodes.FrameDecl, ctx: Context) -> Fraction | None:
     return period
 
 
-def target(item: nodes.TargetDecl, ctx: Context) -> tuple[str, int]:
-    chip = item.chip.text.lower()
-    if chip not in CHIPS:
-        ctx.r.error("unsupported-target", f"target `{item.chip.text}` is not supported", item.chip.span,
-                    help=TIMING_HELP)
+def target(item: nodes.TargetDecl, ctx: Context) -> Target:
+    """The chip, its crystal and its mode; errors name what is known and what works."""
+    r = ctx.r
+    errors = len(r.diagnostics)
+    name = item.chip.text.lower()
+    chip = find_chip(name)
+    if chip is None:
+        why = " (an 8051 without Timer2)" if name in ("at89c51", "at89s51", "at89c2051", "at89c4051", "stc89c51rc") else ""
+        r.error("unsupported-target", f"unknown chip `{item.chip.text}`{why}", item.chip.span,
+                help="servoc builds for 8052-class chips (Timer2, 256 B RAM): " + ", ".join(closest(name)))
+        chip = CHIPS[DEFAULT_CHIP]
+    clock = DEFAULT_CLOCK_HZ
     if item.clock is not None:
         q = item.clock
         hz = ctx.take(quantities.frequency_hz(q, "`clock`", "a clock frequency such as `12MHz`"), q.span)
-        if hz is not None and hz != CLOCK_HZ:
-            ctx.r.error("unsupported-target", f"clock `{format_quantity(q)}` is not supported; "
-                        "only 12MHz is", q.span, help=TIMING_HELP)
-    return (chip if chip in CHIPS else item.chip.text), CLOCK_HZ
+        if hz is not None:
+            if not 0 < hz <= chip.max_hz or hz.denominator != 1:
+                r.error("bad-clock", f"clock `{format_quantity(q)}` is outside what the {chip.display} is rated for",
+                        q.span, help=f"the {chip.display} runs from a crystal of up to {fmt_hz(chip.max_hz)}; "
+                                     "e.g. `clock 12MHz` or `clock 11.0592MHz`")
+            else:
+                clock = int(hz)
+    six_t = False
+    if item.mode is not None:
+        word, value = item.mode
+        if word.text != "mode":
+            r.error("syntax-error", f"expected `mode` after the target, found `{word.text}`", word.span,
+                    help="write `target CHIP clock FREQ mode 6T` (or `mode 12T`)")
+        elif format_quantity(value).upper() not in ("12T", "6T"):
+            r.error("unsupported-target", f"mode `{format_quantity(value)}` is not a machine-cycle mode", value.span,
+                    help="`mode 12T` (12 clocks a machine cycle, every 8051) or `mode 6T` (6 clocks, STC89 chips)")
+        elif format_quantity(value).upper() == "6T":
+            if chip.six_t:
+                six_t = True
+            else:
+                r.error("unsupported-target", f"the {chip.display} has no 6T mode", value.span,
+                        help="6T (6 clocks a machine cycle) is a mode of the STC89 chips; drop `mode 6T`")
+    result = Target(chip, clock, six_t)
+    problem = result.timing_problem()
+    if problem is not None and len(r.diagnostics) == errors:
+        span = item.clock.span if item.clock is not None else item.span
+        r.error("unsupported-target", f"the firmware cannot be timed on the {result.describe()}", span, help=problem)
+    return result

@@ -1,0 +1,109 @@
+"""The chips servoc builds for, and the machine cycle of a target: one table for every stage.
+
+The checker resolves `target CHIP [clock FREQ] [mode 12T|6T]` against CHIPS;
+the planner's timing, code generation (the top of code memory), the ROM
+check, the simulator's crystal and the reports all read the resulting
+`Target`. Every chip is 8052-class: Timer2 and 256 bytes of internal RAM.
+
+The firmware's pulse routines count their edges in whole 8-cycle steps of a
+1 µs machine cycle (`servoc/costs.py`), so a target builds only when its
+machine cycle is 1 µs: 12 MHz in 12T mode, or 6 MHz in 6T mode (STC89).
+`Target.timing_problem` says so, naming the crystals that work.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass
+from fractions import Fraction
+
+MHZ = 1_000_000
+
+
+@dataclass(frozen=True)
+class Chip:
+    name: str            # lower case, as matched
+    display: str         # as the maker writes it
+    code_bytes: int      # on-chip code memory
+    max_hz: int          # the highest crystal the maker rates it for (5 V parts)
+    six_t: bool          # has the 6-clock (6T) mode
+    flash: str           # the usual way to write a HEX file to it
+    ram_bytes: int = 256
+
+
+CHIPS: dict[str, Chip] = {c.name: c for c in (
+    Chip("at89c52", "AT89C52", 8 * 1024, 24 * MHZ, False,
+         "a parallel programmer, e.g. a TL866 with minipro: `minipro -p AT89C52 -w prog.hex`"),
+    Chip("at89s52", "AT89S52", 8 * 1024, 33 * MHZ, False,
+         "in-system, with avrdude 7.1 or later and a programmer that drives reset active-high: "
+         "`avrdude -c usbasp -p 89s52 -U flash:w:prog.hex:i`"),
+    Chip("at89c55wd", "AT89C55WD", 20 * 1024, 33 * MHZ, False,
+         "a parallel programmer, e.g. a TL866 with minipro: `minipro -p AT89C55WD -w prog.hex`"),
+    Chip("stc89c52rc", "STC89C52RC", 8 * 1024, 40 * MHZ, True,
+         "its serial bootloader, with stcgal: `stcgal -P stc89 -p /dev/ttyUSB0 prog.hex`, then power-cycle the board"),
+    Chip("stc89c58rd", "STC89C58RD+", 32 * 1024, 40 * MHZ, True,
+         "its serial bootloader, with stcgal: `stcgal -P stc89 -p /dev/ttyUSB0 prog.hex`, then power-cycle the board"),
+)}
+ALIASES = {"stc89c52": "stc89c52rc", "stc89c58": "stc89c58rd"}   # names boards use
+DEFAULT_CHIP = "at89c52"
+
+
+def chip(name: str) -> Chip | None:
+    """The chip a `target` names (without case), or None."""
+    key = name.lower()
+    return CHIPS.get(ALIASES.get(key, key))
+DEFAULT_CLOCK_HZ = 12 * MHZ
+FIRMWARE_CYCLE_US = Fraction(1)      # the machine cycle the pulse routines are timed for
+
+
+@dataclass(frozen=True)
+class Target:
+    chip: Chip
+    clock_hz: int
+    six_t: bool = False
+
+    @property
+    def clocks_per_cycle(self) -> int:
+        return 6 if self.six_t else 12
+
+    @property
+    def cycle_us(self) -> Fraction:
+        """The machine cycle t_c in microseconds."""
+        return Fraction(self.clocks_per_cycle * MHZ, self.clock_hz)
+
+    @property
+    def sim_hz(self) -> int:
+        """The crystal for ucsim's 12-clock core that gives the same machine cycle."""
+        return self.clock_hz * 12 // self.clocks_per_cycle
+
+    def describe(self) -> str:
+        mode = ", 6T" if self.six_t else ""
+        return f"{self.chip.display} at {fmt_hz(self.clock_hz)}{mode}"
+
+    def timing_problem(self) -> str | None:
+        """Why the firmware cannot be timed on this target, or None."""
+        if self.cycle_us == FIRMWARE_CYCLE_US:
+            return None
+        works = "`clock 12MHz`" + (" (or `clock 6MHz mode 6T`)" if self.chip.six_t else "")
+        return (f"at {fmt_hz(self.clock_hz)}{' in 6T mode' if self.six_t else ''} a machine cycle is "
+                f"{fmt_us(self.cycle_us)}, and the firmware's pulse routines count 1 µs machine cycles: "
+                f"use {works}")
+
+
+DEFAULT = Target(CHIPS[DEFAULT_CHIP], DEFAULT_CLOCK_HZ)
+
+
+def closest(name: str) -> list[str]:
+    """The known chip names, the closest to `name` first."""
+    near = difflib.get_close_matches(name.lower(), list(CHIPS), n=len(CHIPS), cutoff=0.0)
+    return near + [c for c in CHIPS if c not in near]
+
+
+def fmt_hz(hz: int | Fraction) -> str:
+    text = f"{float(Fraction(hz) / MHZ):.4f}".rstrip("0").rstrip(".")
+    return f"{text} MHz"
+
+
+def fmt_us(us: Fraction) -> str:
+    text = f"{float(us):.4f}".rstrip("0").rstrip(".")
+    return f"{text} µs"
