@@ -2,6 +2,13 @@
 
 Exit status: 0 success (warnings allowed), 1 errors in the program or a
 failed verification, 2 usage errors and missing tools. Never a traceback.
+
+With `--format json` everything is machine-readable: the diagnostics, with
+whatever stopped servoc (a usage error, a missing tool, an output that cannot
+be written), are one JSON document, on standard output for `lint` (its only
+output) and on standard error for the other commands; `init`, `compile` and
+`verify` print their result as JSON; `plan` prints its table as `--csv` or
+`--json` ask.
 """
 
 from __future__ import annotations
@@ -9,14 +16,16 @@ from __future__ import annotations
 import argparse
 import csv
 import difflib
+import importlib
 import io
+import json
 import os
 import re
 import sys
 from fractions import Fraction
 
 from . import __version__, api
-from .diagnostics import Severity, render_full, summary, to_json
+from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import Plan, verify_frames
 from .starter import starter
 from .units import DAV_DEG, fmt_ms
@@ -30,44 +39,71 @@ examples:
   servoc compile examples/biped.servo -o biped.hex --asm biped.asm
   servoc verify examples/biped.servo          run the firmware in ucsim, check every pulse
   servoc lint prog.servo --format json        diagnostics for editors and tools
+  servoc verify prog.servo --format json      the check's figures and every mismatch as JSON
+
+exit status:
+  0 success (warnings and notes allowed), 1 errors in the program or a failed verify,
+  2 usage errors, outputs that cannot be written and missing tools
+
+environment:
+  SERVOC_SDAS8051, SERVOC_SDLD, SERVOC_S51, SERVOC_PACKIHX
+                    the path of the SDCC assembler, linker, ucsim simulator and packihx,
+                    instead of looking them up on PATH
+  NO_COLOR          no colour in diagnostics
 """
 
 
-COMMANDS = ("init", "lint", "plan", "compile", "verify")
+COMMANDS = ("init", "lint", "plan", "compile", "verify", "lsp")
+LSP_MISSING = "the language server needs pygls: pip install 'servoc[lsp]'"
+
+
+class _Stop(Exception):
+    """servoc stops for a reason outside the program (exit 2): `kind` is `usage`, `missing-tool`,
+    `missing-extra` or `cannot-write`."""
+
+    def __init__(self, message: str, kind: str = "usage", parser: argparse.ArgumentParser | None = None):
+        super().__init__(message)
+        self.message, self.kind, self.parser = message, kind, parser
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # usage errors: exit 2 with a hint
-        self.print_usage(sys.stderr)
-        hint = ""
         m = re.search(r"invalid choice: '([^']*)'", message)
-        if m:
+        if m and self.prog == "servoc":
             close = difflib.get_close_matches(m.group(1), COMMANDS, n=1, cutoff=0.5)
             message = f"unknown command `{m.group(1)}`"
-            hint = f"did you mean `servoc {close[0]}`? " if close else ""
-        sys.stderr.write(f"servoc: error: {message}\n{hint}(see `servoc --help`)\n")
-        raise SystemExit(2)
+            if close:
+                message += f"; did you mean `servoc {close[0]}`?"
+        raise _Stop(message, parser=self)
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="servoc", description="Compile .servo motion programs into cycle-exact 8051 firmware "
                      "(AT89C52, 12 MHz) and verify every pulse in the ucsim simulator.",
                      epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--version", action="version", version=f"servoc {__version__}")
+    parser.add_argument("-V", "--version", action="version", version=f"servoc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    def fmt(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--format", choices=("text", "json"), default="text",
+                       help="text, or JSON for tools: the result on standard output, the diagnostics as one "
+                            "document (see docs/language.md)")
 
     def add(name: str, help_: str) -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=help_, description=help_)
         p.add_argument("file", metavar="FILE.servo", help="the program")
-        p.add_argument("--format", choices=("text", "json"), default="text", help="how to print diagnostics")
+        fmt(p)
         return p
 
     p = sub.add_parser("init", help="write a commented starter program", description="write a commented starter program")
     p.add_argument("name", metavar="NAME", help="the program to create: NAME.servo")
+    fmt(p)
     p = add("lint", "check a program and print its diagnostics")
     p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
     p = add("plan", "show every move's frames, duration and speed per servo")
-    p.add_argument("--csv", action="store_true", help="print the table as CSV")
+    table = p.add_mutually_exclusive_group()
+    table.add_argument("--csv", action="store_true", help="print the table as CSV")
+    table.add_argument("--json", action="store_true", help="print the table as JSON, one object per move")
     p.add_argument("--plot", metavar="OUT.png", help="also draw every servo's angle over time (needs servoc[plot])")
     p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
     p = add("compile", "compile to Intel HEX for the AT89C52")
@@ -79,42 +115,110 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, metavar="N",
                    help="frames to check from the first pulse (default: the whole program and 20 more; for a "
                         "program that loops forever, up to its loop and two passes of it, at least 400)")
+    help_ = "run the language server on stdin/stdout, for editors (needs servoc[lsp])"
+    sub.add_parser("lsp", help=help_, description=help_)
     return parser
 
 
+class _Run:
+    """What one run reports besides its result: the diagnostics and what stopped it; with
+    `--format json` they are written at the end as one document."""
+
+    def __init__(self, argv: list[str]):
+        self.json = _json_requested(argv)
+        self.command = next((a for a in argv if a in COMMANDS), None)
+        self.emit = False
+        self.diags: list = []
+        self.source = None
+        self.error: dict | None = None
+
+    @property
+    def doc_on_stdout(self) -> bool:
+        return self.command == "lint" and not self.emit
+
+    def stop(self, kind: str, message: str, parser: argparse.ArgumentParser | None = None) -> None:
+        if self.json:
+            self.error = {"kind": kind, "message": message}
+            return
+        if parser is not None:
+            parser.print_usage(sys.stderr)
+            message += "\n(see `servoc --help`)" if parser.prog == "servoc" else f"\n(see `{parser.prog} --help`)"
+        sys.stderr.write(f"servoc: error: {message}\n")
+
+    def document(self) -> str:
+        doc = to_dict(self.diags, self.source)
+        if self.error is not None:
+            doc["error"] = self.error
+        return json.dumps(doc, indent=2)
+
+
+def _json_requested(argv: list[str]) -> bool:
+    """`--format json` (or `--format=json`, or an abbreviation such as `--form json`) in argv: known
+    before argparse has read it, so that its usage errors can be JSON too."""
+    for i, arg in enumerate(argv):
+        if arg == "--":
+            break
+        name, eq, value = arg.partition("=")
+        if len(name) >= 4 and "--format".startswith(name):
+            if (value if eq else (argv[i + 1] if i + 1 < len(argv) else "")) == "json":
+                return True
+    return False
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    run = _Run(argv)
     try:
-        return _main(argv)
+        rc = _main(argv, run)
     except KeyboardInterrupt:
         return 130
-    except SystemExit as exc:
+    except _Stop as exc:
+        run.stop(exc.kind, exc.message, exc.parser)
+        rc = 2
+    except SystemExit as exc:       # --help, --version: their output is all there is
         return exc.code if isinstance(exc.code, int) else 2
     except Exception as exc:  # a bug in servoc, not in the user's program
-        sys.stderr.write(f"servoc: internal error: {type(exc).__name__}: {exc}\n"
-                         "This is a bug in servoc; please report it with the program that caused it.\n")
-        return 3
+        message = (f"{type(exc).__name__}: {exc}. This is a bug in servoc; please report it with the program "
+                   "that caused it.")
+        if not run.json:
+            sys.stderr.write(f"servoc: internal error: {type(exc).__name__}: {exc}\n"
+                             "This is a bug in servoc; please report it with the program that caused it.\n")
+            return 3
+        run.error = {"kind": "internal", "message": message}
+        rc = 3
+    if run.json:
+        print(run.document(), file=sys.stdout if run.doc_on_stdout else sys.stderr)
+    return rc
 
 
 def _color(stream) -> bool:
     return "NO_COLOR" not in os.environ and hasattr(stream, "isatty") and stream.isatty()
 
 
-def _main(argv: list[str] | None) -> int:
+def _main(argv: list[str], run: _Run) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    run.command = args.command
+    if hasattr(args, "format"):
+        run.json = args.format == "json"
     if not args.command:
+        if run.json:
+            raise _Stop("no command given", parser=parser)
         parser.print_help()
         return 2
+    if args.command == "lsp":
+        return _lsp()
     if args.command == "init":
-        return _init(args.name)
+        return _init(args.name, run)
+    run.emit = bool(getattr(args, "emit", None))
+    if getattr(args, "frames", None) is not None and args.frames < 1:
+        raise _Stop("--frames must be at least 1")
     try:
         source, reporter = api.load_source(args.file)
     except api.UsageError as exc:
-        sys.stderr.write(f"servoc: error: {exc}\n")
-        return 2
-    if getattr(args, "frames", None) is not None and args.frames < 1:
-        sys.stderr.write("servoc: error: --frames must be at least 1\n")
-        return 2
+        raise _Stop(str(exc)) from None
+    run.source = source
+    hex_text = _check_inputs_and_outputs(args)
 
     firmware = None
     try:
@@ -123,78 +227,81 @@ def _main(argv: list[str] | None) -> int:
         else:
             fe = api.front_end(source, reporter)
     except api.ToolNotFound as exc:
-        _diagnostics(reporter, args)
-        sys.stderr.write(f"servoc: error: {exc}\n")
-        return 2
+        _diagnostics(reporter, args, run)
+        raise _Stop(str(exc), "missing-tool") from None
 
-    emit = getattr(args, "emit", None)
-    if emit:
+    if run.emit:
+        _diagnostics(reporter, args, run, quiet=not reporter.has_errors)
         if reporter.has_errors:
-            _diagnostics(reporter, args)
             return 1
         from .dump import dump
-        print(dump({"ast": fe.tree, "model": fe.program, "plan": fe.plan}[emit], source))
+        print(dump({"ast": fe.tree, "model": fe.program, "plan": fe.plan}[args.emit], source))
         return 0
 
-    _diagnostics(reporter, args)
+    _diagnostics(reporter, args, run)
     if reporter.has_errors:
         return 1
     plan = fe.plan
     assert plan is not None
     if args.command == "lint":
-        if args.format == "text":
+        if not run.json:
             print(f"{source.path}: {_plan_line(plan)}")
         return 0
     if args.command == "plan":
-        sys.stdout.write(plan_table(plan, source, csv_out=args.csv))
+        if args.json:
+            print(json.dumps(plan_data(plan, source), indent=2))
+        else:
+            sys.stdout.write(plan_table(plan, source, csv_out=args.csv))
         if args.plot:
             from .plot import MissingExtra, plot_plan
             try:
                 plot_plan(plan, args.plot, source)
-            except (MissingExtra, OSError) as exc:
-                sys.stderr.write(f"servoc: error: {exc}\n")
-                return 2
+            except MissingExtra as exc:
+                raise _Stop(str(exc), "missing-extra") from None
+            except OSError as exc:
+                raise _Stop(f"cannot write {args.plot}: {exc.strerror or exc}", "cannot-write") from None
         return 0
     assert firmware is not None
     if args.command == "compile":
-        out = args.output or os.path.splitext(args.file)[0] + ".hex"
+        out = _hex_out(args)
         for path, text in ((args.asm, firmware.unit.text), (out, firmware.hex_text)):
             if path:
                 try:
                     api.write_atomic(path, text)
                 except OSError as exc:
-                    sys.stderr.write(f"servoc: error: cannot write {path}: {exc.strerror or exc}\n")
-                    return 2
-        print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{api.ROM_BYTES} bytes "
-              f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
-              f"RAM {firmware.unit.ram_bytes}/{api.RAM_BYTES} bytes (stack {firmware.unit.stack_bytes})")
+                    raise _Stop(f"cannot write {path}: {exc.strerror or exc}", "cannot-write") from None
+        if run.json:
+            print(json.dumps(_compile_data(source, out, args.asm, plan, firmware), indent=2))
+        else:
+            chip = firmware.unit.target.chip
+            print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{chip.code_bytes} bytes "
+                  f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
+                  f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes})")
         return 0
     frames = args.frames or verify_frames(plan)
-    hex_text = firmware.hex_text
-    if args.hex:
-        try:
-            with open(args.hex, encoding="ascii") as f:
-                hex_text = f.read()
-        except (OSError, UnicodeDecodeError) as exc:
-            sys.stderr.write(f"servoc: error: {args.hex}: cannot read an Intel HEX file ({exc})\n")
-            return 2
+    if hex_text is None:
+        hex_text = firmware.hex_text
+    progress = _color(sys.stderr) and not run.json
     try:
-        if _color(sys.stderr):
+        if progress:
             sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
-        trace = api.simulate(hex_text, api.cycles_needed(plan, frames))
-        if _color(sys.stderr):
+        trace = api.simulate(hex_text, api.cycles_needed(plan, frames), plan.program.target)
+        if progress:
             sys.stderr.write(" " * 60 + "\r")
     except api.ToolNotFound as exc:
-        sys.stderr.write(f"servoc: error: {exc}\n")
-        return 2
+        raise _Stop(str(exc), "missing-tool") from None
     report = api.check_trace(plan, trace, frames)
     if args.vcd:
         from .vcd import MissingExtra, write_vcd
         try:
             write_vcd(plan, trace, args.vcd, source.path)
-        except (MissingExtra, OSError) as exc:
-            sys.stderr.write(f"servoc: error: {exc}\n")
-            return 2
+        except MissingExtra as exc:
+            raise _Stop(str(exc), "missing-extra") from None
+        except OSError as exc:
+            raise _Stop(f"cannot write {args.vcd}: {exc.strerror or exc}", "cannot-write") from None
+    if run.json:
+        print(json.dumps(verify_data(report, source, plan), indent=2))
+        return 0 if report.ok else 1
     print(f"{source.path}: {report.summary()}")
     for m in report.mismatches[:20]:
         print(f"  {m}")
@@ -203,34 +310,145 @@ def _main(argv: list[str] | None) -> int:
     return 0 if report.ok else 1
 
 
-def _init(name: str) -> int:
+def _lsp() -> int:
+    try:
+        from .lsp import main as lsp_main
+    except ImportError:
+        raise _Stop(LSP_MISSING, "missing-extra") from None
+    rc = lsp_main()
+    return rc if isinstance(rc, int) else 0
+
+
+def _init(name: str, run: _Run) -> int:
     path = name if name.endswith(".servo") else name + ".servo"
     if os.path.exists(path):
-        sys.stderr.write(f"servoc: error: {path} already exists; choose another name\n")
-        return 2
+        raise _Stop(f"{path} already exists; choose another name")
+    _check_output("init", path)
     stem = os.path.splitext(os.path.basename(path))[0]
     try:
         api.write_atomic(path, starter(stem))
     except OSError as exc:
-        sys.stderr.write(f"servoc: error: cannot write {path}: {exc.strerror or exc}\n")
-        return 2
-    print(f"{path}: written. Next: servoc lint {path}")
+        raise _Stop(f"cannot write {path}: {exc.strerror or exc}", "cannot-write") from None
+    if run.json:
+        print(json.dumps({"file": path}, indent=2))
+    else:
+        print(f"{path}: written. Next: servoc lint {path}")
     return 0
 
 
-def _diagnostics(reporter, args) -> None:
+# ---- outputs are checked before any work ---------------------------------------------
+
+def _hex_out(args) -> str:
+    return args.output or os.path.splitext(args.file)[0] + ".hex"
+
+
+def _same_file(a: str, b: str) -> bool:
+    try:
+        if os.path.exists(a) and os.path.exists(b):
+            return os.path.samefile(a, b)
+    except OSError:
+        pass
+    return os.path.normcase(os.path.realpath(a)) == os.path.normcase(os.path.realpath(b))
+
+
+def _check_output(option: str, path: str) -> None:
+    """Refuse (exit 2) an output that cannot be written: a directory, or in a folder that does not exist."""
+    if path == "":
+        raise _Stop(f"{option} needs a file name, not an empty one")
+    if os.path.isdir(path):
+        raise _Stop(f"cannot write {path}: it is a directory, not a file ({option})")
+    folder = os.path.dirname(path) or "."
+    if not os.path.isdir(folder):
+        what = "is not a folder" if os.path.exists(folder) else "does not exist"
+        raise _Stop(f"cannot write {path}: {folder} {what} ({option})")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise _Stop(f"cannot write {path}: no permission to write in {folder} ({option})")
+
+
+def _need_extra(module: str, feature: str, extra: str, package: str) -> None:
+    try:
+        importlib.import_module(module)
+    except ImportError:
+        from .plot import MissingExtra
+        raise _Stop(str(MissingExtra(feature, extra, package)), "missing-extra") from None
+
+
+def _check_inputs_and_outputs(args) -> str | None:
+    """Before parsing, compiling or simulating: every output can be written and overwrites neither
+    the program nor another output; the optional packages an output needs are there; `--hex` can
+    be read (its text is returned)."""
+    outputs: list[tuple[str, str]] = []
+    if args.command == "compile":
+        outputs = [("-o" if args.output else "the HEX", _hex_out(args))]
+        if args.asm is not None:
+            outputs.insert(0, ("--asm", args.asm))
+    elif args.command == "plan" and args.plot is not None and not args.emit:
+        outputs = [("--plot", args.plot)]
+    elif args.command == "verify" and args.vcd is not None:
+        outputs = [("--vcd", args.vcd)]
+    inputs = [(args.file, "the program")]
+    if getattr(args, "hex", None):
+        inputs.append((args.hex, "the HEX to check"))
+    for i, (option, path) in enumerate(outputs):
+        _check_output(option, path)
+        for given, what in inputs:
+            if _same_file(path, given):
+                raise _Stop(f"cannot write {path}: it is {what}, {given} ({option}); name another file")
+        for other, earlier in outputs[:i]:
+            if _same_file(path, earlier):
+                raise _Stop(f"cannot write {path}: {other} and {option} name the same file; name two files")
+    if args.command == "plan" and args.plot is not None and not args.emit:
+        _need_extra("matplotlib", "plotting", "plot", "matplotlib")
+    if args.command == "verify" and args.vcd is not None:
+        _need_extra("vcd", "VCD output", "vcd", "pyvcd")
+    if getattr(args, "hex", None):
+        try:
+            with open(args.hex, encoding="ascii") as f:
+                return f.read()
+        except (OSError, UnicodeDecodeError) as exc:
+            raise _Stop(f"{args.hex}: cannot read an Intel HEX file ({exc})") from None
+    return None
+
+
+# ---- diagnostics and results ------------------------------------------------------------
+
+def _diagnostics(reporter, args, run: _Run, quiet: bool = False) -> None:
+    """Print the diagnostics as text (unless `quiet`), or keep them for the JSON document."""
     diags = reporter.sorted()
     if args.command != "lint":      # notes are for `servoc lint`; the other commands show what matters
         diags = [d for d in diags if d.severity is not Severity.NOTE]
-    if args.format == "json":
-        # lint's only output; the other commands keep standard output for their own result
-        print(to_json(diags, reporter.source), file=sys.stdout if args.command == "lint" else sys.stderr)
+    if run.json:
+        run.diags = diags
+        return
+    if quiet:
         return
     color = _color(sys.stderr)
     for d in diags:
         sys.stderr.write(render_full(d, reporter.source, color) + "\n")
     if diags:
         sys.stderr.write(summary(diags) + "\n")
+
+
+def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> dict:
+    """`servoc compile --format json`: what was written and what it uses."""
+    chip = firmware.unit.target.chip
+    return {"file": source.path, "hex": out, "asm": asm,
+            "period_us": plan.period_us, "period_is_default": plan.period_is_default,
+            "min_period_us": plan.min_period_us, "total_frames": plan.total_frames,
+            "chip": chip.display, "rom_bytes": firmware.rom_bytes, "rom_size": chip.code_bytes,
+            "runtime_bytes": firmware.runtime_bytes, "program_bytes": firmware.program_bytes,
+            "data_bytes": firmware.data_bytes, "ram_bytes": firmware.unit.ram_bytes, "ram_size": chip.ram_bytes,
+            "stack_bytes": firmware.unit.stack_bytes}
+
+
+def verify_data(report, source, plan: Plan) -> dict:
+    """`servoc verify --format json`: the summary's numbers and every mismatch."""
+    return {"file": source.path, "ok": report.ok, "frames": report.frames, "pulses": report.pulses,
+            "max_error_cycles": report.max_error_cycles, "planned_period_us": plan.period_us,
+            "period_us": {"min": report.period_min, "max": report.period_max, "mean": report.period_mean},
+            "reset_low_us": report.reset_low_cycles,
+            "mismatches": [{"frame": m.frame, "servo": m.servo, "pin": m.pin, "expected_us": m.expected_us,
+                            "measured_us": m.measured_us, "what": m.what} for m in report.mismatches]}
 
 
 def _plan_line(plan: Plan) -> str:
@@ -246,8 +464,8 @@ def _plan_line(plan: Plan) -> str:
             f"shortest {fmt_ms(plan.min_period_us)}), program {length}")
 
 
-def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
-    """Every move instance: line, pose, frames, duration, each servo's delta and speed in % of its top speed."""
+def _plan_rows(plan: Plan, source) -> list:
+    """Every move instance in source order: (line, pose, frames, ms, ease, [(servo, delta or "set", speed %)])."""
     rows = []
     for inst in sorted(plan.moves, key=lambda m: m.step.span.start):
         line, _ = source.line_col(inst.step.span.start)
@@ -262,6 +480,22 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
             cells.append((ch.name, "set" if m.n0 is None else f"{m.delta:+d}",
                           None if m.n0 is None else round(float(speed))))
         rows.append((line, inst.step.pose, inst.frames, float(ms), inst.step.ease, cells))
+    return rows
+
+
+def plan_data(plan: Plan, source) -> dict:
+    """`servoc plan --format json`: the table's rows as objects, and the period and length."""
+    return {"file": source.path, "period_us": plan.period_us, "period_is_default": plan.period_is_default,
+            "min_period_us": plan.min_period_us, "total_frames": plan.total_frames, "dav_deg": float(DAV_DEG),
+            "moves": [{"line": line, "pose": pose, "frames": frames, "ms": ms, "ease": ease,
+                       "servos": [{"servo": name, "delta": None if delta == "set" else int(delta),
+                                   "speed_percent": speed} for name, delta, speed in cells]}
+                      for line, pose, frames, ms, ease, cells in _plan_rows(plan, source)]}
+
+
+def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
+    """Every move instance: line, pose, frames, duration, each servo's delta and speed in % of its top speed."""
+    rows = _plan_rows(plan, source)
     if csv_out:
         buf = io.StringIO()
         w = csv.writer(buf, lineterminator="\n")

@@ -105,10 +105,16 @@ def render_short(diag: Diagnostic, source: SourceFile) -> str:
     return f"{source.path}:{line}:{col}: {diag.severity.value}: {diag.message} [{diag.code}]"
 
 
+SHOWN_COLUMNS = 100
+"""A source line longer than this is shown cut to a window of this many columns around the caret,
+with `...` where text is left out."""
+_BEFORE = 40        # columns of the window before the caret when the line is cut
+
+
 def _underline(source: SourceFile, span: Span) -> tuple[int, int, str, int]:
-    """The line of a span, its column, the line's text as shown and how many columns to underline."""
+    """The line of a span, its column, the line's text and how many columns to underline."""
     line, col = source.line_col(span.start)
-    text = _printable(source.line_text(line))
+    text = source.line_text(line)
     end_line, end_col = source.line_col(max(span.start, span.end - 1))
     if span.end <= span.start:
         width = 1
@@ -118,6 +124,23 @@ def _underline(source: SourceFile, span: Span) -> tuple[int, int, str, int]:
         width = len(text.rstrip()) - col + 1
     width = max(1, min(width, len(text) - col + 1)) if len(text) >= col else 1
     return line, col, text, width
+
+
+def _window(length: int, col: int) -> tuple[int, int]:
+    """The part [start, end) of a line of `length` characters shown for a mark at column `col`."""
+    if length <= SHOWN_COLUMNS:
+        return 0, length
+    start = max(0, min(col - 1 - _BEFORE, length - SHOWN_COLUMNS))
+    return start, start + SHOWN_COLUMNS
+
+
+def _cut(text: str, window: tuple[int, int]) -> tuple[str, int]:
+    """The shown part of a line, printable, with `...` for what is left out; and how far its
+    columns are shifted against the line's."""
+    start, end = window
+    head = "..." if start > 0 else ""
+    tail = "..." if end < len(text) else ""
+    return head + _printable(text[start:end]) + tail, len(head) - start
 
 
 def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> str:
@@ -134,12 +157,16 @@ def render_full(diag: Diagnostic, source: SourceFile, color: bool = False) -> st
         marks += [(lab.span, "-", lab.message, "blue") for lab in diag.secondary if lab.span != NO_SPAN]
         shown = [(*_underline(source, span), char, text, style) for span, char, text, style in marks]
         pad = max(4, *(len(str(m[0])) for m in shown))
-        last = None
+        last, window = None, (0, 0)
         for at, c, text, width, char, label, style in shown:
-            if at != last:
-                out.append(_paint(f"{at:>{pad}} | ", "blue", color) + text)
+            # a label on the line just shown shares it when it falls in the part shown
+            if at != last or not window[0] <= c - 1 < window[1]:
+                window = _window(len(text), c)
+                shown_text, shift = _cut(text, window)
+                out.append(_paint(f"{at:>{pad}} | ", "blue", color) + shown_text)
                 last = at
-            under = " " * (c - 1) + char * width + (f" {label}" if label else "")
+            width = max(1, min(width, window[1] - (c - 1)))
+            under = " " * (c - 1 + shift) + char * width + (f" {label}" if label else "")
             out.append(_paint(" " * pad + " | ", "blue", color) + _paint(under, style, color))
     if diag.help:
         out.append(_paint("     = ", "blue", color) + "help: " + diag.help)
@@ -162,13 +189,19 @@ def _where(span: Span, source: SourceFile) -> dict:
     return {"line": line, "column": col, "end_line": end_line, "end_column": end_col}
 
 
-def to_json(diags: list[Diagnostic], source: SourceFile) -> str:
+def to_dict(diags: list[Diagnostic], source: SourceFile | None) -> dict:
+    """The JSON document of a run: {"diagnostics": [...], "summary": "E errors, W warnings, N notes"}."""
     items = []
     for d in diags:
+        assert source is not None
         item = {"file": source.path, **_where(d.span, source),
                 "severity": d.severity.value, "code": d.code, "message": d.message,
                 "label": d.label, "help": d.help}
         if d.secondary:     # only when there are any, so that other diagnostics keep their form
             item["labels"] = [{**_where(lab.span, source), "message": lab.message} for lab in d.secondary]
         items.append(item)
-    return json.dumps({"diagnostics": items, "summary": summary(diags)}, indent=2)
+    return {"diagnostics": items, "summary": summary(diags)}
+
+
+def to_json(diags: list[Diagnostic], source: SourceFile | None) -> str:
+    return json.dumps(to_dict(diags, source), indent=2)

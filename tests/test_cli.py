@@ -72,9 +72,18 @@ def test_subcommand_help(capsys):
     assert rc == 0 and "--csv" in out and "--emit" in out
 
 
-def test_version(capsys):
-    rc, out, _ = run(["--version"], capsys)
+@pytest.mark.parametrize("flag", ["--version", "-V"])
+def test_version(capsys, flag):
+    rc, out, _ = run([flag], capsys)
     assert rc == 0 and out.strip() == f"servoc {__version__}"
+
+
+def test_help_names_the_tool_overrides(capsys):
+    from servoc.toolchain import _TOOLS
+    rc, out, _ = run(["--help"], capsys)
+    assert rc == 0 and "lsp" in out
+    for env, _package in _TOOLS.values():
+        assert env in out, env
 
 
 def test_no_command_is_a_usage_error(capsys):
@@ -326,3 +335,297 @@ def test_valid_prefix_with_random_tail_never_crashes():
     base = SPEC_EXAMPLE.read_bytes()
     for cut in range(0, len(base), 7):
         _lint_bytes(base[:cut])
+
+
+# ---- --format json: one document whatever happens ---------------------------------------
+
+def json_doc(stream: str) -> dict:
+    """The diagnostics document of a --format json run: the whole stream, one JSON object."""
+    data = json.loads(stream)
+    assert {"diagnostics", "summary"} <= set(data) and re.fullmatch(r"\d+ errors?, \d+ warnings?, \d+ notes?",
+                                                                    data["summary"])
+    return data
+
+
+@pytest.mark.parametrize("args, kind, words", [
+    (["lint", "--format", "json", "NOPE"], "usage", "No such file"),
+    (["plan", "--format=json", "NOPE"], "usage", "No such file"),
+    (["verify", "--format", "json", "--frames", "0", "PROG"], "usage", "--frames must be at least 1"),
+    (["verify", "--format", "json", "--frames", "x", "PROG"], "usage", "invalid int value"),
+    (["lint", "--format", "json", "--bogus", "PROG"], "usage", "--bogus"),
+    (["lnt", "--format", "json", "PROG"], "usage", "did you mean `servoc lint`"),
+    (["compile", "--format", "json", "PROG", "-o", "PROG"], "usage", "it is the program"),
+    (["compile", "--format", "json", "PROG", "-o", "MISSING/x.hex"], "usage", "does not exist"),
+])
+def test_json_usage_errors(capsys, program, tmp_path, args, kind, words):
+    args = [str(program) if a == "PROG" else str(tmp_path / "nope.servo") if a == "NOPE"
+            else a.replace("MISSING", str(tmp_path / "missing")) for a in args]
+    before = program.read_bytes()
+    rc, out, err = run(args, capsys)
+    assert rc == 2
+    lint = args[0] == "lint"
+    data = json_doc(out if lint else err)
+    assert (err if lint else out) == ""
+    assert data["diagnostics"] == [] and data["summary"] == "0 errors, 0 warnings, 0 notes"
+    assert data["error"]["kind"] == kind and words in data["error"]["message"]
+    assert program.read_bytes() == before
+
+
+def test_json_missing_tool(capsys, program, tmp_path, monkeypatch):
+    monkeypatch.setenv("SERVOC_SDAS8051", str(tmp_path / "no-sdas8051"))
+    rc, out, err = run(["compile", "--format", "json", str(program), "-o", str(tmp_path / "a.hex")], capsys)
+    assert rc == 2 and out == ""
+    data = json_doc(err)
+    assert data["error"]["kind"] == "missing-tool" and "SERVOC_SDAS8051" in data["error"]["message"]
+    assert not (tmp_path / "a.hex").exists()
+
+
+def test_json_keeps_the_program_diagnostics_with_the_error(capsys, tmp_path, monkeypatch):
+    path = tmp_path / "w.servo"
+    path.write_text(PROGRAM.replace("hold 100ms", "hold 2ms"))
+    monkeypatch.setenv("SERVOC_SDAS8051", str(tmp_path / "no-sdas8051"))
+    rc, out, err = run(["compile", "--format", "json", str(path)], capsys)
+    data = json_doc(err)
+    assert rc == 2 and [d["code"] for d in data["diagnostics"]] == ["short-hold"]
+    assert data["summary"] == "0 errors, 1 warning, 0 notes" and data["error"]["kind"] == "missing-tool"
+
+
+def test_json_internal_error(capsys, program, monkeypatch):
+    def broken(*_):
+        raise RuntimeError("boom")
+    monkeypatch.setattr(cli.api, "front_end", broken)
+    rc, out, err = run(["plan", "--format", "json", str(program)], capsys)
+    assert rc == 3 and out == ""
+    data = json_doc(err)
+    assert data["error"]["kind"] == "internal" and "boom" in data["error"]["message"]
+
+
+def test_json_without_a_file_goes_to_stderr(capsys):
+    rc, out, err = run(["--format", "json"], capsys)
+    assert rc == 2 and out == "" and json_doc(err)["error"]["kind"] == "usage"
+
+
+def test_json_help_is_still_help(capsys):
+    rc, out, err = run(["lint", "--format", "json", "--help"], capsys)
+    assert rc == 0 and "--format" in out and err == ""
+
+
+def test_plan_json_table(capsys, program):
+    rc, out, err = run(["plan", "--json", str(program)], capsys)
+    assert rc == 0 and err == ""
+    data = json.loads(out)
+    assert (data["file"], data["period_us"], data["period_is_default"], data["total_frames"]) == \
+        (str(program), 10000, False, 86)
+    assert data["min_period_us"] <= 10000 and data["dav_deg"] == 0.74
+    moves = data["moves"]
+    assert [(m["line"], m["pose"], m["frames"], m["ms"], m["ease"]) for m in moves] == [
+        (7, "rest", 1, 10.0, "linear"), (8, "reach", 50, 500.0, "linear"), (10, "rest", 25, 250.0, "linear")]
+    assert moves[0]["servos"] == [{"servo": "arm", "delta": None, "speed_percent": None},
+                                  {"servo": "grip", "delta": None, "speed_percent": None}]
+    assert moves[2]["servos"] == [{"servo": "arm", "delta": -100, "speed_percent": 99},
+                                  {"servo": "grip", "delta": -50, "speed_percent": 74}]
+
+
+def test_plan_json_table_and_csv_exclude_each_other(capsys, program):
+    rc, out, err = run(["plan", "--json", "--csv", str(program)], capsys)
+    assert rc == 2 and "--csv" in err
+
+
+def test_plan_json_table_of_a_loop(capsys):
+    rc, out, _ = run(["plan", "--json", str(SPEC_EXAMPLE)], capsys)
+    data = json.loads(out)
+    assert rc == 0 and data["total_frames"] is None and "in-out" in {m["ease"] for m in data["moves"]}
+
+
+@pytest.mark.toolchain
+def test_compile_json(capsys, program, tmp_path):
+    hex_path, asm_path = tmp_path / "o.hex", tmp_path / "o.asm"
+    rc, out, err = run(["compile", "--format", "json", str(program), "-o", str(hex_path), "--asm", str(asm_path)],
+                       capsys)
+    assert rc == 0 and json_doc(err)["diagnostics"] == []
+    data = json.loads(out)
+    assert (data["file"], data["hex"], data["asm"]) == (str(program), str(hex_path), str(asm_path))
+    assert 0 < data["rom_bytes"] <= data["rom_size"] == 8192 and 0 < data["ram_bytes"] <= data["ram_size"] == 256
+    assert data["rom_bytes"] >= data["runtime_bytes"] + data["program_bytes"] + data["data_bytes"] - 64
+    assert data["period_us"] == 10000 and data["total_frames"] == 86 and hex_path.stat().st_size > 0
+
+
+@pytest.mark.toolchain
+def test_verify_json(capsys, program):
+    rc, out, err = run(["verify", "--format", "json", str(program)], capsys)
+    assert rc == 0 and json_doc(err) == {"diagnostics": [], "summary": "0 errors, 0 warnings, 0 notes"}
+    data = json.loads(out)
+    assert data["ok"] is True and data["mismatches"] == []
+    assert data["frames"] == 86 + 20 and data["pulses"] == 2 * data["frames"] and data["max_error_cycles"] == 0
+    assert data["planned_period_us"] == 10000
+    assert data["period_us"] == {"min": 10000, "max": 10000, "mean": 10000.0}
+    assert 0 <= data["reset_low_us"] <= 20
+
+
+@pytest.mark.toolchain
+def test_verify_json_lists_every_mismatch(capsys, program, tmp_path):
+    other = tmp_path / "other.servo"
+    other.write_text(PROGRAM.replace("arm: 100", "arm: 90"))
+    hex_path = tmp_path / "other.hex"
+    assert run(["compile", str(other), "-o", str(hex_path)], capsys)[0] == 0
+    rc, out, err = run(["verify", "--format", "json", str(program), "--hex", str(hex_path)], capsys)
+    data = json.loads(out)
+    assert rc == 1 and data["ok"] is False and len(data["mismatches"]) > 20
+    m = data["mismatches"][0]
+    assert set(m) == {"frame", "servo", "pin", "expected_us", "measured_us", "what"}
+    assert m["servo"] == "arm" and m["pin"] == "P1.0" and m["expected_us"] != m["measured_us"]
+    rc, text, _ = run(["verify", str(program), "--hex", str(hex_path)], capsys)
+    assert f"and {len(data['mismatches']) - 20} more mismatches" in text
+
+
+def test_init_json(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rc, out, err = run(["init", "arm", "--format", "json"], capsys)
+    assert rc == 0 and json.loads(out) == {"file": "arm.servo"} and json_doc(err)["diagnostics"] == []
+    rc, out, err = run(["init", "arm", "--format", "json"], capsys)
+    assert rc == 2 and "already exists" in json_doc(err)["error"]["message"]
+
+
+# ---- outputs are checked before any work -------------------------------------------------
+
+@pytest.fixture
+def no_work(monkeypatch):
+    """Compiling or simulating fails the test: the command must stop before."""
+    def forbidden(*_):
+        raise AssertionError("servoc did the work before checking its outputs")
+    monkeypatch.setattr(cli.api, "build", forbidden)
+    monkeypatch.setattr(cli.api, "simulate", forbidden)
+    monkeypatch.setattr(cli.api, "front_end", forbidden)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["verify", "PROG", "--vcd", "/nonexistent/x.vcd"], "cannot write /nonexistent/x.vcd: /nonexistent does not exist"),
+    (["verify", "PROG", "--vcd", "DIR"], "cannot write DIR: it is a directory"),
+    (["plan", "PROG", "--plot", "DIR/missing/a.png"], "does not exist (--plot)"),
+    (["plan", "PROG", "--plot", "PROG"], "it is the program"),
+    (["compile", "PROG", "-o", "DIR"], "it is a directory, not a file (-o)"),
+    (["compile", "PROG", "--asm", "DIR/missing/x.asm"], "does not exist (--asm)"),
+    (["compile", "PROG", "-o", "PROG"], "cannot write PROG: it is the program, PROG (-o)"),
+    (["compile", "PROG", "--asm", "PROG"], "it is the program"),
+    (["compile", "PROG", "-o", "DIR/x.hex", "--asm", "DIR/x.hex"], "--asm and -o name the same file"),
+    (["compile", "PROG", "-o", "DIR/./x.hex", "--asm", "DIR/x.hex"], "name the same file"),
+    (["verify", "PROG", "--hex", "DIR/in.hex", "--vcd", "DIR/in.hex"], "it is the HEX to check"),
+    (["verify", "PROG", "--hex", "DIR/missing.hex"], "cannot read an Intel HEX file"),
+])
+def test_outputs_refused_before_any_work(capsys, program, tmp_path, no_work, args, words):
+    (tmp_path / "in.hex").write_text(":00000001FF\n")
+    sub = lambda a: a.replace("PROG", str(program)).replace("DIR", str(tmp_path))  # noqa: E731
+    before = sorted(p.name for p in tmp_path.iterdir())
+    text = program.read_bytes()
+    rc, out, err = run([sub(a) for a in args], capsys)
+    assert rc == 2 and out == ""
+    assert err.startswith("servoc: error: ") and sub(words) in err, err
+    no_traceback(err)
+    assert program.read_bytes() == text and sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_default_hex_output_cannot_be_the_source(capsys, tmp_path, no_work):
+    path = tmp_path / "prog.hex"            # FILE.hex of `prog.hex` is the file itself
+    path.write_text(PROGRAM)
+    rc, out, err = run(["compile", str(path)], capsys)
+    assert rc == 2 and "it is the program" in err and path.read_text() == PROGRAM
+
+
+def test_missing_extra_refused_before_simulating(capsys, program, tmp_path, no_work, monkeypatch):
+    monkeypatch.setitem(sys.modules, "vcd", None)
+    rc, out, err = run(["verify", str(program), "--vcd", str(tmp_path / "a.vcd")], capsys)
+    assert rc == 2 and "pip install 'servoc[vcd]'" in err
+    monkeypatch.setitem(sys.modules, "matplotlib", None)
+    rc, out, err = run(["plan", str(program), "--plot", str(tmp_path / "a.png")], capsys)
+    assert rc == 2 and "pip install 'servoc[plot]'" in err and out == ""
+
+
+# ---- the language server -----------------------------------------------------------------
+
+def test_lsp_without_pygls(capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "servoc.lsp", None)       # as if servoc.lsp could not be imported
+    rc, out, err = run(["lsp"], capsys)
+    assert rc == 2 and out == ""
+    assert err == "servoc: error: the language server needs pygls: pip install 'servoc[lsp]'\n"
+
+
+def test_lsp_is_listed(capsys):
+    rc, out, _ = run(["--help"], capsys)
+    assert re.search(r"^\s+lsp\s+run the language server on stdin/stdout, for editors", out, re.M)
+
+
+# ---- the starter program -----------------------------------------------------------------
+
+def test_starter_lints_quietly(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    rc, out, err = run(["init", "arm"], capsys)
+    assert rc == 0 and out == "arm.servo: written. Next: servoc lint arm.servo\n"
+    rc, out, err = run(["lint", "arm.servo"], capsys)
+    assert rc == 0 and out.startswith("arm.servo: 4 servos on P1")
+    assert err.count("[inexact-angle]") <= 1 and err.rstrip().endswith("0 errors, 0 warnings, 1 note")
+
+
+# ---- the JSON schemas in docs/language.md are what servoc prints ---------------------------
+
+DOCS = Path(__file__).resolve().parent.parent / "docs" / "language.md"
+
+
+def documented_keys(after: str) -> set[str]:
+    """The keys (first column, in backticks) of the first `| key | value |` table after the text `after`."""
+    text = DOCS.read_text(encoding="utf-8")
+    rest = text[text.index(after):]
+    table = re.search(r"^\| key \| value \|\n\|-+\|-+\|\n((?:\|.*\n)+)", rest, re.M)
+    assert table, f"no key table after {after!r}"
+    keys = set()
+    for row in table.group(1).splitlines():
+        keys |= set(re.findall(r"`([a-z_\[\].]+)`", row.split(" | ")[0]))
+    return keys
+
+
+def key_paths(data, prefix: str = "") -> set[str]:
+    """Every key of a JSON value as a path: `a`, `a.b`, `a[].b` for the objects of a list."""
+    paths = set()
+    for key, value in data.items():
+        paths.add(prefix + key)
+        if isinstance(value, dict):
+            paths |= key_paths(value, f"{prefix}{key}.")
+        elif isinstance(value, list):
+            for item in value:
+                if isinstance(item, dict):
+                    paths |= key_paths(item, f"{prefix}{key}[].")
+    return paths
+
+
+def test_documented_diagnostics_document(capsys, tmp_path):
+    documented = documented_keys("The diagnostics document:")
+    path = tmp_path / "d.servo"
+    path.write_text("servo a = P1.0\npose p { a: 1 }\npose p { a: 2 }\nmain { move p }\n")
+    rc, out, _ = run(["lint", "--format", "json", str(path)], capsys)
+    got = key_paths(json.loads(out))
+    assert rc == 1 and "diagnostics[].labels" in got
+    assert {p for p in got if not p.startswith("diagnostics[].labels[].")} <= documented
+    rc, _, err = run(["plan", "--format", "json", str(tmp_path / "nope.servo")], capsys)
+    got = key_paths(json.loads(err))
+    assert rc == 2 and got <= documented
+    assert documented == got | {p for p in documented if p.startswith("diagnostics[]")}
+    kinds = re.findall(r'`"([a-z-]+)"`', DOCS.read_text(encoding="utf-8").split("| `error.kind` |")[1].split("\n")[0])
+    assert set(kinds) == {"usage", "missing-tool", "missing-extra", "cannot-write", "internal"}
+    raised = {m.group(1) for line in Path(cli.__file__).read_text().splitlines() if "raise _Stop(" in line
+              for m in [re.search(r', "([a-z-]+)"\)( from None)?$', line)] if m}
+    assert raised == {"missing-tool", "missing-extra", "cannot-write"} and raised < set(kinds)
+
+
+def test_documented_plan_table(capsys, program):
+    rc, out, _ = run(["plan", "--json", str(program)], capsys)
+    assert rc == 0 and key_paths(json.loads(out)) == documented_keys("as CSV with `--csv`, or as JSON")
+
+
+@pytest.mark.toolchain
+def test_documented_compile_and_verify_results(capsys, program, tmp_path):
+    rc, out, _ = run(["compile", "--format", "json", str(program), "-o", str(tmp_path / "p.hex")], capsys)
+    assert rc == 0 and key_paths(json.loads(out)) == documented_keys("`servoc compile --format json` prints")
+    other = tmp_path / "other.servo"
+    other.write_text(PROGRAM.replace("arm: 100", "arm: 90"))
+    assert run(["compile", str(other), "-o", str(tmp_path / "o.hex")], capsys)[0] == 0
+    rc, out, _ = run(["verify", "--format", "json", str(program), "--hex", str(tmp_path / "o.hex")], capsys)
+    assert rc == 1 and key_paths(json.loads(out)) == documented_keys("`servoc verify --format json` prints")

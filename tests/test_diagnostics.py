@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import json
 
-from servoc.diagnostics import Diagnostic, Label, Reporter, Severity, render_full, render_short, summary, to_json
+from servoc.diagnostics import (SHOWN_COLUMNS, Diagnostic, Label, Reporter, Severity, render_full, render_short, summary,
+                                to_json)
 from servoc.source import NO_SPAN, SourceFile, Span
 
 TEXT = "servo arm = P1.0\npose up { arm: 120 }\nmain {\n  move up in 20ms\n}\n"
@@ -230,3 +231,62 @@ def test_reporter_takes_secondary_labels():
     rep = Reporter(SourceFile("arm.servo", TEXT))
     rep.error("c", "m", at(TEXT, "up"), secondary=[Label(at(TEXT, "arm"), "x")])
     assert rep.diagnostics[0].secondary == (Label(at(TEXT, "arm"), "x"),)
+
+
+# ---- long lines are shown as a window around the caret -----------------------------------
+
+def _shown(rendered: str) -> tuple[str, str]:
+    """The source line and the caret line of a rendered diagnostic, without their gutters."""
+    lines = rendered.splitlines()
+    return lines[1].split(" | ", 1)[1], lines[2].split(" | ", 1)[1]
+
+
+def test_short_lines_are_shown_whole():
+    text = "x" * SHOWN_COLUMNS + "\n"
+    src = SourceFile("a.servo", text)
+    line, caret = _shown(render_full(diag(Span(90, 95)), src))
+    assert line == text.rstrip("\n") and caret == " " * 90 + "^^^^^"
+
+
+def test_a_long_line_is_cut_around_the_caret():
+    text = "servo a = P1.0 " + "y" * 1_000_000 + " @oops " + "z" * 1_000_000
+    src = SourceFile("big.servo", text)
+    at_ = text.index("@oops")
+    rendered = render_full(diag(Span(at_, at_ + 5), label="here"), src)
+    assert len(rendered) < 600 and rendered.startswith(f"big.servo:1:{at_ + 1}: error: ")
+    line, caret = _shown(rendered)
+    assert line.startswith("...") and line.endswith("...") and len(line) == SHOWN_COLUMNS + 6
+    assert line[caret.index("^"):].startswith("@oops") and caret.endswith("^^^^^ here")
+
+
+def test_a_caret_near_the_start_of_a_long_line():
+    text = "servo a = P1.0 " + "y" * 5000
+    src = SourceFile("a.servo", text)
+    line, caret = _shown(render_full(diag(at(text, "P1.0")), src))
+    assert not line.startswith("...") and line.endswith("...") and len(line) == SHOWN_COLUMNS + 3
+    assert caret == " " * 10 + "^^^^"
+
+
+def test_a_caret_near_the_end_of_a_long_line():
+    text = "y" * 5000 + " P1.0"
+    src = SourceFile("a.servo", text)
+    line, caret = _shown(render_full(diag(at(text, "P1.0")), src))
+    assert line.startswith("...") and not line.endswith("...") and line.endswith(" P1.0")
+    assert line[caret.index("^"):] == "P1.0" and caret.endswith("^^^^")
+
+
+def test_a_long_span_is_underlined_to_the_window_end():
+    text = "y" * 3000
+    src = SourceFile("a.servo", text)
+    line, caret = _shown(render_full(diag(Span(100, 2000)), src))
+    assert len(caret) <= len(line) and caret.endswith("^") and line.endswith("...")
+
+
+def test_a_secondary_label_far_away_on_the_same_line_gets_its_own_window():
+    text = "pose up { a: 1 } " + " " * 500 + "pose up { a: 2 }"
+    src = SourceFile("a.servo", text)
+    d = Diagnostic("duplicate-name", Severity.ERROR, "`up` is already declared", at(text, "up", 1),
+                   secondary=(Label(at(text, "up"), "first declared here"),))
+    lines = render_full(d, src).splitlines()
+    assert len(lines) == 5 and lines[1].startswith("   1 | ...") and lines[3].startswith("   1 | pose up")
+    assert lines[4].endswith("     -- first declared here")

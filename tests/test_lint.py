@@ -554,3 +554,56 @@ def test_every_rule_has_its_own_module():
     modules = {fn.__module__ for code, (_, fn) in RULES.items() if not code.startswith("unused-")}
     assert len(modules) == len([c for c in RULES if not c.startswith("unused-")])
     assert all(m.startswith("servoc.lint.rules.") for m in modules)
+
+
+# ---- quiet at scale ------------------------------------------------------------------------
+
+def test_inexact_angles_are_one_note_per_program():
+    text = """servo a = P1.0
+servo b = P1.1
+pose p { a: 90deg, b: 30deg }
+pose q = p with { b: 90deg }
+pose r { a: 74deg, b: 150deg }
+pose s { a: 60deg, b: 1deg }
+main { move p; move q; move r; move s }
+"""
+    _, diags, src = diagnose(text)
+    (d,) = [d for d in diags if d.code == "inexact-angle"]
+    assert src.line_col(d.span.start) == (3, 10) and d.label == "N 122"
+    # 74deg is N 100 exactly; 90deg is written twice; `q` shares `p`'s a: 90deg
+    assert d.message == ("5 angles, at 6 positions, are not exactly reachable: 90deg (N 122 = 90.28°), "
+                         "30deg (N 41 = 30.34°), 150deg (N 203 = 150.22°) and 2 more")
+    assert "`122`" in d.help and "`90.28deg`" in d.help
+
+
+def test_one_inexact_angle_written_twice():
+    _, diags, _ = diagnose("servo a = P1.0\nservo b = P1.1\npose p { a: 90deg, b: 90deg }\nmain { move p }\n")
+    (d,) = [d for d in diags if d.code == "inexact-angle"]
+    assert d.message == "90deg is not exactly reachable: N 122 = 90.28° (here and at 1 more position)"
+
+
+def _many_unused(n: int) -> str:
+    return ("servo a = P1.0\n" + "".join(f"pose p{i} {{ a: {i % 250} }}\n" for i in range(n))
+            + "pose home { a: 0 }\nmain { move home }\n")
+
+
+def test_a_few_unused_declarations_are_reported_one_by_one():
+    _, diags, _ = diagnose(_many_unused(5))
+    assert [d.message for d in diags if d.code == "unused-pose"] == [f"pose `p{i}` is never used" for i in range(5)]
+
+
+def test_many_unused_declarations_are_one_warning():
+    _, diags, src = diagnose(_many_unused(4300))
+    (d,) = [d for d in diags if d.code == "unused-pose"]
+    assert d.message == "4300 poses are never used: `p0`, `p1`, `p2`, `p3`, `p4` and 4295 more"
+    assert src.line_col(d.span.start) == (2, 1) and d.help == "remove them, or `move` to them"
+
+
+def test_linting_a_large_program_prints_little(capsys, tmp_path, monkeypatch):
+    monkeypatch.setenv("NO_COLOR", "1")
+    path = tmp_path / "big.servo"
+    path.write_text(_many_unused(4300).replace("pose home { a: 0 }", "pose home { a: 90deg, b: 1deg }")
+                    .replace("servo a = P1.0", "servo a = P1.0\nservo b = P1.1"))
+    rc, out, err = run_cli(["lint", str(path)], capsys)
+    assert rc == 0 and len(err.splitlines()) <= 10
+    assert err.rstrip().endswith("0 errors, 1 warning, 1 note")
