@@ -28,6 +28,7 @@ from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import Plan, verify_frames
 from .starter import starter
+from .target import fmt_us
 from .units import DAV_DEG, fmt_ms
 
 EXAMPLES = """\
@@ -273,10 +274,12 @@ def _main(argv: list[str], run: _Run) -> int:
         if run.json:
             print(json.dumps(_compile_data(source, out, args.asm, plan, firmware), indent=2))
         else:
-            chip = firmware.unit.target.chip
+            target = firmware.unit.target
+            chip = target.chip
             print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{chip.code_bytes} bytes "
                   f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
-                  f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes})")
+                  f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes}); "
+                  f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, every width exactly 500 + 8 N µs")
         return 0
     frames = args.frames or verify_frames(plan)
     if hex_text is None:
@@ -435,7 +438,8 @@ def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> di
     return {"file": source.path, "hex": out, "asm": asm,
             "period_us": plan.period_us, "period_is_default": plan.period_is_default,
             "min_period_us": plan.min_period_us, "total_frames": plan.total_frames,
-            "chip": chip.display, "rom_bytes": firmware.rom_bytes, "rom_size": chip.code_bytes,
+            "chip": chip.display, "clock_hz": firmware.unit.target.clock_hz, "six_t": firmware.unit.target.six_t,
+            "machine_cycle_us": float(firmware.unit.target.cycle_us), "rom_bytes": firmware.rom_bytes, "rom_size": chip.code_bytes,
             "runtime_bytes": firmware.runtime_bytes, "program_bytes": firmware.program_bytes,
             "data_bytes": firmware.data_bytes, "ram_bytes": firmware.unit.ram_bytes, "ram_size": chip.ram_bytes,
             "stack_bytes": firmware.unit.stack_bytes}
