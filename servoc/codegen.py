@@ -159,7 +159,10 @@ def _static_frames(plan: Plan, step: MoveStep) -> int | None:
     return seen.pop() if len(seen) == 1 else None
 
 
-def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
+def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
+    """The record of a move. `known` holds the targets set by the records before it in its list:
+    a servo whose target is already the pose's is left out of the record (it does not move), and
+    `known` takes the move's targets."""
     plan = ctx.plan
     frames = _static_frames(plan, step)
     notes: list[str] = [f"move {step.pose}", "F found at run time" if frames is None else f"F = {frames}"]
@@ -168,7 +171,8 @@ def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
         key = (step.ease, step.frames)
         label = ctx.ease_tables.setdefault(key, f"etab{len(ctx.ease_tables) + 1}")
         notes.append(f"ease {step.ease} table {label}")
-    targets = dict(step.targets)
+    targets = {ch: n for ch, n in step.targets if known.get(ch) != n}
+    known.update(step.targets)
     masks = None
     if len(targets) == len(plan.channels):
         notes.append("every servo")
@@ -179,6 +183,8 @@ def _move_record(ctx: _Ctx, step: MoveStep) -> dict:
             masks.append(sum(1 << c.bit for c in chans))
             notes.append(f"P{port}: " + (", ".join(c.name for c in chans) or "none"))
     notes += [f"{c.name} N {targets[c.index]}" for c in plan.channels if c.index in targets]
+    if len(targets) < len(step.targets):
+        notes.append(f"{len(step.targets) - len(targets)} already there")
     flags, data = layout.move_record(frames, label, targets, masks)
     return {"flags": flags, "data": data, "notes": notes, "where": ctx.where(step.span), "owner": ctx.owner}
 
@@ -192,8 +198,10 @@ def _hold_record(ctx: _Ctx, step: HoldStep) -> dict:
 def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
     """Flatten statements into template ops; runs of moves and holds become one record list."""
     run: list[dict] = []
+    known: dict[int, int] = {}          # targets set by the records of the current list so far
 
     def flush() -> None:
+        known.clear()
         if run:
             label = f"list{len(ctx.lists) + 1}"
             ctx.lists.append({"label": label, "records": list(run), "where": run[0]["where"]})
@@ -207,7 +215,7 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             continue            # takes no frame: no code, so nothing it does can delay a frame
         where = ctx.where(st.span)
         if isinstance(st, MoveStep):
-            run.append(_move_record(ctx, st))
+            run.append(_move_record(ctx, st, known))
             continue
         if isinstance(st, HoldStep):
             run.append(_hold_record(ctx, st))

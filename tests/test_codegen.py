@@ -14,10 +14,10 @@ from pathlib import Path
 
 import pytest
 
-from servoc import api, codegen, costs
+from servoc import layout, api, codegen, costs
 from servoc.diagnostics import Reporter
 
-from conftest import build_text, compile_file, parse_listing, pose, servo_decls
+from conftest import assert_exact, build_text, compile_file, parse_listing, pose, servo_decls
 
 pytestmark = pytest.mark.toolchain
 
@@ -305,3 +305,28 @@ def test_listing_checks_can_fail(listing_firmware):
     instrs, labels = parse_listing(listing.replace(pad, re.sub(r"#(\d+)", lambda m: f"#{int(m[1]) + 1}", pad)))
     rise = next(i for i, ins in enumerate(instrs) if ins.op == "ORL" and ins.args == ("P0", "A"))
     assert path_cycles(instrs, labels, rise, stop=lambda ins: ins.op == "JMP") == {costs.HEAD_CYCLES + 2}
+
+
+def test_records_leave_out_servos_already_at_their_target():
+    """Within a record list, a move names only the servos whose target changes: the record is
+    shorter and the pulses are the same."""
+    pins = [(1, b) for b in range(4)]
+    names = [f"s1_{b}" for b in range(4)]
+    text = (servo_decls(pins, options="speed 0.001s/60deg") + pose("a", {n: 10 for n in names})
+            + pose("b", {**{n: 10 for n in names}, "s1_2": 60})
+            + "main { move a in 20ms; move b in 20ms; hold 20ms; move a in 20ms }\n")
+    built = build_text(text)
+    lines = built.firmware.unit.text.splitlines()
+    start = next(i for i, line in enumerate(lines) if line.startswith("list1:"))
+    data = []
+    for line in lines[start + 1:]:
+        fields = line.split(";")[0].split(".db")[1].split(",") if ".db" in line else None
+        if fields is None:
+            continue
+        if int(fields[0], 0) & layout.FLAG["ENDF"]:
+            break
+        if not int(fields[0], 0) & layout.FLAG["HOLDF"]:
+            data.append(fields)
+    assert [len(d) for d in data] == [2 + 4, 2 + 1 + 1, 2 + 1 + 1]    # flags, F, [mask], N per named servo
+    assert data[1][-1].strip() == "60" and data[2][-1].strip() == "10"
+    assert_exact(built.verify(), text)
