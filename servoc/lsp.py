@@ -446,6 +446,15 @@ def build_server() -> ServoLanguageServer:
         a = ls.analysis(doc.uri)
         return a, a.lines.offset(pos)
 
+    def name_at(ls: ServoLanguageServer, doc: lsp.TextDocumentIdentifier, pos: lsp.Position):
+        """(analysis, symbols, the name under the cursor), or None where there is no name or no tree."""
+        a, offset = at(ls, doc, pos)
+        if a.tree is None:
+            return None
+        sym = Symbols(a.tree)
+        name = sym.at(offset)
+        return None if name is None else (a, sym, name)
+
     @server.feature(lsp.TEXT_DOCUMENT_HOVER)
     def on_hover(ls: ServoLanguageServer, params: lsp.HoverParams) -> lsp.Hover | None:
         a, offset = at(ls, params.text_document, params.position)
@@ -453,38 +462,31 @@ def build_server() -> ServoLanguageServer:
 
     @server.feature(lsp.TEXT_DOCUMENT_DEFINITION)
     def definition(ls: ServoLanguageServer, params: lsp.DefinitionParams) -> lsp.Location | None:
-        a, offset = at(ls, params.text_document, params.position)
-        if a.tree is None:
+        found = name_at(ls, params.text_document, params.position)
+        if found is None:
             return None
-        sym = Symbols(a.tree)
-        name = sym.at(offset)
-        decl = sym.decls.get(name.text) if name is not None else None
+        a, sym, name = found
+        decl = sym.decls.get(name.text)
         if decl is None:
             return None
         return lsp.Location(uri=a.uri, range=a.lines.range(decl.name.span))
 
     @server.feature(lsp.TEXT_DOCUMENT_REFERENCES)
     def references(ls: ServoLanguageServer, params: lsp.ReferenceParams) -> list[lsp.Location] | None:
-        a, offset = at(ls, params.text_document, params.position)
-        if a.tree is None:
+        found = name_at(ls, params.text_document, params.position)
+        if found is None or found[2].text in PORTS:
             return None
-        sym = Symbols(a.tree)
-        name = sym.at(offset)
-        if name is None or name.text in PORTS:
-            return None
+        a, sym, name = found
         with_decl = params.context.include_declaration
         return [lsp.Location(uri=a.uri, range=a.lines.range(n.span)) for n in sym.uses(name.text)
                 if with_decl or n.span not in sym.declaring]
 
     @server.feature(lsp.TEXT_DOCUMENT_DOCUMENT_HIGHLIGHT)
     def highlight(ls: ServoLanguageServer, params: lsp.DocumentHighlightParams) -> list[lsp.DocumentHighlight] | None:
-        a, offset = at(ls, params.text_document, params.position)
-        if a.tree is None:
+        found = name_at(ls, params.text_document, params.position)
+        if found is None:
             return None
-        sym = Symbols(a.tree)
-        name = sym.at(offset)
-        if name is None:
-            return None
+        a, sym, name = found
         return [lsp.DocumentHighlight(range=a.lines.range(n.span),
                                       kind=lsp.DocumentHighlightKind.Write if n.span in sym.declaring
                                       else lsp.DocumentHighlightKind.Read) for n in sym.uses(name.text)]
@@ -514,13 +516,10 @@ def build_server() -> ServoLanguageServer:
 
     @server.feature(lsp.TEXT_DOCUMENT_PREPARE_RENAME)
     def prepare_rename(ls: ServoLanguageServer, params: lsp.PrepareRenameParams) -> lsp.Range | None:
-        a, offset = at(ls, params.text_document, params.position)
-        if a.tree is None:
+        found = name_at(ls, params.text_document, params.position)
+        if found is None or found[2].text not in found[1].decls:
             return None
-        sym = Symbols(a.tree)
-        name = sym.at(offset)
-        if name is None or name.text not in sym.decls:
-            return None
+        a, sym, name = found
         return a.lines.range(name.span)
 
     @server.feature(lsp.TEXT_DOCUMENT_RENAME)

@@ -14,7 +14,7 @@ from fractions import Fraction
 from typing import Union
 
 from .source import NO_SPAN, Span
-from .target import DEFAULT as DEFAULT_TARGET, Target
+from . import target as chips
 from .units import DEFAULT_T_DAV_US
 
 EASES = ("linear", "in", "out", "in-out")
@@ -129,7 +129,7 @@ class Program:
     sequences: tuple[Sequence, ...]
     main: tuple[Stmt, ...]
     frame_us: Fraction | None = None          # `frame DUR`, if given
-    target: Target = DEFAULT_TARGET            # chip, crystal and mode
+    target: chips.Target = chips.DEFAULT       # chip, crystal and mode
     references: frozenset[str] = frozenset()  # names used after their declaration
     main_span: Span = _span()
     frame_span: Span = _span()

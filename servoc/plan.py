@@ -225,7 +225,7 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
 def budget(p: Plan) -> Plan:
     """The plan with `min_period_us` read from the firmware generated for it (see costs.py).
     When no firmware can be generated (a resource limit, reported later), P itself."""
-    from . import codegen, wcet      # codegen builds on the plan types
+    from . import codegen            # codegen builds on the plan types
     try:
         unit = codegen.generate(p)
     except codegen.CodegenError:
