@@ -39,6 +39,8 @@ examples:
   servoc plan examples/biped.servo --csv      the same as CSV
   servoc compile examples/biped.servo -o biped.hex --asm biped.asm
   servoc verify examples/biped.servo          run the firmware in ucsim, check every pulse
+  servoc flash prog.servo --port /dev/ttyUSB0 compile and write it to an STC89 board (needs servoc[flash]);
+                                              for an AT89 chip, print the programmer's command
   servoc lint prog.servo --format json        diagnostics for editors and tools
   servoc verify prog.servo --format json      the check's figures and every mismatch as JSON
 
@@ -54,7 +56,7 @@ environment:
 """
 
 
-COMMANDS = ("init", "lint", "plan", "compile", "verify", "lsp")
+COMMANDS = ("init", "lint", "plan", "compile", "verify", "flash", "lsp")
 LSP_MISSING = "the language server needs pygls: pip install 'servoc[lsp]'"
 
 
@@ -116,6 +118,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, metavar="N",
                    help="frames to check from the first pulse (default: the whole program and 20 more; for a "
                         "program that loops forever, up to its loop and two passes of it, at least 400)")
+    p = add("flash", "compile and write to an STC89 board (needs servoc[flash]), or print an AT89's "
+                     "programmer command")
+    p.add_argument("--port", metavar="PORT", help="the STC89 board's serial port, e.g. /dev/ttyUSB0 or COM3 "
+                                                  "(needed for STC chips)")
+    p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
+    p.add_argument("--baud", type=int, metavar="N", default=None,
+                   help="stcgal's transfer rate in baud (default: 115200)")
     help_ = "run the language server on stdin/stdout, for editors (needs servoc[lsp])"
     sub.add_parser("lsp", help=help_, description=help_)
     return parser
@@ -214,6 +223,11 @@ def _main(argv: list[str], run: _Run) -> int:
     run.emit = bool(getattr(args, "emit", None))
     if getattr(args, "frames", None) is not None and args.frames < 1:
         raise _Stop("--frames must be at least 1")
+    if args.command == "flash":
+        from .flash import BAUDS
+        if args.baud is not None and args.baud not in BAUDS:
+            raise _Stop(f"--baud {args.baud} is not a rate stcgal can ask for: use one of "
+                        + ", ".join(map(str, BAUDS)))
     try:
         source, reporter = api.load_source(args.file)
     except api.UsageError as exc:
@@ -223,7 +237,7 @@ def _main(argv: list[str], run: _Run) -> int:
 
     firmware = None
     try:
-        if args.command in ("compile", "verify"):
+        if args.command in ("compile", "verify", "flash"):
             fe, firmware = api.build(source, reporter)
         else:
             fe = api.front_end(source, reporter)
@@ -263,6 +277,8 @@ def _main(argv: list[str], run: _Run) -> int:
                 raise _Stop(f"cannot write {args.plot}: {exc.strerror or exc}", "cannot-write") from None
         return 0
     assert firmware is not None
+    if args.command == "flash":
+        return _flash(args, run, source, plan, firmware)
     if args.command == "compile":
         out = _hex_out(args)
         for path, text in ((args.asm, firmware.unit.text), (out, firmware.hex_text)):
@@ -311,6 +327,64 @@ def _main(argv: list[str], run: _Run) -> int:
     if len(report.mismatches) > 20:
         print(f"  ... and {len(report.mismatches) - 20} more mismatches")
     return 0 if report.ok else 1
+
+
+def _flash(args, run: _Run, source, plan: Plan, firmware) -> int:
+    """`servoc flash`: write the HEX, then to an STC89 board through stcgal, or print the command
+    that writes it to an AT89 chip. The port and stcgal are checked before the HEX is written."""
+    from . import flash
+    target = plan.program.target
+    chip = target.chip
+    out = _hex_out(args)
+    stc = flash.uses_stcgal(chip)
+    baud = args.baud or flash.DEFAULT_BAUD
+    if stc:
+        if not args.port:
+            raise _Stop(f"the {chip.display} is written through its serial bootloader: name its serial port "
+                        "with --port, e.g. --port /dev/ttyUSB0 (COM3 on Windows)")
+        if flash.needs_hex_name(out):
+            raise _Stop(f"cannot write {out} for stcgal: it reads Intel HEX only from a file named *.hex, *.ihx "
+                        "or *.ihex (-o)")
+        try:
+            flash.load_stcgal()
+        except flash.MissingStcgal:
+            raise _Stop(flash.MISSING, "missing-extra") from None
+    try:
+        api.write_atomic(out, firmware.hex_text)
+    except OSError as exc:
+        raise _Stop(f"cannot write {out}: {exc.strerror or exc}", "cannot-write") from None
+    result = {"file": source.path, "hex": out, "chip": chip.display, "six_t": target.six_t,
+              "flashed": False, "port": None, "baud": None, "command": None, "stcgal_output": None}
+    if not stc:
+        result["command"] = flash.command(chip, out)
+        if run.json:
+            print(json.dumps(result, indent=2))
+            return 0
+        ignored = [o for o, v in (("--port", args.port), ("--baud", args.baud)) if v is not None]
+        if ignored:
+            sys.stderr.write(f"servoc: {' and '.join(ignored)} {'is' if len(ignored) == 1 else 'are'} for "
+                             f"the STC89's serial bootloader; ignored for the {chip.display}\n")
+        print(f"{out}: written. servoc does not program the {chip.display} itself; run ({flash.how(chip)}):")
+        print(result["command"])
+        return 0
+    result.update(port=args.port, baud=baud)
+    log = io.StringIO() if run.json else None
+    if log is None:
+        sys.stderr.write(f"servoc: writing {out} to the {chip.display} on {args.port} with stcgal (protocol "
+                         f"{flash.PROTOCOL}, {baud} baud, {'6T' if target.six_t else '12T'} mode); "
+                         "power-cycle the board when it asks\n")
+    rc = flash.write_stc(out, args.port, target, baud, log=log)
+    result["flashed"] = rc == 0
+    if log is not None:
+        result["stcgal_output"] = log.getvalue()
+        print(json.dumps(result, indent=2))
+    elif rc == 0:
+        print(f"{out}: {_plan_line(plan)}; written to the {chip.display} on {args.port}")
+    else:
+        sys.stderr.write(f"servoc: error: stcgal could not write {out} to the {chip.display} on {args.port} "
+                         f"(exit status {rc}, its message is above): check the port and the wiring, and "
+                         "power-cycle the board when stcgal asks\n")
+    return 0 if rc == 0 else 1
 
 
 def _lsp() -> int:
@@ -381,9 +455,9 @@ def _check_inputs_and_outputs(args) -> str | None:
     the program nor another output; the optional packages an output needs are there; `--hex` can
     be read (its text is returned)."""
     outputs: list[tuple[str, str]] = []
-    if args.command == "compile":
+    if args.command in ("compile", "flash"):
         outputs = [("-o" if args.output else "the HEX", _hex_out(args))]
-        if args.asm is not None:
+        if getattr(args, "asm", None) is not None:
             outputs.insert(0, ("--asm", args.asm))
     elif args.command == "plan" and args.plot is not None and not args.emit:
         outputs = [("--plot", args.plot)]

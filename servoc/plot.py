@@ -1,21 +1,31 @@
-"""A plan drawn as a PNG: commanded angles over time, and where the servos really are.
+"""A plan drawn as a PNG: the positions over time, as written, and where the servos really are.
 
 `plot_plan(plan, path, source)` draws one row per servo that gets pulses
 (`plan.channels`), sharing a time axis in seconds:
 
-* the commanded angle, N x 0.74 deg of the golden frames (`plan.expand`),
-  as a step line: frame i (0-based) is commanded from i x P to (i + 1) x P;
+* the commanded position as written in the program, in degrees (N x 0.74 deg):
+  the plan's N are output N, after `reverse` and `trim`, and are drawn with
+  both undone (`written_n`), so a pose reads as its source; frame i (0-based)
+  of the golden frames (`plan.expand`) is commanded from i x P to (i + 1) x P,
+  drawn as a step line;
+* on a second axis, right, the pulse width of the output N, 500 + 8 N us
+  (decreasing upwards for a reversed servo);
 * the follower, dashed: a servo that moves at its top speed (1 DAV per
   t_DAV us) toward the current commanded target, the model of `follow`;
-* in red, the frames whose step from the previous frame is more than the
-  servo can travel in one frame (|N_i - N_(i-1)| x t_DAV > P, `over_speed`);
+* in red, the frames where the servo is asked for more than its top speed, by
+  the linter's own rule (`servoc.speed`, `over_speed_frames`): every moving
+  frame of a move instance that is too fast (`infeasible-speed`), and the
+  frames of an eased move whose step is more than one frame at top speed
+  (`eased-overspeed`). A program with no speed finding has no red; a feasible
+  linear move never has, though its rounded steps may be one N above average;
 * a vertical line where a statement's frames start, labelled with its source
   line (`L12`), and a black dashed line where `main` ends.
 
-Frames are drawn up to the end of `main` plus a tail, or `max_frames` frames
-for programs that loop forever (or whose main is longer). Statements are told
-apart by their span, so consecutive runs of one statement (`repeat 3 { move
-a }`) show a single start line.
+The title counts the program's frames as `servoc plan` does in its `total:`
+line. Frames are drawn up to the end of `main` plus a tail, or `max_frames`
+frames for programs that loop forever (or whose main is longer). Statements
+are told apart by their span, so consecutive runs of one statement (`repeat
+3 { move a }`) show a single start line.
 
 The output is deterministic: matplotlib's default style is used whatever the
 user's matplotlibrc says, and the PNG metadata carries no time or version.
@@ -32,13 +42,15 @@ import os
 from fractions import Fraction
 from typing import Sequence
 
-from .plan import GoldenFrame, Plan, expand
+from . import model
+from .plan import GoldenFrame, MoveStep, Plan, expand, move_frames_at, steps
 from .source import SourceFile
+from .speed import frames_over, motion_frames_over, t_dav_of
 from .toolchain import write_atomic
-from .units import DAV_DEG
+from .units import BASE_US, DAV_DEG, DIV_US, N_MAX, fmt_ms
 
-__all__ = ["MissingExtra", "follow", "follow_points", "frames_to_plot", "over_speed", "plot_plan", "render_plan",
-           "statement_starts"]
+__all__ = ["MissingExtra", "follow", "follow_points", "frames_to_plot", "over_speed_frames", "plot_figure",
+           "plot_plan", "render_plan", "statement_starts", "title_text", "width_us", "written_deg", "written_n"]
 
 DPI = 100
 WIDTH_IN = 12.0
@@ -46,7 +58,7 @@ ROW_IN = 1.5            # height of one servo's row
 TOP_IN = 1.0            # title, legend and line labels above the first row
 BOTTOM_IN = 0.55        # the time axis below the last row
 LEFT_IN = 1.1           # servo names
-RIGHT_IN = 0.25
+RIGHT_IN = 0.85         # the pulse-width axis
 COMMANDED_COLOR = "tab:blue"
 FOLLOWER_COLOR = "tab:orange"
 OVER_SPEED_COLOR = "#ff0000"
@@ -68,18 +80,78 @@ class MissingExtra(ImportError):
 
 # ----------------------------------------------------------------- the models (pure)
 
-def over_speed(targets: Sequence[int | None], t_dav_us: Fraction, period_us: int) -> list[bool]:
-    """Per frame: the step from the previous frame's N is more than the servo travels in P.
+def written_n(servo: model.Servo, n: int | Fraction) -> int | Fraction:
+    """The N as written in the program for output N `n`: trim, then reverse, undone."""
+    n = n - servo.trim
+    return N_MAX - n if servo.reverse else n
 
-    A frame whose previous frame has no target (the servo is set at once) is never over speed.
-    """
-    t_dav = Fraction(t_dav_us)
-    result = [False] * len(targets)
-    for i in range(1, len(targets)):
-        a, b = targets[i - 1], targets[i]
-        if a is not None and b is not None and abs(b - a) * t_dav > period_us:
-            result[i] = True
-    return result
+
+def written_deg(servo: model.Servo, n: int | Fraction) -> float:
+    """The angle as written for output N `n`, in degrees."""
+    return float(written_n(servo, n) * DAV_DEG)
+
+
+def width_us(servo: model.Servo, deg):
+    """The pulse width (us) sent for a position written as `deg` degrees: 500 + 8 x output N.
+    Affine, so it takes numbers or numpy arrays (the plot's second axis)."""
+    n = deg / float(DAV_DEG)
+    out = (N_MAX - n if servo.reverse else n) + servo.trim
+    return BASE_US + DIV_US * out
+
+
+def width_to_deg(servo: model.Servo, width):
+    """The inverse of `width_us`."""
+    n = (width - BASE_US) / DIV_US - servo.trim
+    return (N_MAX - n if servo.reverse else n) * float(DAV_DEG)
+
+
+def over_speed_frames(plan: Plan, frames: Sequence[GoldenFrame]) -> list[list[bool]]:
+    """Per channel, per frame: the servo is asked for more than its top speed (`servoc.speed`).
+
+    Each run of a move statement's frames is matched with the plan's move instance for the
+    state it starts from (the instances the linter reads), and marked by `speed.frames_over`.
+    Frames after `main` ends, holds, and servos set at once are never over speed."""
+    count = len(plan.channels)
+    flags = [[False] * len(frames) for _ in range(count)]
+    moves = {st.span: st for st in steps(plan) if isinstance(st, MoveStep)}
+    instances = {(id(inst.step), tuple(m.n0 for m in inst.motions)): inst for inst in plan.moves}
+    classes = tuple(c.speed_class for c in plan.channels)
+    end = len(frames) if plan.total_frames is None else min(len(frames), plan.total_frames)
+    i = 0
+    while i < end:
+        step = moves.get(frames[i].span)
+        if step is None:
+            i += 1
+            continue
+        state = frames[i - 1].n if i > 0 else (None,) * count
+        inst = instances.get((id(step), tuple(state[ch] for ch, _ in step.targets)))
+        if inst is not None:
+            f = inst.frames
+            marks = [(m.channel, motion_frames_over(plan, inst, m)) for m in inst.motions]
+        else:       # not a context the planner walked: the same rule on the state seen here
+            f = move_frames_at(step, state, plan.speed_tables, classes)
+            marks = [(ch, frames_over(state[ch], n1, f, step.ease, t_dav_of(plan, ch), plan.period_us))
+                     for ch, n1 in step.targets]
+        for ch, over in marks:
+            for k, bad in enumerate(over[:end - i]):
+                flags[ch][i + k] = bad
+        i += f
+    return flags
+
+
+def title_text(plan: Plan, source: SourceFile, count: int) -> str:
+    """The plot's title: the program, P, the servos, and the program's frames as `servoc plan`
+    counts them (its `total:` line), with how many are drawn when that is fewer."""
+    name = os.path.basename(source.path)
+    servos = len(plan.channels)
+    head = f"{name}: P = {fmt_ms(plan.period_us)}, {servos} servo{'s' if servos != 1 else ''}, "
+    if plan.total_frames is None:
+        return head + f"loops forever (the first {count} frames shown)"
+    total = (f"{plan.total_frames} frame{'' if plan.total_frames == 1 else 's'} = "
+             f"{fmt_ms(plan.total_frames * plan.period_us)}")
+    if count < plan.total_frames:
+        return head + f"{total} (the first {count} shown)"
+    return head + f"{total}, then the last targets repeat"
 
 
 def _follow_frames(targets: Sequence[int | None], t_dav_us: Fraction, period_us: int):
@@ -174,11 +246,18 @@ def _matplotlib():
     return matplotlib, FigureCanvasAgg, LineCollection, Figure, Line2D, blended_transform_factory
 
 
-def render_plan(plan: Plan, source: SourceFile, max_frames: int = 4000) -> bytes:
-    """The PNG bytes of the plan's plot (see the module docstring)."""
+def _servo_label(ch) -> str:
+    servo = ch.servo
+    label = f"{ch.name}\n{servo.pin} (deg)"
+    undone = (["reverse"] if servo.reverse else []) + ([f"trim {servo.trim:+d}"] if servo.trim else [])
+    return label + (f"\nas written ({', '.join(undone)})" if undone else "")
+
+
+def _draw(plan: Plan, source: SourceFile, max_frames: int, mpl):
+    """The figure, drawn under matplotlib's default style (the caller holds the style context)."""
     if max_frames < 1:
         raise ValueError(f"max_frames must be at least 1, got {max_frames!r}")
-    matplotlib, FigureCanvasAgg, LineCollection, Figure, Line2D, blended = _matplotlib()
+    matplotlib, FigureCanvasAgg, LineCollection, Figure, Line2D, blended = mpl
     count = frames_to_plot(plan, max_frames)
     frames = list(itertools.islice(expand(plan), count))
     period = plan.period_us
@@ -189,77 +268,94 @@ def render_plan(plan: Plan, source: SourceFile, max_frames: int = 4000) -> bytes
 
     starts = statement_starts(frames, source)
     main_end = plan.total_frames if plan.total_frames is not None and plan.total_frames <= count else None
+    over = over_speed_frames(plan, frames)
 
-    name = os.path.basename(source.path)
-    shown = f"first {count} frames" if plan.total_frames is None or count < plan.total_frames else f"{count} frames"
-    title = (f"{name}: P = {period / 1000:g} ms, {len(channels)} servo{'s' if len(channels) != 1 else ''}, "
-             f"{shown}{', loops forever' if plan.total_frames is None else ''}")
-
-    with matplotlib.style.context("default"):
-        fig = Figure(figsize=(WIDTH_IN, height), dpi=DPI)
-        FigureCanvasAgg(fig)
-        fig.subplots_adjust(left=LEFT_IN / WIDTH_IN, right=1 - RIGHT_IN / WIDTH_IN,
-                            top=1 - TOP_IN / height, bottom=BOTTOM_IN / height, hspace=0.22)
-        axes = fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
-        fig.suptitle(title, x=LEFT_IN / WIDTH_IN, y=1 - 0.12 / height, ha="left", va="top", fontsize=11)
-        any_over = False
-        for ax, ch in zip(axes, channels):
-            targets = [fr.n[ch.index] for fr in frames]
-            t_dav = plan.class_t_dav_us[ch.speed_class]
-            deg = [math.nan if n is None else float(n * DAV_DEG) for n in targets]
-            ax.step(seconds, deg + deg[-1:], where="post", color=COMMANDED_COLOR, linewidth=1.2, zorder=2)
-            segments = []
-            for i, over in enumerate(over_speed(targets, t_dav, period)):
-                if over:
-                    segments.append([(seconds[i], deg[i - 1]), (seconds[i], deg[i]), (seconds[i + 1], deg[i])])
-            if segments:
-                any_over = True
-                ax.add_collection(LineCollection(segments, colors=OVER_SPEED_COLOR, linewidths=2.4, zorder=3))
-            path = follow_points(targets, t_dav, period)
-            if path:
-                ax.plot([float(t) / 1e6 for t, _ in path], [float(n * DAV_DEG) for _, n in path],
-                        color=FOLLOWER_COLOR, linestyle="--", linewidth=1.2, zorder=4)
-            ax.set_ylabel(f"{ch.name}\n{ch.servo.pin} (deg)", fontsize=8)
-            ax.tick_params(labelsize=7)
-            known = [d for d in deg if not math.isnan(d)]
-            if known:
-                lo, hi = min(known), max(known)
-                pad = max(2.0, (hi - lo) * 0.12)
-                ax.set_ylim(lo - pad, hi + pad)
-        if not channels:
-            axes[0].text(0.5, 0.5, "no servo is moved", ha="center", va="center", transform=axes[0].transAxes)
-        for ax in axes:
-            for i, _ in starts:
-                ax.axvline(seconds[i], color=BOUNDARY_COLOR, linewidth=0.6, zorder=1)
-            if main_end is not None:
-                ax.axvline(seconds[main_end], color="black", linestyle=":", linewidth=1.0, zorder=1)
-            ax.grid(axis="y", color="0.92", linewidth=0.5)
-        axes[0].set_xlim(0, seconds[-1])
-        axes[-1].set_xlabel("time (s)", fontsize=9)
-
-        top = axes[0]
-        label_at = blended(top.transData, top.transAxes)
-        last = -math.inf
-        for i, line in starts:
-            x = seconds[i]
-            if x - last >= MIN_LABEL_GAP * seconds[-1]:
-                top.text(x, 1.02, f"L{line}", transform=label_at, rotation=90, fontsize=6,
-                         ha="center", va="bottom", color="0.35")
-                last = x
+    fig = Figure(figsize=(WIDTH_IN, height), dpi=DPI)
+    FigureCanvasAgg(fig)
+    fig.subplots_adjust(left=LEFT_IN / WIDTH_IN, right=1 - RIGHT_IN / WIDTH_IN,
+                        top=1 - TOP_IN / height, bottom=BOTTOM_IN / height, hspace=0.22)
+    axes = fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
+    fig.suptitle(title_text(plan, source, count), x=LEFT_IN / WIDTH_IN, y=1 - 0.12 / height, ha="left",
+                 va="top", fontsize=11)
+    any_over = False
+    for ax, ch in zip(axes, channels):
+        servo = ch.servo
+        targets = [fr.n[ch.index] for fr in frames]
+        t_dav = t_dav_of(plan, ch.index)
+        deg = [math.nan if n is None else written_deg(servo, n) for n in targets]
+        ax.step(seconds, deg + deg[-1:], where="post", color=COMMANDED_COLOR, linewidth=1.2, zorder=2,
+                gid=f"commanded:{ch.name}")
+        segments = [[(seconds[i], deg[i - 1] if i > 0 else deg[i]), (seconds[i], deg[i]), (seconds[i + 1], deg[i])]
+                    for i, bad in enumerate(over[ch.index]) if bad]
+        if segments:
+            any_over = True
+            ax.add_collection(LineCollection(segments, colors=OVER_SPEED_COLOR, linewidths=2.4, zorder=3,
+                                             gid=f"over-speed:{ch.name}"))
+        path = follow_points(targets, t_dav, period)
+        if path:
+            ax.plot([float(t) / 1e6 for t, _ in path], [written_deg(servo, n) for _, n in path],
+                    color=FOLLOWER_COLOR, linestyle="--", linewidth=1.2, zorder=4, gid=f"follower:{ch.name}")
+        ax.set_ylabel(_servo_label(ch), fontsize=8)
+        ax.tick_params(labelsize=7)
+        known = [d for d in deg if not math.isnan(d)]
+        if known:
+            lo, hi = min(known), max(known)
+            pad = max(2.0, (hi - lo) * 0.12)
+            ax.set_ylim(lo - pad, hi + pad)
+        width = ax.secondary_yaxis("right", functions=(lambda d, s=servo: width_us(s, d),
+                                                       lambda w, s=servo: width_to_deg(s, w)))
+        width.set_gid(f"width:{ch.name}")
+        width.set_ylabel("width (µs)", fontsize=8)
+        width.tick_params(labelsize=7)
+    if not channels:
+        axes[0].text(0.5, 0.5, "no servo is moved", ha="center", va="center", transform=axes[0].transAxes)
+    for ax in axes:
+        for i, _ in starts:
+            ax.axvline(seconds[i], color=BOUNDARY_COLOR, linewidth=0.6, zorder=1)
         if main_end is not None:
-            top.text(seconds[main_end], 1.02, "end", transform=label_at, rotation=90, fontsize=6,
-                     ha="center", va="bottom", color="black")
+            ax.axvline(seconds[main_end], color="black", linestyle=":", linewidth=1.0, zorder=1)
+        ax.grid(axis="y", color="0.92", linewidth=0.5)
+    axes[0].set_xlim(0, seconds[-1])
+    axes[-1].set_xlabel("time (s)", fontsize=9)
 
-        handles = [Line2D([], [], color=COMMANDED_COLOR, linewidth=1.2, label="commanded"),
-                   Line2D([], [], color=FOLLOWER_COLOR, linestyle="--", linewidth=1.2, label="servo at top speed")]
-        if any_over:
-            handles.append(Line2D([], [], color=OVER_SPEED_COLOR, linewidth=2.4, label="step over top speed"))
-        handles.append(Line2D([], [], color=BOUNDARY_COLOR, linewidth=0.8, label="statement start (line)"))
-        fig.legend(handles=handles, loc="upper right", bbox_to_anchor=(1 - RIGHT_IN / WIDTH_IN, 1 - 0.05 / height),
-                   ncol=len(handles), fontsize=8, frameon=False)
+    top = axes[0]
+    label_at = blended(top.transData, top.transAxes)
+    last = -math.inf
+    for i, line in starts:
+        x = seconds[i]
+        if x - last >= MIN_LABEL_GAP * seconds[-1]:
+            top.text(x, 1.02, f"L{line}", transform=label_at, rotation=90, fontsize=6,
+                     ha="center", va="bottom", color="0.35")
+            last = x
+    if main_end is not None:
+        top.text(seconds[main_end], 1.02, "end", transform=label_at, rotation=90, fontsize=6,
+                 ha="center", va="bottom", color="black")
 
+    handles = [Line2D([], [], color=COMMANDED_COLOR, linewidth=1.2, label="commanded, as written"),
+               Line2D([], [], color=FOLLOWER_COLOR, linestyle="--", linewidth=1.2, label="servo at top speed")]
+    if any_over:
+        handles.append(Line2D([], [], color=OVER_SPEED_COLOR, linewidth=2.4, label="over top speed (lint)"))
+    handles.append(Line2D([], [], color=BOUNDARY_COLOR, linewidth=0.8, label="statement start (line)"))
+    fig.legend(handles=handles, loc="upper left", bbox_to_anchor=(LEFT_IN / WIDTH_IN - 0.01, 1 - 0.36 / height),
+               ncol=len(handles), fontsize=8, frameon=False, borderaxespad=0)
+    return fig
+
+
+def plot_figure(plan: Plan, source: SourceFile, max_frames: int = 4000):
+    """The plan's plot (see the module docstring) as a matplotlib Figure, for inspection."""
+    mpl = _matplotlib()
+    with mpl[0].style.context("default"):
+        return _draw(plan, source, max_frames, mpl)
+
+
+def render_plan(plan: Plan, source: SourceFile, max_frames: int = 4000) -> bytes:
+    """The PNG bytes of the plan's plot (see the module docstring)."""
+    mpl = _matplotlib()
+    with mpl[0].style.context("default"):
+        fig = _draw(plan, source, max_frames, mpl)
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=DPI, metadata={"Software": None, "Title": name})
+        fig.savefig(buf, format="png", dpi=DPI,
+                    metadata={"Software": None, "Title": os.path.basename(source.path)})
     return buf.getvalue()
 
 

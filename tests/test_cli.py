@@ -629,3 +629,44 @@ def test_documented_compile_and_verify_results(capsys, program, tmp_path):
     assert run(["compile", str(other), "-o", str(tmp_path / "o.hex")], capsys)[0] == 0
     rc, out, _ = run(["verify", "--format", "json", str(program), "--hex", str(tmp_path / "o.hex")], capsys)
     assert rc == 1 and key_paths(json.loads(out)) == documented_keys("`servoc verify --format json` prints")
+
+
+# ---- flash (the rest is in test_flash.py) --------------------------------------------------
+
+def test_flash_is_listed_with_its_example(capsys):
+    rc, out, _ = run(["--help"], capsys)
+    assert rc == 0 and re.search(r"^\s+flash\s+compile and write to an STC89 board", out, re.M)
+    assert "servoc flash prog.servo --port /dev/ttyUSB0" in out
+    rc, out, err = run(["flsh", "x.servo"], capsys)
+    assert rc == 2 and "did you mean `servoc flash`" in err
+
+
+@pytest.mark.parametrize("args, words", [
+    (["flash", "PROG", "-o", "DIR/missing/x.hex"], "does not exist (-o)"),
+    (["flash", "PROG", "-o", "PROG"], "cannot write PROG: it is the program, PROG (-o)"),
+    (["flash", "PROG", "--baud", "300"], "--baud 300 is not a rate stcgal can ask for"),
+])
+def test_flash_outputs_refused_before_any_work(capsys, program, tmp_path, no_work, args, words):
+    sub = lambda a: a.replace("PROG", str(program)).replace("DIR", str(tmp_path))  # noqa: E731
+    before = sorted(p.name for p in tmp_path.iterdir())
+    rc, out, err = run([sub(a) for a in args], capsys)
+    assert rc == 2 and out == "" and err.startswith("servoc: error: ") and sub(words) in err, err
+    no_traceback(err)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before
+
+
+def test_flash_json_usage_error(capsys, tmp_path):
+    path = tmp_path / "stc.servo"
+    path.write_text("target stc89c52rc\n" + PROGRAM)
+    rc, out, err = run(["flash", "--format", "json", str(path)], capsys)
+    assert rc == 2 and out == ""
+    data = json_doc(err)
+    assert data["error"]["kind"] == "usage" and "--port" in data["error"]["message"]
+    assert not (tmp_path / "stc.hex").exists()
+
+
+@pytest.mark.toolchain
+def test_documented_flash_result(capsys, program, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "stcgal", None)        # an AT89C52 needs no stcgal
+    rc, out, _ = run(["flash", "--format", "json", str(program), "-o", str(tmp_path / "p.hex")], capsys)
+    assert rc == 0 and key_paths(json.loads(out)) == documented_keys("`servoc flash --format json`")

@@ -1,8 +1,12 @@
-"""servoc.plot: the follower model, the over-speed rule, statement starts, and the PNG itself.
+"""servoc.plot: the follower model, the over-speed marks, statement starts, and the PNG itself.
 
-The models are checked against hand-computed values; the PNG is decoded
-with Pillow (a matplotlib dependency) and its pixels inspected: the red of
-an over-speed step must be there exactly when some frame is over speed.
+The models are checked against hand-computed values. The red marks come from
+the linter's own rule (`servoc.speed`): a program without speed findings has
+none, one with findings has them exactly on the frames the rule names. The
+figure is inspected through its artists (found by gid: `commanded:SERVO`,
+`follower:SERVO`, `over-speed:SERVO`, `width:SERVO`) and the PNG decoded with
+Pillow (a matplotlib dependency): the red of an over-speed step must be
+there exactly when some frame is over speed.
 """
 
 from __future__ import annotations
@@ -10,18 +14,21 @@ from __future__ import annotations
 import io
 import os
 import random
+import re
 import sys
 from fractions import Fraction
+from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image
 
-from servoc import plot
+from servoc import api, cli, plot, speed
 from servoc.plan import expand
-from servoc.plot import (MissingExtra, follow, follow_points, frames_to_plot, over_speed, plot_plan, render_plan,
-                         statement_starts)
-from servoc.units import DEFAULT_T_DAV_US
+from servoc.plot import (MissingExtra, follow, follow_points, frames_to_plot, over_speed_frames, plot_figure,
+                         plot_plan, render_plan, statement_starts, width_us, written_deg, written_n)
+from servoc.source import SourceFile
+from servoc.units import DAV_DEG, DEFAULT_T_DAV_US
 
 from conftest import front_end_text
 
@@ -150,17 +157,131 @@ def test_follow_catches_up_with_a_held_target():
     assert all(p == 250 for p in pos[first:])
 
 
-# ============================================================ over speed
+# ============================================================ over speed: the linter's rule
 
-def test_over_speed_hand_computed():
-    t_dav = DEFAULT_T_DAV_US                   # 2466.67 us per N; P = 5300 us: 2 N fit, 3 do not
-    assert over_speed([None, 0, 2, 5, 5, 2, 0, 3], t_dav, 5300) == [False, False, False, True, False, True,
-                                                                     False, True]
-    # exactly the top speed is not over it: 2 N x 2500 us = 5000 us = P
-    assert over_speed([10, 12, 15, 12], Fraction(2500), 5000) == [False, False, True, True]
-    # a servo set at once (no previous target) is never over speed
-    assert over_speed([None, 250], Fraction(2500), 5000) == [False, False]
-    assert over_speed([], Fraction(2500), 5000) == []
+ROOT = Path(__file__).resolve().parent.parent
+README_PROGRAM = re.search(r"```servo\n(.*?)```", (ROOT / "README.md").read_text(encoding="utf-8"), re.S).group(1)
+README_FIXED = README_PROGRAM.replace("move crouch in 100ms ease in-out", "move crouch in 345ms ease in-out")
+README_124 = README_PROGRAM.replace("move crouch in 100ms ease in-out", "move crouch in 124ms ease in-out")
+
+
+def any_front(text: str, name: str = "prog.servo"):
+    """The front end of a program whose plan exists, lint errors allowed: (front end, diagnostics)."""
+    source = SourceFile(name, text)
+    reporter = api.Reporter(source)
+    fe = api.front_end(source, reporter)
+    assert fe.plan is not None, [str(d) for d in reporter.diagnostics]
+    return fe, reporter.sorted()
+
+
+def speed_lines(fe, diags) -> set[int]:
+    return {fe.source.line_col(d.span.start)[0] for d in diags if d.code in ("infeasible-speed", "eased-overspeed")}
+
+
+def marked_lines(fe, frames, flags) -> set[int]:
+    return {fe.source.line_col(frames[i].span.start)[0]
+            for per_channel in flags for i, bad in enumerate(per_channel) if bad}
+
+
+def first_frames(plan, count: int | None = None):
+    return [fr for fr, _ in zip(expand(plan), range(count or (plan.total_frames or 400) + 5))]
+
+
+def test_frames_over_hand_computed():
+    t_dav = DEFAULT_T_DAV_US                   # 2466.67 us per N; P = 5300 us: 2 N fit in a frame, 3 do not
+    # linear, feasible, though rounding steps 2 N at 2 of 3 frames: 5 N x 2466.7 = 12333 us <= 3 x 5300
+    assert speed.curve_steps(0, 5, 3, "linear") == [2, 1, 2]
+    assert speed.frames_over(0, 5, 3, "linear", t_dav, 5300) == [False, False, False]
+    # linear, 7 N in 3 frames: 17267 us > 15900 us: every moving frame of the move
+    assert speed.frames_over(0, 7, 3, "linear", t_dav, 5300) == [True, True, True]
+    assert speed.frames_over(10, 3, 3, "linear", t_dav, 5300) == [True, True, True]
+    # a servo slower than a frame (t_DAV 6000 us > P = 4000 us): 3 N in 4 frames is infeasible
+    # (18000 us > 16000 us); only its moving frames are marked
+    assert speed.curve_steps(0, 3, 4, "linear") == [1, 1, 0, 1]
+    assert speed.frames_over(0, 3, 4, "linear", Fraction(6000), 4000) == [True, True, False, True]
+    # 2 N in 3 frames is not (12000 us <= 12000 us), though each step of 1 N takes longer than a frame
+    assert speed.frames_over(0, 2, 3, "linear", Fraction(6000), 4000) == [False, False, False]
+    # eased, feasible on average (12 N x 2466.7 us <= 8 x 5300 us): only the last step, 3 N, is marked
+    steps = speed.curve_steps(0, 12, 8, "in")
+    assert steps == [0, 1, 1, 1, 2, 2, 2, 3]
+    assert speed.frames_over(0, 12, 8, "in", t_dav, 5300) == [False] * 7 + [True]
+    assert speed.frames_over(12, 0, 8, "in", t_dav, 5300) == [False] * 7 + [True]
+    assert speed.peak_step(0, 12, 8, "in") == 3
+    # exactly top speed is not over it: 3 N x 1666.7 us = 5000 us = P
+    assert speed.frames_over(0, 12, 8, "in", Fraction(5000, 3), 5000) == [False] * 8
+    # a servo set at once, and a move that goes nowhere, are never over speed
+    assert speed.frames_over(None, 250, 2, "linear", t_dav, 5300) == [False, False]
+    assert speed.frames_over(7, 7, 2, "in", t_dav, 5300) == [False, False]
+
+
+def test_readme_fixed_example_has_no_red():
+    # line 13, `move stand` at 98 % of the knee's top speed, steps 2 N in some frames (2 x 3083 us > 6 ms):
+    # lint accepts the move (40 x 3083 us <= 21 x 6 ms), so the plot does not mark it either
+    fe, diags = any_front(README_FIXED)
+    assert speed_lines(fe, diags) == set() and not any(d.is_error for d in diags)
+    plan = fe.plan
+    frames = first_frames(plan)
+    knee = plan.channel_of("knee").index
+    steps = [abs(b.n[knee] - a.n[knee]) for a, b in zip(frames, frames[1:]) if a.n[knee] is not None]
+    assert max(steps) == 2                   # the old per-frame test marked these
+    assert not any(any(f) for f in over_speed_frames(plan, frames))
+    fig = plot_figure(plan, fe.source)
+    assert [a for ax in fig.axes for a in ax.collections if (a.get_gid() or "").startswith("over-speed:")] == []
+    img = decode(render_plan(plan, fe.source))
+    assert red_pixels(img) == 0
+
+
+def test_readme_124ms_example_is_red_on_the_knees_steepest_frames():
+    fe, diags = any_front(README_124)
+    assert [d.code for d in diags if d.code != "inexact-angle"] == ["eased-overspeed"]
+    assert speed_lines(fe, diags) == {11}
+    plan = fe.plan
+    frames = first_frames(plan)
+    flags = over_speed_frames(plan, frames)
+    knee = plan.channel_of("knee")
+    assert marked_lines(fe, frames, flags) == {11}
+    assert not any(flags[plan.channel_of("hip").index]) and not any(flags[plan.channel_of("foot").index])
+    # exactly the frames of line 11 whose step is more than one frame at the knee's top speed
+    t_dav = plan.class_t_dav_us[knee.speed_class]
+    on_11 = [i for i, fr in enumerate(frames) if fe.source.line_col(fr.span.start)[0] == 11]
+    step = {i: abs(frames[i].curve[knee.index] - frames[i - 1].curve[knee.index]) for i in on_11}
+    want = [i in step and step[i] * t_dav > plan.period_us for i in range(len(frames))]
+    assert flags[knee.index] == want and sum(want) >= 3 * 5          # three bobs, a handful of frames each
+    # the steepest frames of each bob (3 N: 9.25 ms of a 6 ms frame) are among them, and nothing of 1 N is
+    assert max(step.values()) == 3
+    assert all(want[i] for i in on_11 if step[i] == 3) and not any(want[i] for i in on_11 if step[i] <= 1)
+    # and the figure draws one red segment per marked frame, in the knee's row only
+    fig = plot_figure(plan, fe.source)
+    red = {a.get_gid(): a for ax in fig.axes for a in ax.collections if (a.get_gid() or "").startswith("over-speed:")}
+    assert list(red) == ["over-speed:knee"] and len(red["over-speed:knee"].get_segments()) == sum(want)
+    assert red_pixels(decode(render_plan(plan, fe.source))) > 100
+
+
+@pytest.mark.parametrize("name", ["biped.servo", "hexapod.servo", "pan_tilt.servo", "README", "README_124",
+                                  "FAST", "SLOW", "INFEASIBLE"])
+def test_red_exactly_where_lint_reports_speed(name):
+    text = {"README": README_FIXED, "README_124": README_124, "FAST": FAST, "SLOW": SLOW,
+            "INFEASIBLE": README_PROGRAM}.get(name) or (ROOT / "examples" / name).read_text(encoding="utf-8")
+    fe, diags = any_front(text)
+    plan = fe.plan
+    frames = first_frames(plan, min(6000, (plan.total_frames or 3000) + 5))
+    assert marked_lines(fe, frames, over_speed_frames(plan, frames)) == speed_lines(fe, diags)
+    # and per move instance: some frame is over speed exactly when lint would speak of its statement
+    flagged = {id(inst.step) for inst in plan.moves for m in inst.motions if any(speed.motion_frames_over(plan, inst, m))}
+    assert {fe.source.line_col(st.span.start)[0] for st in (i.step for i in plan.moves)
+            if id(st) in flagged} == speed_lines(fe, diags)
+
+
+def test_infeasible_move_is_red_on_every_moving_frame():
+    fe, diags = any_front(README_PROGRAM)             # `in 100ms`: infeasible-speed on line 11
+    assert "infeasible-speed" in [d.code for d in diags]
+    plan = fe.plan
+    frames = first_frames(plan)
+    flags = over_speed_frames(plan, frames)
+    knee = plan.channel_of("knee").index
+    on_11 = [i for i, fr in enumerate(frames) if fe.source.line_col(fr.span.start)[0] == 11]
+    moving = [i for i in on_11 if frames[i].curve[knee] != frames[i - 1].curve[knee]]
+    assert moving and [i for i, bad in enumerate(flags[knee]) if bad] == moving
 
 
 def test_fast_program_is_over_speed_and_the_follower_lags():
@@ -168,15 +289,97 @@ def test_fast_program_is_over_speed_and_the_follower_lags():
     targets = channel_targets(plan, plan.total_frames + 5)
     a = plan.channel_of("a")
     t_dav = plan.class_t_dav_us[a.speed_class]
-    over = over_speed(targets["a"], t_dav, plan.period_us)
-    assert any(over)
+    over = over_speed_frames(plan, first_frames(plan, plan.total_frames + 5))
+    assert any(over[a.index])
     pos = follow(targets["a"], t_dav, plan.period_us)
     assert max(abs(p - t) for p, t in zip(pos, targets["a"])) > 5          # lags more than 5 N
     assert pos[plan.total_frames - 1] == targets["a"][plan.total_frames - 1]   # and arrives by the end
     slow = front(SLOW).plan
-    for name, ts in channel_targets(slow, slow.total_frames + 5).items():
-        ch = slow.channel_of(name)
-        assert not any(over_speed(ts, slow.class_t_dav_us[ch.speed_class], slow.period_us))
+    assert not any(any(f) for f in over_speed_frames(slow, first_frames(slow, slow.total_frames + 5)))
+
+
+# ============================================================ positions as written, widths, title
+
+REVERSED = """\
+frame 10ms
+servo a = P1.0 reverse trim -3
+servo b = P1.1 trim 4
+servo c = P1.2
+pose lo { a: 20deg, b: 30deg, c: 1000us }
+pose hi { a: 150deg, b: 60deg, c: 2000us }
+main {
+  move lo
+  move hi in 1s
+  hold 100ms
+  move lo in 1s ease out
+}
+"""
+
+
+def test_written_n_undoes_reverse_and_trim():
+    fe = front(REVERSED)
+    plan = fe.plan
+    for pose in plan.program.poses:
+        for target in pose.targets:
+            servo = plan.channel_of(target.servo).servo
+            assert written_n(servo, target.n) == target.position.n
+            assert width_us(servo, target.position.n * float(DAV_DEG)) == pytest.approx(500 + 8 * target.n)
+    a = plan.channel_of("a").servo
+    assert (a.reverse, a.trim) == (True, -3)
+    assert written_n(a, 250 - 27 - 3) == 27 and written_deg(a, 220) == pytest.approx(27 * 0.74)
+
+
+def test_plotted_positions_are_as_written():
+    fe = front(REVERSED)
+    plan = fe.plan
+    fig = plot_figure(plan, fe.source)
+    lines = {ln.get_gid(): ln for ax in fig.axes for ln in ax.lines if ln.get_gid()}
+    frames = first_frames(plan, frames_to_plot(plan, 4000))
+    written = {p.name: {t.servo: t.position.n for t in p.targets} for p in plan.program.poses}
+    for ch in plan.channels:
+        y = list(lines[f"commanded:{ch.name}"].get_ydata())
+        n_out = [fr.n[ch.index] for fr in frames]
+        assert y[:-1] == pytest.approx([float(written_n(ch.servo, n) * DAV_DEG) for n in n_out])
+        # the first frame is pose lo, the last pose hi's return to lo: the values written in the program
+        assert y[0] == pytest.approx(written["lo"][ch.name] * float(DAV_DEG))
+        assert max(y[:-1]) == pytest.approx(max(written["lo"][ch.name], written["hi"][ch.name]) * float(DAV_DEG))
+        follower = lines[f"follower:{ch.name}"].get_ydata()
+        assert min(follower) >= min(y[:-1]) - 1e-9 and max(follower) <= max(y[:-1]) + 1e-9
+    # the second axis: the output width for the row's positions (500 + 8 N, N after reverse and trim)
+    fig.canvas.draw()
+    for ax in fig.axes:
+        width = next((c for c in ax.child_axes if (c.get_gid() or "").startswith("width:")), None)
+        if width is None:
+            continue
+        servo = plan.channel_of(width.get_gid().split(":", 1)[1]).servo
+        lo, hi = ax.get_ylim()
+        assert sorted(width.get_ylim()) == pytest.approx(sorted([width_us(servo, lo), width_us(servo, hi)]))
+        assert width.get_ylabel() == "width (µs)"
+    assert sum(1 for ax in fig.axes for c in ax.child_axes if (c.get_gid() or "").startswith("width:")) == 3
+    ylabels = [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel().startswith("a\n")]
+    assert ylabels == ["a\nP1.0 (deg)\nas written (reverse, trim -3)"]
+
+
+@pytest.mark.parametrize("text, max_frames", [(README_FIXED, 4000), (REVERSED, 4000), (STARTS, 4000), (STARTS, 12),
+                                              (STARTS.replace("repeat 2", "loop"), 300)])
+def test_title_counts_the_frames_plan_prints(text, max_frames, tmp_path, capsys):
+    path = tmp_path / "prog.servo"
+    path.write_text(text)
+    assert cli.main(["plan", str(path)]) == 0
+    total = capsys.readouterr().out.splitlines()[-1]
+    fe = front(text)
+    title = plot_figure(fe.plan, fe.source, max_frames=max_frames).get_suptitle()
+    if fe.plan.total_frames is None:
+        assert total == "total: the program loops forever"
+        assert title.endswith(f"loops forever (the first {max_frames} frames shown)")
+    else:
+        m = re.fullmatch(r"total: (\d+ frames = [\d.]+ m?s), then the last targets repeat", total)
+        assert m and f", {m.group(1)}" in title
+        assert int(m.group(1).split()[0]) == fe.plan.total_frames
+        shown = frames_to_plot(fe.plan, max_frames)
+        assert title.endswith("then the last targets repeat" if shown >= fe.plan.total_frames
+                              else f"(the first {shown} shown)")
+    assert title.startswith("prog.servo: P = ")
 
 
 # ============================================================ statement starts and frame count

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-from ..plan import MoveInstance, Plan
+from ..plan import Plan
 
 
 def fmt_duration(us: int) -> str:
@@ -19,20 +19,6 @@ def whole_ms_for(frames: int, period_us: int, at_least_us: Fraction = Fraction(0
     """The shortest whole-ms `in` duration D >= at_least_us with floor(D/P + 1/2) >= frames, e.g. `306ms`."""
     low = max(Fraction(at_least_us), (frames - Fraction(1, 2)) * period_us)
     return f"{math.ceil(low / 1000)}ms"
-
-
-def too_fast(plan: Plan) -> dict[int, tuple[Fraction, MoveInstance, int]]:
-    """Moves that ask a servo for |delta| x t_DAV > F x P, by id of their step:
-    (the largest excess in us, the instance, the channel) of the worst context."""
-    worst: dict[int, tuple[Fraction, MoveInstance, int]] = {}
-    for inst in plan.moves:
-        for m in inst.motions:
-            t_dav = plan.class_t_dav_us[plan.channels[m.channel].speed_class]
-            need = abs(m.delta) * t_dav
-            excess = need - inst.frames * plan.period_us
-            if excess > 0 and (id(inst.step) not in worst or excess > worst[id(inst.step)][0]):
-                worst[id(inst.step)] = (excess, inst, m.channel)
-    return worst
 
 
 def body_of(plan: Plan):

@@ -3,15 +3,17 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan, frame_value
+from ...plan import Plan
+from ...speed import peak_step, step_too_fast, t_dav_of, too_fast
 from ...units import DAV_DEG, fmt_deg, fmt_ms
 from .. import Report, rule
-from ..common import too_fast, whole_ms_for
+from ..common import whole_ms_for
 
 
 @rule("eased-overspeed", Severity.WARNING)
 def eased_overspeed(plan: Plan, report: Report) -> None:
-    """An eased curve's steepest frame asks for more than the servo's top speed.
+    """An eased curve's steepest frame asks for more than the servo's top speed (`servoc.speed`,
+    the rule the plot draws in red).
 
     Not said of a move that is infeasible anyway: its error says more."""
     seen: set[int] = set(too_fast(plan))
@@ -23,9 +25,9 @@ def eased_overspeed(plan: Plan, report: Report) -> None:
             if m.n0 is None:
                 continue
             ch = plan.channels[m.channel]
-            t_dav = plan.class_t_dav_us[ch.speed_class]
-            peak = _peak_step(m.n0, m.n1, inst.frames, step.ease)
-            if peak * t_dav <= plan.period_us:
+            t_dav = t_dav_of(plan, m.channel)
+            peak = peak_step(m.n0, m.n1, inst.frames, step.ease)
+            if not step_too_fast(peak, t_dav, plan.period_us):
                 continue
             seen.add(id(step))
             if t_dav > plan.period_us:
@@ -36,7 +38,7 @@ def eased_overspeed(plan: Plan, report: Report) -> None:
                 # The steps sum to |delta|, so F is at least the linear need; from there the
                 # peak falls to 1 DAV within about 2 x |delta| frames.
                 f = max(inst.frames + 1, plan.speed_tables[ch.speed_class][abs(m.delta)])
-                while _peak_step(m.n0, m.n1, f, step.ease) * t_dav > plan.period_us:
+                while step_too_fast(peak_step(m.n0, m.n1, f, step.ease), t_dav, plan.period_us):
                     f += 1
                 help_ = f"use `in {whole_ms_for(f, plan.period_us)}` or longer, or `ease linear`"
             report(
@@ -45,19 +47,3 @@ def eased_overspeed(plan: Plan, report: Report) -> None:
                 f"that takes {fmt_ms(peak * t_dav)}: it will lag and lose the curve's shape",
                 step.span, label="peak speed too high", help=help_)
             break
-
-
-def _peak_step(n0: int, n1: int, frames: int, ease: str) -> int:
-    """The largest step in DAV between two frames of a move (frame 0 is n0)."""
-    if n0 == n1:
-        return 0
-    if 2 * abs(n1 - n0) < frames:
-        # e' <= 2 for every easing, so no frame moves 1 DAV or more before rounding,
-        # hence at most 1 after; and the steps add up to |delta| > 0.
-        return 1
-    prev, peak = n0, 0
-    for k in range(1, frames + 1):
-        cur = frame_value(n0, n1, k, frames, ease)
-        peak = max(peak, abs(cur - prev))
-        prev = cur
-    return peak

@@ -4,18 +4,20 @@ from __future__ import annotations
 
 from ...diagnostics import Severity
 from ...plan import Plan
+from ...speed import t_dav_of, too_fast
 from ...units import DAV_DEG, fmt_deg, fmt_ms
 from .. import Report, rule
-from ..common import too_fast, whole_ms_for
+from ..common import whole_ms_for
 
 
 @rule("infeasible-speed", Severity.ERROR)
 def infeasible_speed(plan: Plan, report: Report) -> None:
-    """|delta| x t_DAV > F x P: the servo cannot get there in time."""
+    """|delta| x t_DAV > F x P: the servo cannot get there in time (`servoc.speed`, the rule the
+    plot draws in red)."""
     for excess, inst, ch in too_fast(plan).values():
         m = next(x for x in inst.motions if x.channel == ch)
         ch_ = plan.channels[ch]
-        t_dav = plan.class_t_dav_us[ch_.speed_class]
+        t_dav = t_dav_of(plan, ch)
         need = abs(m.delta) * t_dav
         asked = inst.frames * plan.period_us
         frames_min = plan.speed_tables[ch_.speed_class][abs(m.delta)]
