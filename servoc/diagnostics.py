@@ -190,7 +190,7 @@ def _where(span: Span, source: SourceFile) -> dict:
 
 
 def to_dict(diags: list[Diagnostic], source: SourceFile | None) -> dict:
-    """The JSON document of a run: {"diagnostics": [...], "summary": "E errors, W warnings, N notes"}."""
+    """The JSON document of a run: {"diagnostics": [...], "summary": {"errors": E, "warnings": W, "notes": N}}."""
     items = []
     for d in diags:
         assert source is not None
@@ -200,7 +200,12 @@ def to_dict(diags: list[Diagnostic], source: SourceFile | None) -> dict:
         if d.secondary:     # only when there are any, so that other diagnostics keep their form
             item["labels"] = [{**_where(lab.span, source), "message": lab.message} for lab in d.secondary]
         items.append(item)
-    return {"diagnostics": items, "summary": summary(diags)}
+    return {"diagnostics": items, "summary": counts(diags)}
+
+
+def counts(diags: list[Diagnostic]) -> dict[str, int]:
+    """{"errors": E, "warnings": W, "notes": N}: the summary line as counts."""
+    return {f"{s.value}s": sum(1 for d in diags if d.severity is s) for s in Severity}
 
 
 def to_json(diags: list[Diagnostic], source: SourceFile | None) -> str:

@@ -176,7 +176,7 @@ def test_json():
                message="servo `arm` cannot move"),
           diag(NO_SPAN, Severity.NOTE)]
     data = json.loads(to_json(ds, src))
-    assert data["summary"] == "1 error, 0 warnings, 1 note"
+    assert data["summary"] == {"errors": 1, "warnings": 0, "notes": 1}
     first, second = data["diagnostics"]
     assert first == {"file": "arm.servo", "line": 4, "column": 3, "end_line": 4, "end_column": 18,
                      "severity": "error", "code": "infeasible-speed", "message": "servo `arm` cannot move",

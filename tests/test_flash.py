@@ -178,7 +178,7 @@ def test_stc_flash_json(tmp_path, capsys, monkeypatch):
     assert data == {"file": str(path), "hex": str(tmp_path / "arm.hex"), "chip": "STC89C52RC", "six_t": False,
                     "flashed": True, "port": "/dev/ttyUSB0", "baud": 115200, "command": None,
                     "stcgal_output": "Waiting for MCU, please cycle power: done\n"}
-    assert json.loads(err) == {"diagnostics": [], "summary": "0 errors, 0 warnings, 0 notes"}
+    assert json.loads(err) == {"diagnostics": [], "summary": {"errors": 0, "warnings": 0, "notes": 0}}
 
 
 def test_stc_flash_that_fails_exits_1(tmp_path, capsys, monkeypatch):
