@@ -310,9 +310,9 @@ def test_compensated_timer_edges_hold_their_cycle():
     """A Timer0 handler that reads TL0 and pads itself through a NOP slide puts every edge exactly
     GAP cycles after the last, whatever the entry latency: the background's MUL/DIV and windows of
     0-10 cycles with interrupts off spread the entry over more than 8 cycles in ucsim (a slide of
-    8 misses, 16 holds). On a real
-    8051 the entry latency is 3 to 9 cycles (9 when the request meets RETI or a write to IE followed
-    by MUL or DIV), a spread the 24-cycle slide covers with the same windows on top."""
+    8 misses, 16 holds). On a real 8051 the entry latency is 3 to 9 cycles (9 when the request meets
+    RETI or a write to IE followed by MUL or DIV), a spread the 24-cycle slide covers with the same
+    windows on top."""
     assert _edge_gaps(24) == {97}
     assert _edge_gaps(16) == {97}
 
