@@ -263,7 +263,7 @@ def _main(argv: list[str], run: _Run) -> int:
             print(f"{source.path}: {_plan_line(plan)}")
         return 0
     if args.command == "plan":
-        if args.json:
+        if args.json or (run.json and not args.csv):     # `--format json` gives the table as JSON too
             print(json.dumps(plan_data(plan, source), indent=2))
         else:
             sys.stdout.write(plan_table(plan, source, csv_out=args.csv))

@@ -180,12 +180,14 @@ def check_lint_and_plan(path: str, text: str) -> list[Diag]:
         _no_crash(jrun, what + " --format json")
         assert jrun.rc == run.rc, f"{what} --format json: exit {jrun.rc}, text exit {run.rc}"
         # lint prints the JSON on standard output (its only output); plan on standard error,
-        # keeping standard output for the same table as in text mode.
+        # with the same table as `plan --json` on standard output.
         if command == "lint":
             assert jrun.err == "", f"{what} --format json: stderr {jrun.err!r}"
             stream = jrun.out
         else:
-            assert jrun.out == run.out, f"{what} --format json: stdout differs from the text run"
+            assert jrun.out == run_cli([command, "--json", path]).out, f"{what} --format json: stdout is not the JSON table"
+            if jrun.rc == 0:
+                assert isinstance(json.loads(jrun.out)["moves"], list), f"{what} --format json: {jrun.out!r}"
             stream = jrun.err
         jdiags = json_diagnostics(stream, path, text, what + " --format json")
         assert jdiags == diags, f"{what}: text and JSON differ\n{diags}\n{jdiags}"
