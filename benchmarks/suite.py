@@ -22,11 +22,11 @@ import time
 from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
                        measure_baseline, positions_source)
 from budget import frame_budget, hold_source
-from servoc import api, toolchain
+from servoc import api, target, toolchain
 from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
 
-ROM_SIZE = toolchain.AT89C52_ROM_SIZE
+ROM_SIZE = target.CHIPS[target.DEFAULT_CHIP].code_bytes
 
 
 def compile_text(text: str, name: str = "bench.servo") -> tuple[api.FrontEnd, api.Firmware | None, Reporter]:

@@ -23,11 +23,6 @@ from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target
 
-ROM_BYTES = DEFAULT_TARGET.chip.code_bytes      # the default chip's (reports name the target's own)
-RAM_BYTES = DEFAULT_TARGET.chip.ram_bytes
-
-
-
 ToolNotFound = toolchain.ToolNotFound
 write_atomic = toolchain.write_atomic
 

@@ -77,9 +77,6 @@ def head_pad(s: int) -> tuple[int, int]:
     return loops, nops
 
 
-CodegenError = layout.LayoutError
-
-
 @dataclass(frozen=True)
 class AsmUnit:
     text: str
@@ -139,6 +136,7 @@ class _Ctx:
     lists: list[dict] = field(default_factory=list)
     labels: int = 0
     owner: str = "main"              # whose statements are being laid out, for the ROM breakdown
+    frames_memo: dict = field(default_factory=dict)   # plan.takes_frames of each sequence
 
     def label(self, prefix: str) -> str:
         self.labels += 1
@@ -209,9 +207,8 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             out.append({"op": "list", "label": label, "wheres": [r["where"] for r in run]})
             run.clear()
 
-    seqs = {s.name: s for s in ctx.plan.sequences}
     for st in body:
-        if not takes_frames((st,), seqs):
+        if not takes_frames((st,), ctx.plan, ctx.frames_memo):
             continue            # takes no frame: no code, so nothing it does can delay a frame
         where = ctx.where(st.span)
         if isinstance(st, MoveStep):
@@ -294,10 +291,10 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     chans = []
     for c in plan.channels:
         pin = 8 * c.port + c.bit
-        bits = {name.lower() + "_bit": layout.bit_address(layout.ADDR[name], pin) for name in ("ACT", "MOVB", "DIRB", "RMASK")}
+        bit = {name: layout.bit_address(layout.ADDR[name], pin) for name in ("ACT", "MOVB", "DIRB", "RMASK")}
         chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + pin,
-                      "state": layout.STATE_BASE + layout.STATE_BYTES * pin, "act_bit": bits["act_bit"],
-                      "mov_bit": bits["movb_bit"], "dir_bit": bits["dirb_bit"], "rm_bit": bits["rmask_bit"]})
+                      "state": layout.STATE_BASE + layout.STATE_BYTES * pin, "act_bit": bit["ACT"],
+                      "mov_bit": bit["MOVB"], "dir_bit": bit["DIRB"], "rm_bit": bit["RMASK"]})
     reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
                     "names": ", ".join(s.name for s in plan.program.servos if s.port == port)}
                    for port in sorted({s.port for s in plan.program.servos})]

@@ -225,30 +225,24 @@ def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
 def budget(p: Plan) -> Plan:
     """The plan with `min_period_us` read from the firmware generated for it (see costs.py).
     When no firmware can be generated (a resource limit, reported later), P itself."""
-    from . import codegen            # codegen builds on the plan types
+    from . import codegen, layout    # codegen builds on the plan types
     try:
         unit = codegen.generate(p)
-    except codegen.CodegenError:
+    except layout.LayoutError:
         return replace(p, min_period_us=p.period_us)
     return replace(p, min_period_us=unit.min_period_us or p.period_us)
 
 
-def takes_frames(body: tuple[Step, ...], sequences: dict[str, "SequencePlan"], _memo: dict | None = None) -> bool:
+def _any_frame(acc: bool, st: Step, inner: bool | None) -> bool:
+    kind = walk.kind(st)
+    return acc or kind == "move" or (kind == "hold" and st.frames > 0) or bool(inner)
+
+
+def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
     """Whether every pass of `body` takes at least one frame (a move always does; a hold when
-    it is at least half a frame; repeat, loop and play when their body does)."""
-    memo = {} if _memo is None else _memo
-    for st in body:
-        if isinstance(st, MoveStep) or (isinstance(st, HoldStep) and st.frames > 0):
-            return True
-        if isinstance(st, (RepeatStep, LoopStep)) and takes_frames(st.body, sequences, memo):
-            return True
-        if isinstance(st, PlayStep):
-            if st.sequence not in memo:
-                memo[st.sequence] = False          # recursion is a check error; be safe anyway
-                memo[st.sequence] = takes_frames(sequences[st.sequence].body, sequences, memo)
-            if memo[st.sequence]:
-                return True
-    return False
+    it is at least half a frame; repeat, loop and play when their body does). Pass one `memo`
+    to calls on the same plan so each sequence is looked at once."""
+    return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_frame, memo)
 
 
 def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], period: int,
@@ -440,12 +434,12 @@ def expand(plan: Plan) -> Iterator[GoldenFrame]:
     last_span = NO_SPAN
     classes = tuple(c.speed_class for c in plan.channels)
 
-    sequences = {s.name: s for s in plan.sequences}
+    memo: dict = {}
 
     def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         nonlocal last_span
         for st in body:
-            if not takes_frames((st,), sequences):
+            if not takes_frames((st,), plan, memo):
                 continue        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through
             if isinstance(st, MoveStep):
                 f = move_frames_at(st, tuple(state), plan.speed_tables, classes)

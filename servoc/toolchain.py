@@ -65,7 +65,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 __all__ = [
-    "AT89C52_ROM_SIZE",
     "AssemblyError",
     "AsmMessage",
     "HexImage",
@@ -77,9 +76,6 @@ __all__ = [
     "rom_used",
     "write_atomic",
 ]
-
-AT89C52_ROM_SIZE = 8192
-"""Bytes of on-chip code memory of the AT89C52 (0x0000-0x1FFF)."""
 
 TOOL_TIMEOUT = 60.0
 """Seconds any single assembler or linker run may take."""
@@ -302,7 +298,7 @@ def rom_used(hex_text: str) -> int:
 def rom_end(hex_text: str) -> int:
     """One past the highest code address defined (0 for an empty image).
 
-    Compare with `AT89C52_ROM_SIZE` to check that the image fits the chip.
+    Compare with the target chip's `code_bytes` (servoc.target) to check that the image fits.
     """
     addrs = _load_hex(hex_text).addresses()
     return (max(addrs) + 1) if addrs else 0

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from servoc import api, toolchain
+from servoc import api, target, toolchain
 from servoc.sim import PortWrite, SimTrace
 
 pytestmark = pytest.mark.toolchain
@@ -122,7 +122,7 @@ def test_servoc_is_exact(servoc_side):
     assert d.max_abs_error_all_us == 0 and d.exact_pulses == d.pulses == 8 * FRAMES
     assert d.period_mean_us == fe.plan.period_us and d.jitter_us <= 2
     assert d.reset_high_max_us is not None and d.reset_high_max_us <= 20
-    assert fw.rom_bytes <= toolchain.AT89C52_ROM_SIZE
+    assert fw.rom_bytes <= target.DEFAULT.chip.code_bytes
 
 
 def test_hold_search_brackets():
@@ -145,7 +145,7 @@ def test_keyframes_and_compile_stages():
     mem = suite.memory(quick=True)
     assert mem["bytes_per_keyframe_24_servos"] > 0
     k = mem["keyframes_fit_confirmed"]
-    assert mem["rom_bytes_at_max_keyframes"] <= toolchain.AT89C52_ROM_SIZE
+    assert mem["rom_bytes_at_max_keyframes"] <= target.DEFAULT.chip.code_bytes
     fw, errors = suite._keyframe_build(k + 1)
     assert fw is None and errors == ["rom-overflow"]
     assert abs(k - mem["keyframes_fit_estimate"]) <= 3
