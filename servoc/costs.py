@@ -26,7 +26,9 @@ PORT_CYCLES = PRE_RISE_CYCLES + HEAD_CYCLES - 1 + DIV_US * (FINAL_N + 1) + 1
 
 # frame_io around the ports (firmware_templates/runtime.asm.j2): the tick poll
 # (JNB, 2: it sees the tick 0 or 1 cycle late), the sync that takes that cycle
-# back (CLR, MOV, ADD, RRC, JC, NOP: 7), the RET (2), and the poll's phase (2).
+# back (CLR, MOV, ADD, RRC, JC, NOP: 7), the RET (2), and 2 cycles of margin for
+# where in its 2-cycle loop the poll stands when the tick comes (reasoned, not
+# isolated in ucsim; tests/test_costs.py verifies programs at exactly P_min).
 FRAME_IO_FIXED = 2 + 7 + 2 + 2
 
 

@@ -211,13 +211,6 @@ class Code:
         finally:
             sys.setrecursionlimit(limit)
 
-    def routine_cycles(self, label: str) -> int:
-        """Longest path from `label` to its RET (the routine must not reach a frame)."""
-        r = self.walk(self.labels[label])
-        if "frame" in r or "ret" not in r:
-            raise WcetError(f"{label} is not a plain routine")
-        return r["ret"]
-
 
 def _plus(d: dict[str, int], c: int) -> dict[str, int]:
     return {k: v + c for k, v in d.items()}

@@ -319,3 +319,9 @@ def test_compensated_timer_edges_hold_their_cycle():
 
 def test_a_slide_shorter_than_the_latency_spread_breaks_the_edges():
     assert _edge_gaps(8) != {97}
+
+
+def test_cycle_limit_follows_the_crystal():
+    # the limit is counted in machine cycles whatever the crystal ucsim runs at
+    for xtal in (6_000_000, 12_000_000, 24_000_000):
+        assert sim.run(hex_of("\tsjmp .\n"), 1000, xtal_hz=xtal).cycles == 1000
