@@ -170,6 +170,8 @@ def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
         label = ctx.ease_tables.setdefault(key, f"etab{len(ctx.ease_tables) + 1}")
         notes.append(f"ease {step.ease} table {label}")
     targets = {ch: n for ch, n in step.targets if known.get(ch) != n}
+    if len(step.targets) == len(plan.channels) and len(plan.ports) + len(targets) >= len(plan.channels):
+        targets = dict(step.targets)    # naming every servo needs no masks: not longer than masks and the changed
     known.update(step.targets)
     masks = None
     if len(targets) == len(plan.channels):

@@ -308,13 +308,14 @@ def test_listing_checks_can_fail(listing_firmware):
 
 
 def test_records_leave_out_servos_already_at_their_target():
-    """Within a record list, a move names only the servos whose target changes: the record is
-    shorter and the pulses are the same."""
+    """Within a record list, a move names only the servos whose target changes when that makes the
+    record shorter; the pulses are the same."""
     pins = [(1, b) for b in range(4)]
     names = [f"s1_{b}" for b in range(4)]
     text = (servo_decls(pins, options="speed 0.001s/60deg") + pose("a", {n: 10 for n in names})
             + pose("b", {**{n: 10 for n in names}, "s1_2": 60})
-            + "main { move a in 20ms; move b in 20ms; hold 20ms; move a in 20ms }\n")
+            + pose("c", {"s1_0": 11, "s1_1": 12, "s1_2": 13, "s1_3": 10})
+            + "main { move a in 20ms; move b in 20ms; hold 20ms; move a in 20ms; move c in 20ms }\n")
     built = build_text(text)
     lines = built.firmware.unit.text.splitlines()
     start = next(i for i, line in enumerate(lines) if line.startswith("list1:"))
@@ -327,6 +328,7 @@ def test_records_leave_out_servos_already_at_their_target():
             break
         if not int(fields[0], 0) & layout.FLAG["HOLDF"]:
             data.append(fields)
-    assert [len(d) for d in data] == [2 + 4, 2 + 1 + 1, 2 + 1 + 1]    # flags, F, [mask], N per named servo
+    # flags, F, [mask], N per named servo; `c` changes 3 of 4: naming all 4 without a mask is as short
+    assert [len(d) for d in data] == [2 + 4, 2 + 1 + 1, 2 + 1 + 1, 2 + 4]
     assert data[1][-1].strip() == "60" and data[2][-1].strip() == "10"
     assert_exact(built.verify(), text)
