@@ -16,16 +16,13 @@ import threading
 from pathlib import Path
 
 import pytest
+from lsprotocol import types as lsp      # pygls is in the test extra: these tests never skip
+from pygls.lsp.client import LanguageClient
 
-pytest.importorskip("pygls")
-
-from lsprotocol import types as lsp  # noqa: E402
-from pygls.lsp.client import LanguageClient  # noqa: E402
-
-from servoc import api, cli  # noqa: E402
-from servoc.diagnostics import Reporter  # noqa: E402
-from servoc.lsp import Lines, analyze, hover  # noqa: E402
-from servoc.source import SourceFile  # noqa: E402
+from servoc import api, cli
+from servoc.diagnostics import Reporter
+from servoc.lsp import Lines, analyze, hover
+from servoc.source import SourceFile
 
 TIMEOUT = 10
 
