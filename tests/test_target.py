@@ -65,3 +65,17 @@ def test_unsupported_clock_is_refused_before_any_code():
     fe, diags = front_end_text("target stc89c52rc clock 11.0592MHz\n" + SMALL)
     (err,) = [d for d in diags if d.is_error]
     assert err.code == "unsupported-target" and "`clock 12MHz`" in err.help
+
+
+@pytest.mark.parametrize("chip", ["at89c55wd", "stc89c58rd"])
+def test_frames_needed_tables_sit_at_the_top_of_a_bigger_chip(chip):
+    """A move without duration entered from two places has its F looked up at run time, in
+    tables on the last pages of the chip's own code memory."""
+    text = (f"target {chip}\n" + servo_decls([(1, 0), (1, 1)]) + pose("a", {"s1_0": 0, "s1_1": 30})
+            + pose("b", {"s1_0": 200, "s1_1": 90}) + pose("c", {"s1_0": 100, "s1_1": 250})
+            + "sequence go { move c }\nmain { move a; play go; move b in 1s; play go }\n")
+    built = build_text(text)
+    top = target.CHIPS[chip].code_bytes
+    assert built.firmware.unit.fneed_pages and max(built.firmware.unit.fneed_pages) * 256 < top
+    assert top - 2 * 256 * len(built.plan.speed_tables) == min(built.firmware.unit.fneed_pages) * 256
+    assert_exact(built.verify(), text)
