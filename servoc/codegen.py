@@ -28,7 +28,8 @@ from . import layout, resources
 from . import costs
 from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
 from . import wcet
-from .target import DEFAULT as DEFAULT_TARGET, Target
+from . import target as target_mod
+from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps, takes_frames
 from .source import SourceFile
 
@@ -270,26 +271,13 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     ram.alloc("TMPD", 1, "scratch: |delta|")
     ram.alloc("TMPL", 1, "scratch")
     ram.alloc("LPTR", 2, "the record list being run: the next record")
-    ports = []
-    for port in plan.ports:
-        bits = [c.bit for c in plan.channels if c.port == port]
-        n = len(bits)
-        slots = ram.alloc(f"EDGES{port}", 2 * n, f"P{port}: edge blocks, (AND mask, count) each")
-        fin = ram.alloc(f"FIN{port}", 1, f"P{port}: count of the closing silent block")
-        loops, nops = head_pad(n)
-        ports.append({
-            "port": port, "s": n,
-            "all_mask": sum(1 << b for b in bits),
-            "pins": [{"i": i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "mask": 0xFF ^ (1 << b),
-                      "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
-                     for i, b in enumerate(bits)],
-            "fin": fin, "edges_cycles": edges_cycles(n),
-            "blocks": [{"j": j + 1, "mask": slots + 2 * j, "cnt": slots + 2 * j + 1} for j in range(n)],
-            "last_cnt": slots + 2 * n - 1, "entry_add": (1 - slots) % 256,
-            "pad_loops": loops, "pad_nops": nops,
-        })
-    edge_routines = [{"s": n, "network": SORTING_NETWORKS[n], "cycles": edges_cycles(n)}
-                     for n in sorted({p["s"] for p in ports})]
+    target = plan.program.target
+    if target.grid:
+        ports, edge_routines = _grid_ports(plan, ram)
+        ce = None
+    else:
+        ce = costs.cycles_engine(target)
+        ports, edge_routines = _cycles_ports(plan, ram, ce)
     chans = []
     for c in plan.channels:
         pin = 8 * c.port + c.bit
@@ -319,7 +307,12 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
                     "values": list(next(st.ease_table for st in steps(plan)
                                    if isinstance(st, MoveStep) and (st.ease, st.frames) == (ease, frames)))}
                    for (ease, frames), lab in ctx.ease_tables.items()]
-    reload = 0x10000 - plan.period_us
+    period_cycles = target.cycles(plan.period_us)
+    if period_cycles >= target_mod.TIMER2_CYCLES:
+        raise layout.PeriodTooLong(
+            f"a frame of {plan.period_us} us is {period_cycles} machine cycles at {target.describe()}, "
+            f"and Timer2 counts at most {target_mod.TIMER2_CYCLES}")
+    reload = 0x10000 - period_cycles
     tick_fix = (TICK_PARITY - reload) & 0xFF
     text = render("firmware.asm.j2",
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
@@ -329,12 +322,22 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
                   state_base=layout.STATE_BASE, stack_base=layout.STACK_BASE,
                   ports=ports, reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
-                  block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES)
-    offsets = tuple(costs.rise_offsets(plan.ports).values())
+                  block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES,
+                  period_cycles=period_cycles, ce=ce,
+                  pulse_template="pulse.asm.j2" if ce is None else "pulse_cycles.asm.j2",
+                  edges_template="edges.asm.j2" if ce is None else "edges_cycles.asm.j2",
+                  ctab=None if ce is None else {"lo": [v & 0xFF for v in ce.table], "hi": [v >> 8 for v in ce.table]},
+                  target_text=target.describe(), cycle_text=fmt_us(target.cycle_us),
+                  div_text=f"{float(target.div_cycles):g}",
+                  fall_text="500 + 8 x N" if ce is None else "round_half_up((500 + 8 N) us / t_c)")
+    sizes = tuple(p["s"] for p in ports)
+    offsets = tuple(costs.rise_offsets(plan.ports, target, sizes).values())
     ram_bytes = ram.total(24, stack_bytes)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
         breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])
+    if ce is not None:
+        breakdown["edge time table C(N)"] = 2 * 256
     if ease_tables:
         breakdown["eased curve tables"] = sum(len(t["values"]) for t in ease_tables)
     if fneed:
@@ -343,8 +346,99 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
-                   work, work_from, None if work is None else costs.frame_cycles(len(plan.ports), work),
-                   plan.program.target)
+                   work, work_from,
+                   None if work is None else target.us_at_least(costs.frame_cycles(len(plan.ports), work, target, sizes)),
+                   target)
+
+
+def _port_pins(plan: Plan, port: int) -> list[dict]:
+    bits = [c.bit for c in plan.channels if c.port == port]
+    return [{"i": i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "mask": 0xFF ^ (1 << b),
+             "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
+            for i, b in enumerate(bits)]
+
+
+def _grid_ports(plan: Plan, ram: layout.RamAllocator) -> tuple[list[dict], list[dict]]:
+    """Port data of the DIV-counting pulse routines (a 1 µs machine cycle)."""
+    ports = []
+    for port in plan.ports:
+        pins = _port_pins(plan, port)
+        n = len(pins)
+        slots = ram.alloc(f"EDGES{port}", 2 * n, f"P{port}: edge blocks, (AND mask, count) each")
+        fin = ram.alloc(f"FIN{port}", 1, f"P{port}: count of the closing silent block")
+        loops, nops = head_pad(n)
+        ports.append({
+            "port": port, "s": n, "all_mask": sum(1 << p["bit"] for p in pins), "pins": pins,
+            "fin": fin, "edges_cycles": edges_cycles(n),
+            "blocks": [{"j": j + 1, "mask": slots + 2 * j, "cnt": slots + 2 * j + 1} for j in range(n)],
+            "last_cnt": slots + 2 * n - 1, "entry_add": (1 - slots) % 256,
+            "pad_loops": loops, "pad_nops": nops,
+        })
+    routines = [{"s": n, "network": SORTING_NETWORKS[n], "cycles": edges_cycles(n)}
+                for n in sorted({p["s"] for p in ports})]
+    return ports, routines
+
+
+def _cycles_ports(plan: Plan, ram: layout.RamAllocator, ce: costs.CyclesEngine) -> tuple[list[dict], list[dict]]:
+    """Port data of the cycle-counting pulse routines (any other machine cycle): one block area for
+    all ports, filled by each port's prep just before its chain runs."""
+    sizes = {port: len(_port_pins(plan, port)) for port in plan.ports}
+    most = max(sizes.values())
+    base = ram.alloc("BLK", ce.slot_bytes * (most + 1),
+                     f"edge blocks of the port being pulsed: (M, {'S, ' if ce.short else ''}P, LO, HI) each")
+    ports = []
+    for port in plan.ports:
+        pins = _port_pins(plan, port)
+        n = len(pins)
+        blocks = []
+        for j in range(n + 1):
+            at = base + ce.slot_bytes * j
+            fields = ["m", "s", "p", "lo", "hi"] if ce.short else ["m", "p", "lo", "hi"]
+            blocks.append({"j": j, "closing": j == n, **{f: at + i for i, f in enumerate(fields)}})
+        half = (n + 1) // 2
+        ports.append({
+            "port": port, "s": n, "all_mask": sum(1 << p["bit"] for p in pins), "pins": pins,
+            "top": base + ce.slot_bytes * (n + 1) - 1, "blocks": blocks,
+            "before": blocks[:half][::-1], "after": blocks[half:],
+            "pre_cycles": ce.pre_cycles(n, ce.split(n)), "post_cycles": ce.post_cycles(n, ce.split(n)),
+            "pad": delay(ce.head_pad(n)),
+        })
+    routines = []
+    for n in sorted(set(sizes.values())):
+        units: list[dict] = [{"kind": "ce", "a": a, "b": b, "k": k + 1}
+                             for k, (a, b) in enumerate(SORTING_NETWORKS[n])]
+        units += [{"kind": "table"}, {"kind": "close"}]
+        units += [{"kind": "line", "i": i, "pad": delay(ce.line - 11)} for i in range(n - 1, 0, -1)]
+        units += [{"kind": "first"}]
+        k = ce.split(n)
+        routines.append({"s": n, "parts": [
+            {"name": "a", "units": units[:k], "cycles": ce.pre_cycles(n, k)},
+            {"name": "b", "units": units[k:], "cycles": ce.post_cycles(n, k)}]})
+    return ports, routines
+
+
+def delay(cycles: int, reg: str = "R7", outer: str = "R5") -> list[str]:
+    """Instructions that take exactly `cycles` machine cycles (they use `reg` and `outer`)."""
+    out: list[str] = []
+    if cycles < 0:
+        raise AssertionError(f"negative delay {cycles}")
+    if cycles > 513:
+        b = min(255, (cycles - 1) // 513)
+        out += [f"MOV     {outer}, #{b}                ; 1  {b} x 513 cycles",
+                f"MOV     {reg}, #255              ; 1",
+                f"DJNZ    {reg}, .                 ; 2 x 255",
+                f"DJNZ    {outer}, .-4              ; 2"]
+        cycles -= 1 + 513 * b
+    if cycles > 3:
+        if cycles % 2 == 0:
+            out.append("NOP                             ; 1")
+            cycles -= 1
+        k = (cycles - 1) // 2
+        out += [f"MOV     {reg}, #{k & 0xFF}                ; 1",
+                f"DJNZ    {reg}, .                 ; 2 x {k}"]
+        cycles = 0
+    out += ["NOP                             ; 1"] * cycles
+    return out
 
 
 def frame_work(text: str) -> tuple[int | None, str]:

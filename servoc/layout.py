@@ -98,6 +98,11 @@ class SlowServo(LayoutError):
     help = "give the move a duration, or a `speed` the frames-needed table can hold (F < 65536)"
 
 
+class PeriodTooLong(LayoutError):
+    code = "period-too-long"
+    help = "use a shorter `frame`: Timer2 counts at most 65535 machine cycles a frame"
+
+
 class RamAllocator:
     """A bump allocator over direct RAM from WORK_BASE up to DIRECT_END."""
 

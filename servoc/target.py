@@ -5,10 +5,12 @@ the planner's timing, code generation (the top of code memory), the ROM
 check, the simulator's crystal and the reports all read the resulting
 `Target`. Every chip is 8052-class: Timer2 and 256 bytes of internal RAM.
 
-The firmware's pulse routines count their edges in whole 8-cycle steps of a
-1 µs machine cycle (`servoc/costs.py`), so a target builds only when its
-machine cycle is 1 µs: 12 MHz in 12T mode, or 6 MHz in 6T mode (STC89).
-`Target.timing_problem` says so, naming the crystals that work.
+Each line falls round_half_up((500 + 8 N) µs / t_c) machine cycles after its
+port's rise (`Target.width_cycles`). With a 1 µs machine cycle (12 MHz, or
+6 MHz in 6T mode) a DIV is 8 whole cycles and the pulse routines count DIVs;
+at any other clock they count machine cycles (`servoc/costs.py`, "cycles
+engine"), which needs a DIV of at least MIN_DIV_CYCLES cycles:
+`Target.timing_problem` names the lowest clock that works.
 """
 
 from __future__ import annotations
@@ -53,7 +55,9 @@ def chip(name: str) -> Chip | None:
     key = name.lower()
     return CHIPS.get(ALIASES.get(key, key))
 DEFAULT_CLOCK_HZ = 12 * MHZ
-FIRMWARE_CYCLE_US = Fraction(1)      # the machine cycle the pulse routines are timed for
+GRID_CYCLE_US = Fraction(1)          # the machine cycle at which a DIV is 8 whole cycles
+MIN_DIV_CYCLES = 6                   # the closest two edges the cycles engine can put out (costs.py)
+TIMER2_CYCLES = 0x10000              # the longest frame period Timer2 can count
 
 
 @dataclass(frozen=True)
@@ -80,14 +84,38 @@ class Target:
         mode = ", 6T" if self.six_t else ""
         return f"{self.chip.display} at {fmt_hz(self.clock_hz)}{mode}"
 
+    @property
+    def grid(self) -> bool:
+        """True when a DIV (8 µs) is 8 whole machine cycles: the pulse routines count DIVs."""
+        return self.cycle_us == GRID_CYCLE_US
+
+    @property
+    def div_cycles(self) -> Fraction:
+        """Machine cycles in one DIV (8 µs)."""
+        return 8 / self.cycle_us
+
+    def cycles(self, us: int | Fraction) -> int:
+        """round_half_up(us / t_c): a time in whole machine cycles."""
+        return int(Fraction(us) / self.cycle_us + Fraction(1, 2))
+
+    def width_cycles(self, n: int) -> int:
+        """Machine cycles from a port's rise to the fall of a line with N = n."""
+        return self.cycles(500 + 8 * n)
+
+    def us_at_least(self, cycles: int) -> int:
+        """The shortest whole-µs period P with round_half_up(P / t_c) >= cycles."""
+        q = (cycles - Fraction(1, 2)) * self.cycle_us
+        return max(1, -(-q.numerator // q.denominator))
+
     def timing_problem(self) -> str | None:
         """Why the firmware cannot be timed on this target, or None."""
-        if self.cycle_us == FIRMWARE_CYCLE_US:
+        if int(self.div_cycles) >= MIN_DIV_CYCLES:
             return None
-        works = "`clock 12MHz`" + (" (or `clock 6MHz mode 6T`)" if self.chip.six_t else "")
-        return (f"at {fmt_hz(self.clock_hz)}{' in 6T mode' if self.six_t else ''} a machine cycle is "
-                f"{fmt_us(self.cycle_us)}, and the firmware's pulse routines count 1 µs machine cycles: "
-                f"use {works}")
+        lowest = Fraction(MIN_DIV_CYCLES * self.clocks_per_cycle * MHZ, 8)
+        return (f"at {fmt_hz(self.clock_hz)}{' in 6T mode' if self.six_t else ''} a DIV (8 µs) is "
+                f"{float(self.div_cycles):.2f} machine cycles, and two lines one DIV apart need at least "
+                f"{MIN_DIV_CYCLES}: the lowest clock that works is {fmt_hz(lowest)}"
+                + (" (half that in 6T mode)" if self.chip.six_t and not self.six_t else ""))
 
 
 DEFAULT = Target(CHIPS[DEFAULT_CHIP], DEFAULT_CLOCK_HZ)

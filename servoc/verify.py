@@ -19,10 +19,8 @@ from dataclasses import dataclass, field
 from .plan import Plan, expand
 from .sim import SimTrace
 from .costs import rise_offsets
-from .units import BASE_US, DIV_US
-
-RESET_LOW_CYCLES = 20
-MAX_JITTER = 2
+RESET_LOW_US = 20          # servo lines low this soon after reset
+MAX_JITTER_US = 2          # a rise may stand this far from its frame slot
 
 
 @dataclass(frozen=True)
@@ -35,8 +33,8 @@ class Mismatch:
     what: str
 
     def __str__(self) -> str:
-        exp = "none" if self.expected_us is None else f"{self.expected_us} us"
-        got = "none" if self.measured_us is None else f"{self.measured_us} us"
+        exp = "none" if self.expected_us is None else f"{self.expected_us} cycles"
+        got = "none" if self.measured_us is None else f"{self.measured_us} cycles"
         return f"frame {self.frame}, {self.servo} ({self.pin}): expected {exp}, measured {got}: {self.what}"
 
 
@@ -50,6 +48,7 @@ class VerifyReport:
     period_mean: float | None
     reset_low_cycles: int | None        # latest first-low of a servo line after reset
     mismatches: tuple[Mismatch, ...] = field(default=())
+    unit: str = "us"                    # what a machine cycle is called in the summary ("us" at 1 µs)
 
     @property
     def ok(self) -> bool:
@@ -57,11 +56,11 @@ class VerifyReport:
 
     def summary(self) -> str:
         period = "n/a" if self.period_min is None else (
-            f"{self.period_min}..{self.period_max} us (mean {self.period_mean:.3f})")
+            f"{self.period_min}..{self.period_max} {self.unit} (mean {self.period_mean:.3f})")
         return (f"{'OK' if self.ok else 'FAILED'}: {self.frames} frames, {self.pulses} pulses checked, "
                 f"max error {self.max_error_cycles} cycles, period {period}, "
                 + ("no servo lines" if self.reset_low_cycles is None
-                   else f"servo lines low {self.reset_low_cycles} us after reset"))
+                   else f"servo lines low {self.reset_low_cycles} {self.unit} after reset"))
 
 
 SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries a pulse
@@ -78,7 +77,8 @@ def first_pulse_frame(plan: Plan) -> int | None:
 def cycles_needed(plan: Plan, frames: int) -> int:
     """Machine cycles to simulate so that `frames` frames after the first pulse are complete."""
     lead = first_pulse_frame(plan) or 0
-    return (lead + frames + 2) * plan.period_us + 5000
+    target = plan.program.target
+    return (lead + frames + 2) * target.cycles(plan.period_us) + target.cycles(5000)
 
 
 def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
@@ -86,15 +86,20 @@ def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
     mismatches: list[Mismatch] = []
     lead = first_pulse_frame(plan)
     golden = [] if lead is None else list(itertools.islice(expand(plan), lead, lead + frames))
-    port_offset = rise_offsets(plan.ports)
+    target = plan.program.target
+    sizes = tuple(sum(1 for c in plan.channels if c.port == port) for port in plan.ports)
+    port_offset = rise_offsets(plan.ports, target, sizes)
+    reset_limit = int(RESET_LOW_US / target.cycle_us)
+    unit = "us" if target.grid else "cycles"
+    max_jitter = int(MAX_JITTER_US / target.cycle_us)
     pulses = {c.index: trace.pulses(c.port, c.bit) for c in plan.channels}
 
     resets = [trace.first_low(s.port, s.bit) for s in plan.program.servos]
     reset_low = None if any(r is None for r in resets) or not resets else max(resets)
     for s, r in zip(plan.program.servos, resets):
-        if r is None or r > RESET_LOW_CYCLES:
+        if r is None or r > reset_limit:
             mismatches.append(Mismatch(0, s.name, s.pin, None, None,
-                                       f"line not driven low within {RESET_LOW_CYCLES} us of reset"))
+                                       f"line not driven low within {RESET_LOW_US} us of reset"))
     servo_pins = {(s.port, s.bit) for s in plan.program.servos}
     for port in range(4):           # P0-P3, ports without any servo included
         for bit in range(8):
@@ -105,9 +110,9 @@ def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
     if not golden or not firsts:
         if golden:
             mismatches.append(Mismatch(1, "-", "-", None, None, "no pulse at all"))
-        return VerifyReport(0, 0, 0, None, None, None, reset_low, tuple(mismatches))
+        return VerifyReport(0, 0, 0, None, None, None, reset_low, tuple(mismatches), unit)
     t1 = min(firsts)
-    period = plan.period_us
+    period = target.cycles(plan.period_us)
     checked, max_err = 0, 0
     rises_by_channel: dict[int, list[int]] = {}
     for ch in plan.channels:
@@ -121,7 +126,7 @@ def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
         for j, fr in enumerate(golden, start=1):
             n = fr.n[ch.index]
             got = slots.get(j)
-            exp_us = None if n is None else BASE_US + DIV_US * n
+            exp_us = None if n is None else target.width_cycles(n)
             if n is None:
                 if got:
                     mismatches.append(Mismatch(j, ch.name, ch.servo.pin, None, got[1], "pulse before any target"))
@@ -139,7 +144,7 @@ def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
             if abs(n - fr.curve[ch.index]) > 1:
                 mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width,
                                            f"the firmware's N {n} is more than one N off the curve's {fr.curve[ch.index]}"))
-            if abs(slot_err) > MAX_JITTER:
+            if abs(slot_err) > max_jitter:
                 mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width,
                                            f"rise {slot_err:+d} cycles from its frame slot"))
             rises_by_channel.setdefault(ch.index, []).append(rise)
@@ -148,4 +153,4 @@ def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
     spans = [(r[-1] - r[0], len(r) - 1) for r in rises_by_channel.values() if len(r) > 1]
     mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
     return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
-                        max(diffs) if diffs else None, mean, reset_low, tuple(mismatches))
+                        max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit)

@@ -73,9 +73,9 @@ def mismatch_text_ok(m: verify.Mismatch) -> None:
     text = str(m)
     assert f"frame {m.frame}" in text and m.servo in text and m.pin in text
     if m.expected_us is not None:
-        assert f"expected {m.expected_us} us" in text
+        assert f"expected {m.expected_us} cycles" in text
     if m.measured_us is not None:
-        assert f"measured {m.measured_us} us" in text
+        assert f"measured {m.measured_us} cycles" in text
 
 
 def test_longer_head_pad_is_caught(good):
@@ -140,7 +140,7 @@ def test_missing_reset_is_caught(good):
     assert not report.ok
     reset = [m for m in report.mismatches if "reset" in m.what]
     assert {m.servo for m in reset} == {"a", "b", "c"} and all(m.frame == 0 for m in reset)
-    assert report.reset_low_cycles > verify.RESET_LOW_CYCLES
+    assert report.reset_low_cycles > verify.RESET_LOW_US
 
 
 def test_non_servo_pin_change_is_caught(good):
@@ -169,7 +169,7 @@ def test_trace_of_another_plan_is_caught(good):
     assert not report.ok
     m = report.mismatches[0]
     assert (m.frame, m.servo, m.pin, m.expected_us, m.measured_us) == (1, "b", "P1.2", 1460, 1468)
-    assert str(m).startswith("frame 1, b (P1.2): expected 1460 us, measured 1468 us")
+    assert str(m).startswith("frame 1, b (P1.2): expected 1460 cycles, measured 1468 cycles")
     assert report.max_error_cycles == 8
 
 

@@ -96,5 +96,6 @@ def target(item: nodes.TargetDecl, ctx: Context) -> Target:
     problem = result.timing_problem()
     if problem is not None and len(r.diagnostics) == errors:
         span = item.clock.span if item.clock is not None else item.span
-        r.error("unsupported-target", f"the firmware cannot be timed on the {result.describe()}", span, help=problem)
+        r.error("bad-clock", f"the clock is too slow: the firmware cannot be timed on the {result.describe()}",
+                span, help=problem)
     return result
