@@ -295,7 +295,9 @@ def _main(argv: list[str], run: _Run) -> int:
             print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{chip.code_bytes} bytes "
                   f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
                   f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes}); "
-                  f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, every width exactly 500 + 8 N µs")
+                  f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, "
+                  + ("every width exactly 500 + 8 N µs" if not target.width_error_us()
+                     else f"widths within {fmt_us(target.width_error_us())} of 500 + 8 N µs"))
         return 0
     frames = args.frames or verify_frames(plan)
     if hex_text is None:
@@ -513,7 +515,8 @@ def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> di
             "period_us": plan.period_us, "period_is_default": plan.period_is_default,
             "min_period_us": plan.min_period_us, "total_frames": plan.total_frames,
             "chip": chip.display, "clock_hz": firmware.unit.target.clock_hz, "six_t": firmware.unit.target.six_t,
-            "machine_cycle_us": float(firmware.unit.target.cycle_us), "rom_bytes": firmware.rom_bytes, "rom_size": chip.code_bytes,
+            "machine_cycle_us": float(firmware.unit.target.cycle_us),
+            "width_error_us": float(firmware.unit.target.width_error_us()), "rom_bytes": firmware.rom_bytes, "rom_size": chip.code_bytes,
             "runtime_bytes": firmware.runtime_bytes, "program_bytes": firmware.program_bytes,
             "data_bytes": firmware.data_bytes, "ram_bytes": firmware.unit.ram_bytes, "ram_size": chip.ram_bytes,
             "stack_bytes": firmware.unit.stack_bytes}

@@ -102,6 +102,10 @@ class Target:
         """Machine cycles from a port's rise to the fall of a line with N = n."""
         return self.cycles(500 + 8 * n)
 
+    def width_error_us(self) -> Fraction:
+        """The largest distance of a firmware width from 500 + 8 N µs over N = 0..250."""
+        return max(abs(self.width_cycles(n) * self.cycle_us - (500 + 8 * n)) for n in range(251))
+
     def us_at_least(self, cycles: int) -> int:
         """The shortest whole-µs period P with round_half_up(P / t_c) >= cycles."""
         q = (cycles - Fraction(1, 2)) * self.cycle_us

@@ -258,7 +258,7 @@ CASES = [
     ("bad-frame", "frame 0ms\n" + MAIN, [(1, 7)]),
     ("bad-frame", "frame 1.5us\n" + MAIN, [(1, 7)]),
     ("unsupported-target", "target at89c51" + MAIN, [(1, 8)]),
-    ("unsupported-target", "target stc89c52 clock 11.0592MHz" + MAIN, [(1, 23)]),
+    ("bad-clock", "target stc89c52 clock 8MHz" + MAIN, [(1, 23)]),
     ("bad-count", "main {\n  repeat 0 {}\n  repeat 1.5 {}\n}\n", [(2, 10), (3, 10)]),
     ("recursion", "sequence a {\n  play a\n}" + MAIN, [(2, 3)]),
     ("recursion", "sequence a {\n  play b\n}\nsequence b {\n  play c\n}\nsequence c {\n  play a\n}" + MAIN,
@@ -313,8 +313,13 @@ def test_clock_mode_and_timing_errors_name_what_works():
     assert "up to 24 MHz" in msg
     (msg,) = messages("target at89s52 mode 6T" + MAIN, "unsupported-target")
     assert "no 6T mode" in msg
-    (msg,) = messages("target stc89c52rc clock 11.0592MHz" + MAIN, "unsupported-target")
-    assert "1.0851 µs" in msg and "`clock 12MHz`" in msg and "`clock 6MHz mode 6T`" in msg
+    (msg,) = messages("target stc89c52rc clock 8MHz" + MAIN, "bad-clock")
+    assert "too slow" in msg and "5.33 machine cycles" in msg and "the lowest clock that works is 9 MHz" in msg
+    (msg,) = messages("target stc89c52rc clock 4MHz mode 6T" + MAIN, "bad-clock")
+    assert "the lowest clock that works is 4.5 MHz" in msg
+    assert ok("target stc89c52rc clock 9MHz" + MAIN).target.clock_hz == 9_000_000
+    eleven = ok("target stc89c52rc clock 11.0592MHz" + MAIN).target
+    assert not eleven.grid and eleven.width_cycles(0) == 461 and eleven.width_cycles(250) == 2304
     six = ok("target stc89c52rc clock 6MHz mode 6T" + MAIN).target
     assert six.six_t and six.cycle_us == 1 and six.sim_hz == 12_000_000
     assert ok("servo mode = P1.0\npose low { mode: 3 }\nmain { move low }\n").servos[0].name == "mode"

@@ -61,10 +61,10 @@ def test_a_program_too_big_for_8_kb_builds_for_the_at89c55wd():
     assert report.ok and report.pulses == 40 * 24, report.summary()
 
 
-def test_unsupported_clock_is_refused_before_any_code():
-    fe, diags = front_end_text("target stc89c52rc clock 11.0592MHz\n" + SMALL)
+def test_too_slow_a_clock_is_refused_before_any_code():
+    fe, diags = front_end_text("target stc89c52rc clock 8MHz\n" + SMALL)
     (err,) = [d for d in diags if d.is_error]
-    assert err.code == "unsupported-target" and "`clock 12MHz`" in err.help
+    assert err.code == "bad-clock" and "the lowest clock that works is 9 MHz" in err.help
 
 
 @pytest.mark.parametrize("chip", ["at89c55wd", "stc89c58rd"])
