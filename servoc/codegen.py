@@ -15,7 +15,11 @@ Firmware shape (AT89C52, 12 MHz, 1 us per machine cycle):
   edge chain), then, on the timer tick, pulsed by a routine of fixed length:
   one ORL raises the port's active lines, a fixed head of 493 cycles, then a
   chain of 8-cycle edge blocks entered by JMP @A+DPTR so that each line falls
-  with ANL at exactly 500 + 8 N cycles after the rise.
+  with ANL at exactly 500 + 8 N cycles after the rise;
+- at any other machine cycle (e.g. 11.0592 MHz) the port routine counts
+  machine cycles instead (`costs.CyclesEngine`, pulse_cycles.asm.j2): each
+  line falls at C(N) = round_half_up((500 + 8 N) us / t_c) cycles, its block
+  holding the gap to the edge before in 2-cycle loops.
 """
 
 from __future__ import annotations

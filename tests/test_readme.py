@@ -79,3 +79,16 @@ def test_first_program_outputs_match(tmp_path, monkeypatch, capsys):
     assert code == 0 and out == shown[3] and err == "" and (tmp_path / "prog.hex").exists()
     code, out, err = run_cli(["verify", "prog.servo"], capsys)
     assert code == 0 and out == shown[4]
+
+
+@pytest.mark.toolchain
+def test_other_crystal_session_matches(tmp_path, monkeypatch, capsys):
+    """The README's STC89C52RC session at 11.0592 MHz: each `$ servoc` line and what it prints."""
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    (session,) = blocks("console")
+    steps = re.findall(r"^\$ servoc (.*)\n((?:[^$].*\n)*)", session, re.M)
+    assert [args.split()[0] for args, _ in steps] == ["compile", "verify"]
+    for args, shown in steps:
+        code, out, err = run_cli(args.split(), capsys)
+        assert code == 0 and out == shown, (args, out, err)

@@ -1,8 +1,8 @@
 """Targets: every chip of servoc.target builds and verifies in ucsim; code memory is the chip's own.
 
-The firmware is timed in 1 µs machine cycles, so each chip is tried at
-12 MHz, and the STC89 chips also at 6 MHz in 6T mode (ucsim runs its 12-clock
-core at twice the crystal: the same machine cycle).
+Each chip is tried at 12 MHz, and the STC89 chips also at 6 MHz in 6T mode
+(ucsim runs its 12-clock core at twice the crystal: the same machine cycle);
+other crystals are tried in tests/test_clocks.py.
 """
 
 import pytest
