@@ -169,6 +169,11 @@ def path_cycles(instrs, labels, start: int, stop=lambda ins: ins.op == "RET") ->
             assert prev.op == "MOV" and prev.args[0] == ins.args[0], "a pad loop needs its MOV before it"
             k = int(prev.args[1].lstrip("#"), 0) or 256
             out = frozenset(c + ins.cycles * k for c in walk(i + 1))
+        elif ins.op == "DJNZ" and ins.args[1] == ".-4":     # codegen.delay's outer loop of 513 cycles
+            first = instrs[i - 3]
+            assert first.op == "MOV" and first.args[0] == ins.args[0]
+            b = int(first.args[1].lstrip("#"), 0) or 256
+            out = frozenset(c + ins.cycles + 513 * (b - 1) for c in walk(i + 1))
         elif ins.op in CONDITIONAL:
             target = labels[ins.args[-1]]
             assert target > i, f"backward branch at {ins} in straight-line code"
@@ -332,3 +337,34 @@ def test_records_leave_out_servos_already_at_their_target():
     assert [len(d) for d in data] == [2 + 4, 2 + 1 + 1, 2 + 1 + 1, 2 + 4]
     assert data[1][-1].strip() == "60" and data[2][-1].strip() == "10"
     assert_exact(built.verify(), text)
+
+
+@pytest.fixture(scope="module")
+def cycles_firmware():
+    """Firmware of the cycles engine with 1..8 lines a port, below 12 MHz (short path) and above."""
+    out = []
+    for line in ("target stc89c52rc clock 11.0592MHz", "target at89c52 clock 22.1184MHz"):
+        for sizes in [(1, 2, 3), (8, 5, 4), (6, 7, 8)]:
+            pins = [(port, b) for port, s in enumerate(sizes) for b in range(s)]
+            text = line + "\n" + servo_decls(pins) + pose("p", {f"s{p}_{b}": 17 for p, b in pins}) + "main { move p }\n"
+            out.append((sizes, build_text(text)))
+    return out
+
+
+def test_cycles_engine_prep_is_constant_and_enters_the_chain_on_time(cycles_firmware):
+    """Static proof beside the ucsim tests: every path of each prep routine takes the same cycles, and
+    from the rise through the chain's JMP @A+DPTR the port takes exactly th + 1 cycles: the first block
+    starts 1 cycle after the virtual edge at th."""
+    seen = set()
+    for sizes, built in cycles_firmware:
+        engine = costs.cycles_engine(built.plan.program.target)
+        instrs, labels = parse_listing(built.firmware.image.listing)
+        for port, s in enumerate(sizes):
+            k = engine.split(s)
+            assert path_cycles(instrs, labels, labels[f"edgesc{s}_a"]) == {engine.pre_cycles(s, k)}
+            assert path_cycles(instrs, labels, labels[f"edgesc{s}_b"]) == {engine.post_cycles(s, k)}
+            rise = next(i for i, ins in enumerate(instrs) if ins.op == "ORL" and ins.args == (f"P{port}", "A"))
+            head = path_cycles(instrs, labels, rise, stop=lambda ins: ins.op == "JMP")
+            assert head == {engine.th + 1}, (port, s, sorted(head))
+            seen.add((engine.short, s))
+    assert seen == {(short, s) for short in (True, False) for s in range(1, 9)}
