@@ -85,10 +85,11 @@ def exact(plan: Plan, fw: api.Firmware, frames: int) -> bool:
 
 # ---------------------------------------------------------------- worst case: stress programs
 
-def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = False, depth: int | None = None) -> str:
+def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = False, depth: int | None = None,
+                  target: str = "") -> str:
     pins = [(p, b) for p in range(ports) for b in range(per_port)]
-    lines = [f"frame {period}us"]
-    speed = "" if runtime_f else " speed 0.001s/60deg"
+    lines = ([target] if target else []) + [f"frame {period}us"]
+    speed = "" if runtime_f else " speed 0.0001s/60deg"     # fast enough for any P the firmware holds
     for i, (p, b) in enumerate(pins):
         lines.append(f"servo s{i} = P{p}.{b}{speed}")
     low = ", ".join(f"s{i}: {(7 * i) % 40}" for i in range(len(pins)))
@@ -114,15 +115,15 @@ def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = Fals
 
 
 def budget_period(ports: int, per_port: int, runtime_f: bool = False, depth: int | None = None,
-                  period: int = 20000) -> int:
+                  period: int = 20000, target: str = "") -> int:
     """The shortest P servoc reports for the stress program (planned at `period`)."""
-    return plan_text(stress_source(ports, per_port, period, runtime_f, depth), "stress")[1].min_period_us
+    return plan_text(stress_source(ports, per_port, period, runtime_f, depth, target), "stress")[1].min_period_us
 
 
 def exact_at(ports: int, per_port: int, period: int, runtime_f: bool = False, frames: int = 400,
-             depth: int | None = None) -> bool:
+             depth: int | None = None, target: str = "") -> bool:
     """Build the stress program at `period` (the budget bypassed) and verify it in ucsim."""
-    plan, fw = build_unchecked(stress_source(ports, per_port, period, runtime_f, depth), "stress")
+    plan, fw = build_unchecked(stress_source(ports, per_port, period, runtime_f, depth, target), "stress")
     assert bool(fw.unit.fneed_pages) == runtime_f
     return exact(plan, fw, frames)
 
@@ -166,6 +167,28 @@ def hold_shortest(ports: int, quick: bool) -> tuple[int, int]:
     p = shortest_period(lambda q: hold_exact_at(ports, q, frames), PORT_CYCLES * ports, PORT_CYCLES * ports + 512,
                         step)
     return p, step
+
+
+# ---------------------------------------------------------------- other crystals
+
+CLOCK_TARGETS = ("target stc89c52rc clock 11.0592MHz", "target at89c52 clock 22.1184MHz")
+
+
+def clock_budget(quick: bool, progress=None) -> list[dict]:
+    """The worst-case stress program at crystals whose machine cycle is not 1 us (the cycles engine):
+    servoc's shortest P next to the shortest exact P in ucsim, to QUICK_STEP us (quick: 1 port only)."""
+    say = progress or (lambda s: None)
+    out = []
+    for line in CLOCK_TARGETS:
+        for ports in (1,) if quick else (1, 3):
+            say(f"shortest exact P, stress program, {ports} port(s), {line}")
+            reported = budget_period(ports, 8, target=line)
+            p = shortest_period(lambda q: exact_at(ports, 8, q, frames=100, target=line),
+                                reported * 2 // 3, reported, QUICK_STEP)
+            out.append({"target": line.split(" ", 1)[1], "ports": ports, "servos": 8 * ports,
+                        "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
+                        "resolution_us": QUICK_STEP})
+    return out
 
 
 # ---------------------------------------------------------------- the figures

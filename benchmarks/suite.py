@@ -21,7 +21,7 @@ import time
 
 from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
                        measure_baseline, positions_source)
-from budget import frame_budget, hold_source
+from budget import clock_budget, frame_budget, hold_source
 from servoc import api, target, toolchain
 from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
@@ -221,6 +221,7 @@ def run_all(quick: bool = False, progress=None) -> dict:
         "frames_decoded": FRAMES,
         "comparison": compare(FRAMES, progress),
         "frame_budget": frame_budget(quick, progress),
+        "clock_budget": clock_budget(quick, progress),
         "memory": memory(quick, progress),
         "compiler": compiler_time(quick, progress),
     }
@@ -248,6 +249,11 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
         ]
         if not kind:
             rows.append((f"servoc: default P, {name} (us)", "", "", f"{x['default_p_us']}"))
+    for x in fb.get("clocks", ()):
+        rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, worst case, "
+                     f"{_servos(x['ports'])}, {x['target']} (us)", "", "",
+                     f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']} (to {x['resolution_us']} us) / "
+                     f"{x['difference_us']:+d}"))
     return rows
 
 
@@ -272,7 +278,7 @@ def table(r: dict) -> str:
     cmp("jitter, max - min rise-to-rise (us)", "jitter_us")
     cmp("lines high after reset, first_low max (us)", "reset_high_max_us")
     cmp("ROM bytes", "rom_bytes")
-    fb, mem, comp = r["frame_budget"], r["memory"], r["compiler"]
+    fb, mem, comp = {**r["frame_budget"], "clocks": r.get("clock_budget", [])}, r["memory"], r["compiler"]
     rows += _budget_rows(fb)
     rows += [
         ("servoc: ROM runtime bytes, 8 / 24 servos", "", "",
