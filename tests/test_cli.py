@@ -640,20 +640,6 @@ def test_flash_is_listed_with_its_example(capsys):
     assert rc == 2 and "did you mean `servoc flash`" in err
 
 
-@pytest.mark.parametrize("args, words", [
-    (["flash", "PROG", "-o", "DIR/missing/x.hex"], "does not exist (-o)"),
-    (["flash", "PROG", "-o", "PROG"], "cannot write PROG: it is the program, PROG (-o)"),
-    (["flash", "PROG", "--baud", "300"], "--baud 300 is not a rate stcgal can ask for"),
-])
-def test_flash_outputs_refused_before_any_work(capsys, program, tmp_path, no_work, args, words):
-    sub = lambda a: a.replace("PROG", str(program)).replace("DIR", str(tmp_path))  # noqa: E731
-    before = sorted(p.name for p in tmp_path.iterdir())
-    rc, out, err = run([sub(a) for a in args], capsys)
-    assert rc == 2 and out == "" and err.startswith("servoc: error: ") and sub(words) in err, err
-    no_traceback(err)
-    assert sorted(p.name for p in tmp_path.iterdir()) == before
-
-
 def test_flash_json_usage_error(capsys, tmp_path):
     path = tmp_path / "stc.servo"
     path.write_text("target stc89c52rc\n" + PROGRAM)
