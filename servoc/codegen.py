@@ -312,7 +312,7 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
                                    if isinstance(st, MoveStep) and (st.ease, st.frames) == (ease, frames)))}
                    for (ease, frames), lab in ctx.ease_tables.items()]
     period_cycles = target.cycles(plan.period_us)
-    if period_cycles >= target_mod.TIMER2_CYCLES:
+    if plan.period_us > target.max_period_us():     # lint's `period-too-long` reports this first
         raise layout.PeriodTooLong(
             f"a frame of {plan.period_us} us is {period_cycles} machine cycles at {target.describe()}, "
             f"and Timer2 counts at most {target_mod.TIMER2_CYCLES}")
@@ -405,14 +405,14 @@ def _cycles_ports(plan: Plan, ram: layout.RamAllocator, ce: costs.CyclesEngine) 
             "top": base + ce.slot_bytes * (n + 1) - 1, "blocks": blocks,
             "before": blocks[:half][::-1], "after": blocks[half:],
             "pre_cycles": ce.pre_cycles(n, ce.split(n)), "post_cycles": ce.post_cycles(n, ce.split(n)),
-            "pad": delay(ce.head_pad(n)),
+            "pad": delay(ce.head_pad(n)), "entry_time": ce.th + 1,
         })
     routines = []
     for n in sorted(set(sizes.values())):
         units: list[dict] = [{"kind": "ce", "a": a, "b": b, "k": k + 1}
                              for k, (a, b) in enumerate(SORTING_NETWORKS[n])]
         units += [{"kind": "table"}, {"kind": "close"}]
-        units += [{"kind": "line", "i": i, "pad": delay(ce.line - 11)} for i in range(n - 1, 0, -1)]
+        units += [{"kind": "line", "i": i, "prev": i - 1, "pad": delay(ce.line - 11)} for i in range(n - 1, 0, -1)]
         units += [{"kind": "first"}]
         k = ce.split(n)
         routines.append({"s": n, "parts": [

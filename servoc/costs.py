@@ -89,6 +89,16 @@ class CyclesEngine:
     table: tuple[int, ...]   # C(N) for N = 0..250
 
     @property
+    def close_base(self) -> int:
+        """The closing block's u is close_base - C(largest N)."""
+        return self.tclose - self.long_base
+
+    @property
+    def first_base(self) -> int:
+        """The first block's u is C(smallest N) - first_base."""
+        return self.th + self.long_base
+
+    @property
     def block_bytes(self) -> int:
         """Code bytes of one chain block (the entry jump skips a block per merged line)."""
         return 11 + self.short_pad if self.short else 14

@@ -85,7 +85,7 @@ class LayoutError(Exception):
 
 class RamFull(LayoutError):
     code = "ram-overflow"
-    help = "use fewer ports or servos: each port in use needs its own edge blocks in direct RAM"
+    help = "use fewer ports or servos: each port in use needs edge blocks in direct RAM"
 
 
 class StackTooDeep(LayoutError):

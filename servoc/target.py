@@ -57,7 +57,7 @@ def chip(name: str) -> Chip | None:
 DEFAULT_CLOCK_HZ = 12 * MHZ
 GRID_CYCLE_US = Fraction(1)          # the machine cycle at which a DIV is 8 whole cycles
 MIN_DIV_CYCLES = 6                   # the closest two edges the cycles engine can put out (costs.py)
-TIMER2_CYCLES = 0x10000              # the longest frame period Timer2 can count
+TIMER2_CYCLES = 0xFFFF               # the longest frame period Timer2 counts (auto-reload from 0x0001)
 
 
 @dataclass(frozen=True)
@@ -105,6 +105,10 @@ class Target:
     def width_error_us(self) -> Fraction:
         """The largest distance of a firmware width from 500 + 8 N µs over N = 0..250."""
         return max(abs(self.width_cycles(n) * self.cycle_us - (500 + 8 * n)) for n in range(251))
+
+    def max_period_us(self) -> int:
+        """The longest whole-µs frame period whose machine cycles Timer2 can count."""
+        return self.us_at_least(TIMER2_CYCLES + 1) - 1
 
     def us_at_least(self, cycles: int) -> int:
         """The shortest whole-µs period P with round_half_up(P / t_c) >= cycles."""

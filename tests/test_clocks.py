@@ -19,6 +19,7 @@ CLOCKS = [
     ("stc89c52rc", "11.0592MHz", ""), ("at89c52", "22.1184MHz", ""), ("at89c52", "24MHz", ""),
     ("at89s52", "33MHz", ""), ("stc89c52rc", "11.0592MHz", "6T"), ("stc89c58rd", "22.1184MHz", "6T"),
     ("stc89c58rd", "40MHz", "6T"), ("at89c55wd", "9MHz", ""), ("stc89c52rc", "10MHz", ""),
+    ("stc89c52rc", "4.5MHz", "6T"),      # the lowest clocks that work: 9 MHz, 4.5 MHz in 6T mode
 ]
 
 
@@ -95,6 +96,33 @@ def test_a_frame_timer2_cannot_count_is_refused():
     _, diags = front_end_text(text)
     (err,) = [d for d in diags if d.is_error]
     assert err.code == "period-too-long" and "9.83" in err.message
+
+
+@pytest.mark.parametrize("line", ["target stc89c58rd clock 40MHz mode 6T", "target at89c52"])
+def test_the_longest_period_compile_accepts_verifies(line):
+    """The limit itself: a frame of exactly max_period_us builds and runs exact in ucsim; 1 µs more is refused."""
+    t = front_end_text(program(line, ROWS[:1]))[0].plan.program.target
+    most = t.max_period_us()
+    assert t.cycles(most) <= target.TIMER2_CYCLES < t.cycles(most + 1)
+    text = program(line, [ROWS[0][:8], ROWS[1][:8]]).replace("main", f"frame {most}us\nmain", 1)
+    built = build_text(text)
+    assert built.plan.period_us == most
+    assert_exact(built.verify(8), line)
+    _, diags = front_end_text(text.replace(f"frame {most}us", f"frame {most + 1}us"))
+    assert "period-too-long" in [d.code for d in diags if d.is_error]
+
+
+def test_ports_follow_each_other_as_the_budget_counts():
+    """Measured in ucsim at 11.0592 MHz: P1 rises lead(8) + tail cycles after P0, the lead being the
+    prep that runs before the rise (470 cycles for 8 lines, as docs/language.md says)."""
+    built = build_text(program("target stc89c52rc clock 11.0592MHz", [r[:16] for r in ROWS]))
+    engine = costs.cycles_engine(built.plan.program.target)
+    assert engine.lead(8) == 470
+    widths = measured_widths(built, 4)
+    p0 = [rise for rise, _ in widths[0]]
+    p1 = [rise for rise, _ in widths[8]]
+    assert {b - a for a, b in zip(p0, p1)} == {engine.lead(8) + engine.tail}
+    assert built.firmware.unit.rise_offsets == (0, engine.lead(8) + engine.tail)
 
 
 @settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))

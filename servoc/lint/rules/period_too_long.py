@@ -8,17 +8,10 @@ from ...units import fmt_ms
 from .. import Report, rule
 from ..common import fmt_duration
 
-MAX_PERIOD_CYCLES = 65535    # Timer2 counts 16 bits of machine cycles
-
-
-def max_period_us(target) -> int:
-    """The longest whole-µs frame period whose machine cycles Timer2 can count."""
-    return target.us_at_least(MAX_PERIOD_CYCLES + 1) - 1
-
 
 @rule("period-too-long", Severity.ERROR)
 def period_too_long(plan: Plan, report: Report) -> None:
-    most = max_period_us(plan.program.target)
+    most = plan.program.target.max_period_us()
     if plan.period_us > most:
         report(f"frame period {fmt_ms(plan.period_us)} is longer than Timer2 can count "
                f"({fmt_duration(most)[:-2]} ms at most at {plan.program.target.describe()})",
