@@ -5,21 +5,17 @@ records, sorting networks, delay loop counts, jump offsets) and hands them to
 the jinja2 templates in `firmware_templates/`, which only lay out text.
 
 Firmware shape (AT89C52, 12 MHz, 1 us per machine cycle):
-- reset drives every servo line low, starts Timer2 in auto-reload mode with
-  period P, and runs the program code;
+- reset drives every servo line low and runs the program code;
 - the program is native code: a move is `MOV DPTR,#record / LCALL do_move`,
   a hold `LCALL do_hold`, `repeat` keeps its counter on the stack, `loop` is a
-  jump, `play` an LCALL of the sequence's code;
-- every frame, each port in use is prepared (its N sorted with their AND
-  masks by an unrolled sorting network, equal N merged, differenced into an
-  edge chain), then, on the timer tick, pulsed by a routine of fixed length:
-  one ORL raises the port's active lines, a fixed head of 493 cycles, then a
-  chain of 8-cycle edge blocks entered by JMP @A+DPTR so that each line falls
-  with ANL at exactly 500 + 8 N cycles after the rise;
-- at any other machine cycle (e.g. 11.0592 MHz) the port routine counts
-  machine cycles instead (`costs.CyclesEngine`, pulse_cycles.asm.j2): each
-  line falls at C(N) = round_half_up((500 + 8 N) us / t_c) cycles, its block
-  holding the gap to the edge before in 2-cycle loops.
+  jump, `play` an LCALL of the sequence's code; each frame's N are handed to
+  the edge handler by `LCALL frame_io`;
+- frame_io sorts each port's N with their lines by an unrolled sorting
+  network and merges equal N (frame_irq.asm.j2), one port at a time, into the
+  buffer the Timer0 handler reads at that port's rise;
+- the handler (irq.asm.j2) makes every edge: the rise of a port, then each
+  line's fall C(N) = round_half_up((500 + 8 N) us / t_c) cycles later (500 +
+  8 N at 12 MHz), chaining Timer0 overflows by exact intervals (costs.py).
 """
 
 from __future__ import annotations
@@ -30,12 +26,12 @@ import jinja2
 
 from . import layout, resources
 from . import costs
-from .costs import FINAL_N, HEAD_CYCLES, PORT_CYCLES
 from . import wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps, takes_frames
 from .source import SourceFile
+from .units import N_MAX
 
 # Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19).
 SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
@@ -51,37 +47,6 @@ SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
         (2, 4), (3, 5), (1, 4), (3, 6), (1, 2), (3, 4), (5, 6)),
 }
 
-BLOCK_BYTES = 18            # bytes of one edge block (see pulse.asm.j2)
-CE_CYCLES = 13              # one compare-exchange, either way
-MERGE_CYCLES = 16           # one sorted line after the first, edge or merge
-FIRST_CYCLES = 10           # the smallest line
-TICK_PARITY = 0             # TL2 parity of an on-time poll (measured in ucsim: 0 gives zero jitter)
-
-
-def edges_cycles(s: int) -> int:
-    """Cycles of the edges<s> routine including its RET (constant whatever the N)."""
-    return CE_CYCLES * len(SORTING_NETWORKS[s]) + MERGE_CYCLES * (s - 1) + FIRST_CYCLES + 2
-
-
-def head_pad(s: int) -> tuple[int, int]:
-    """(DJNZ loops, NOPs) that bring a port's head with s lines to exactly HEAD_CYCLES."""
-    used = (1                      # ORL: the rise
-            + 4 * s                # load N and masks
-            + 2                    # MOV R0, MOV R6
-            + 2 + edges_cycles(s)  # LCALL edges<s>
-            + 4                    # closing block count
-            + 9                    # jump offset
-            + 2                    # MOV DPTR
-            + 2)                   # JMP @A+DPTR
-    pad = HEAD_CYCLES - used
-    if pad < 0:
-        raise AssertionError("port head overflows")
-    if pad < 3:
-        return 0, pad
-    loops, nops = divmod(pad - 1, 2)     # MOV R7,#loops is 1 cycle, each DJNZ 2
-    return loops, nops
-
-
 @dataclass(frozen=True)
 class AsmUnit:
     text: str
@@ -93,8 +58,8 @@ class AsmUnit:
     fneed_pages: tuple[int, ...]    # the top pages the frames-needed tables may reach down to (empty if none):
                                     # the tables follow the motion data page-aligned, so it must end below these
     data_breakdown: tuple[tuple[str, int], ...] = ()   # motion data bytes by what they serve, largest first
-    work_cycles: int | None = None  # longest work between two frames, read from the text (None: unbounded)
-    work_from: str = ""             # where that longest path starts
+    budget: costs.Budget | None = None   # the cycles the text takes per frame (None: unbounded)
+    work_from: str = ""             # where the longest work between frames starts, or why it is unbounded
     min_period_us: int | None = None   # the shortest frame period this code holds (None: unbounded)
     target: Target = DEFAULT_TARGET    # the chip it is built for
 
@@ -265,8 +230,6 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     ram.next = layout.WORK_BASE
-    ram.alloc("WN", 8, "sort work: N")
-    ram.alloc("WM", 8, "sort work: AND masks")
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
     ram.alloc("SEGK", 2, "frame number k in the current move")
     ram.alloc("FLEFT", 2, "frames left in the current move or hold")
@@ -276,12 +239,8 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     ram.alloc("TMPL", 1, "scratch")
     ram.alloc("LPTR", 2, "the record list being run: the next record")
     target = plan.program.target
-    if target.grid:
-        ports, edge_routines = _grid_ports(plan, ram)
-        ce = None
-    else:
-        ce = costs.cycles_engine(target)
-        ports, edge_routines = _cycles_ports(plan, ram, ce)
+    period_cycles = target.cycles(plan.period_us)
+    e = _engine(plan, ram, period_cycles)
     chans = []
     for c in plan.channels:
         pin = 8 * c.port + c.bit
@@ -311,145 +270,104 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
                     "values": list(next(st.ease_table for st in steps(plan)
                                    if isinstance(st, MoveStep) and (st.ease, st.frames) == (ease, frames)))}
                    for (ease, frames), lab in ctx.ease_tables.items()]
-    period_cycles = target.cycles(plan.period_us)
     if plan.period_us > target.max_period_us():     # lint's `period-too-long` reports this first
         raise layout.PeriodTooLong(
             f"a frame of {plan.period_us} us is {period_cycles} machine cycles at {target.describe()}, "
-            f"and Timer2 counts at most {target_mod.TIMER2_CYCLES}")
-    reload = 0x10000 - period_cycles
-    tick_fix = (TICK_PARITY - reload) & 0xFF
+            f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     text = render("firmware.asm.j2",
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
-                  reload=reload, tick_fix=tick_fix, ram=ram.symbols, flag_bits=layout.flag_equates(),
-                  end_bit=layout.RECORD_FLAGS[-1].bit, edge_routines=edge_routines, chans=chans,
-                  head_cycles=HEAD_CYCLES, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
+                  ram=ram.symbols, flag_bits=layout.flag_equates(),
+                  end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold="",
+                  cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
                   state_base=layout.STATE_BASE, stack_base=layout.STACK_BASE,
-                  ports=ports, reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
+                  ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
-                  block_bytes=BLOCK_BYTES, final_n=FINAL_N, port_cycles=PORT_CYCLES,
-                  period_cycles=period_cycles, ce=ce,
-                  pulse_template="pulse.asm.j2" if ce is None else "pulse_cycles.asm.j2",
-                  edges_template="edges.asm.j2" if ce is None else "edges_cycles.asm.j2",
-                  ctab=None if ce is None else {"lo": [v & 0xFF for v in ce.table], "hi": [v >> 8 for v in ce.table]},
+                  period_cycles=period_cycles,
+                  ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
+                                                 "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},
                   target_text=target.describe(), cycle_text=fmt_us(target.cycle_us),
                   div_text=f"{float(target.div_cycles):g}",
-                  fall_text="500 + 8 x N" if ce is None else "round_half_up((500 + 8 N) us / t_c)")
-    sizes = tuple(p["s"] for p in ports)
-    offsets = tuple(costs.rise_offsets(plan.ports, target, sizes).values())
+                  fall_text="500 + 8 x N" if target.grid else "round_half_up((500 + 8 N) us / t_c)")
+    offsets = tuple(costs.rise_offsets(plan.ports, target).values())
     ram_bytes = ram.total(24, stack_bytes)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
         breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])
-    if ce is not None:
+    if not target.grid:
         breakdown["edge time table C(N)"] = 2 * 256
     if ease_tables:
         breakdown["eased curve tables"] = sum(len(t["values"]) for t in ease_tables)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
-    work, work_from = frame_work(text)
+    budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]))
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
-                   work, work_from,
-                   None if work is None else target.us_at_least(costs.frame_cycles(len(plan.ports), work, target, sizes)),
+                   budget, work_from,
+                   None if budget is None else target.us_at_least(costs.frame_cycles(target, budget)),
                    target)
 
 
 def _port_pins(plan: Plan, port: int) -> list[dict]:
     bits = [c.bit for c in plan.channels if c.port == port]
-    return [{"i": i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "mask": 0xFF ^ (1 << b),
+    return [{"i": i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "bit_mask": 1 << b,
              "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
             for i, b in enumerate(bits)]
 
 
-def _grid_ports(plan: Plan, ram: layout.RamAllocator) -> tuple[list[dict], list[dict]]:
-    """Port data of the DIV-counting pulse routines (a 1 µs machine cycle)."""
+def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
+    """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2)."""
+    target = plan.program.target
     ports = []
-    for port in plan.ports:
-        pins = _port_pins(plan, port)
-        n = len(pins)
-        slots = ram.alloc(f"EDGES{port}", 2 * n, f"P{port}: edge blocks, (AND mask, count) each")
-        fin = ram.alloc(f"FIN{port}", 1, f"P{port}: count of the closing silent block")
-        loops, nops = head_pad(n)
-        ports.append({
-            "port": port, "s": n, "all_mask": sum(1 << p["bit"] for p in pins), "pins": pins,
-            "fin": fin, "edges_cycles": edges_cycles(n),
-            "blocks": [{"j": j + 1, "mask": slots + 2 * j, "cnt": slots + 2 * j + 1} for j in range(n)],
-            "last_cnt": slots + 2 * n - 1, "entry_add": (1 - slots) % 256,
-            "pad_loops": loops, "pad_nops": nops,
-        })
-    routines = [{"s": n, "network": SORTING_NETWORKS[n], "cycles": edges_cycles(n)}
-                for n in sorted({p["s"] for p in ports})]
-    return ports, routines
+    for k, port in enumerate(plan.ports):
+        last = k == len(plan.ports) - 1
+        nxt = plan.ports[0 if last else k + 1]
+        rise = costs.rise_offsets(plan.ports, target)
+        ports.append({"port": port, "pins": _port_pins(plan, port), "win": f"win_p{port}", "last": last,
+                      "next_port": nxt, "next_win": f"win_p{nxt}", "rise": rise[port],
+                      "rnext": (period_cycles if last else rise[nxt]) - rise[port]})
+        ports[-1]["s"] = len(ports[-1]["pins"])
+        ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
+    most = max(p["s"] for p in ports)
+    ram.alloc("ITEMS", 1 + 3 * (most - 1) + 3, "the handler's items for the port being pulsed")
+    ram.alloc("RISEM", 1, "the lines of the next port to rise that have a target")
+    ram.alloc("DC", 1, "how many distinct N the sorted port has")
+    ram.alloc("EMC", 1, "ports the handler has taken from the sort buffer (counts on)")
+    ram.alloc("SRT", 1, "ports frame_io has sorted into it (counts on)")
+    ram.symbols += [("DN", layout.SORT_BASE, "the sorted port's distinct N, ascending"),
+                    ("DM", layout.SORT_BASE + 8, "the lines that fall at each"),
+                    ("WN", layout.SORT_BASE, "sort work: N (then DN)"),
+                    ("WM", layout.SORT_BASE + 8, "sort work: the lines (then DM)")]
+    if target.grid:
+        near_dn = -(-costs.SPLIT // 8)
+        ctime = ["MOV     B, #8                   ; t = C(N) = 500 + 8 N, in B:A", "MUL     AB",
+                 f"ADD     A, #<{target.width_cycles(0)}", "XCH     A, B",
+                 f"ADDC    A, #>{target.width_cycles(0)}", "XCH     A, B"]
+    else:
+        near_dn = next(d for d in range(1, 256) if int(d * target.div_cycles) >= costs.SPLIT)
+        ctime = ["MOV     DPTR, #ctab             ; t = C(N) from the table, in B:A", "MOV     B, A",
+                 "MOVC    A, @A+DPTR", "XCH     A, B", "INC     DPH", "MOVC    A, @A+DPTR", "XCH     A, B"]
+    sizes = sorted({p["s"] for p in ports})
+    return {
+        "window_bits": costs.WINDOW_BITS, "stop": costs.STOP, "entry": costs.ENTRY, "split": costs.SPLIT,
+        "sled": costs.SLED, "fall_off": costs.SLED, "exit_off": costs.SLED + 7,
+        "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
+        "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn,
+        "ctime": "\n".join("        " + line for line in ctime),
+        "sorts": [{"s": n, "network": SORTING_NETWORKS[n]} for n in sizes],
+    }
 
 
-def _cycles_ports(plan: Plan, ram: layout.RamAllocator, ce: costs.CyclesEngine) -> tuple[list[dict], list[dict]]:
-    """Port data of the cycle-counting pulse routines (any other machine cycle): one block area for
-    all ports, filled by each port's prep just before its chain runs."""
-    sizes = {port: len(_port_pins(plan, port)) for port in plan.ports}
-    most = max(sizes.values())
-    base = ram.alloc("BLK", ce.slot_bytes * (most + 1),
-                     f"edge blocks of the port being pulsed: (M, {'S, ' if ce.short else ''}P, LO, HI) each")
-    ports = []
-    for port in plan.ports:
-        pins = _port_pins(plan, port)
-        n = len(pins)
-        blocks = []
-        for j in range(n + 1):
-            at = base + ce.slot_bytes * j
-            fields = ["m", "s", "p", "lo", "hi"] if ce.short else ["m", "p", "lo", "hi"]
-            blocks.append({"j": j, "closing": j == n, **{f: at + i for i, f in enumerate(fields)}})
-        half = (n + 1) // 2
-        ports.append({
-            "port": port, "s": n, "all_mask": sum(1 << p["bit"] for p in pins), "pins": pins,
-            "top": base + ce.slot_bytes * (n + 1) - 1, "blocks": blocks,
-            "before": blocks[:half][::-1], "after": blocks[half:],
-            "pre_cycles": ce.pre_cycles(n, ce.split(n)), "post_cycles": ce.post_cycles(n, ce.split(n)),
-            "pad": delay(ce.head_pad(n)), "entry_time": ce.th + 1,
-        })
-    routines = []
-    for n in sorted(set(sizes.values())):
-        units: list[dict] = [{"kind": "ce", "a": a, "b": b, "k": k + 1}
-                             for k, (a, b) in enumerate(SORTING_NETWORKS[n])]
-        units += [{"kind": "table"}, {"kind": "close"}]
-        units += [{"kind": "line", "i": i, "prev": i - 1, "pad": delay(ce.line - 11)} for i in range(n - 1, 0, -1)]
-        units += [{"kind": "first"}]
-        k = ce.split(n)
-        routines.append({"s": n, "parts": [
-            {"name": "a", "units": units[:k], "cycles": ce.pre_cycles(n, k)},
-            {"name": "b", "units": units[k:], "cycles": ce.post_cycles(n, k)}]})
-    return ports, routines
-
-
-def delay(cycles: int, reg: str = "R7", outer: str = "R5") -> list[str]:
-    """Instructions that take exactly `cycles` machine cycles (they use `reg` and `outer`)."""
-    out: list[str] = []
-    if cycles < 0:
-        raise AssertionError(f"negative delay {cycles}")
-    if cycles > 513:
-        b = min(255, (cycles - 1) // 513)
-        out += [f"MOV     {outer}, #{b}                ; 1  {b} x 513 cycles",
-                f"MOV     {reg}, #255              ; 1",
-                f"DJNZ    {reg}, .                 ; 2 x 255",
-                f"DJNZ    {outer}, .-4              ; 2"]
-        cycles -= 1 + 513 * b
-    if cycles > 3:
-        if cycles % 2 == 0:
-            out.append("NOP                             ; 1")
-            cycles -= 1
-        k = (cycles - 1) // 2
-        out += [f"MOV     {reg}, #{k & 0xFF}                ; 1",
-                f"DJNZ    {reg}, .                 ; 2 x {k}"]
-        cycles = 0
-    out += ["NOP                             ; 1"] * cycles
-    return out
-
-
-def frame_work(text: str) -> tuple[int | None, str]:
-    """The longest work between two frames in this assembly, and where it starts."""
+def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...]) -> tuple[costs.Budget | None, str]:
+    """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
+    between frames starts (or why it cannot be bounded)."""
     try:
         code = wcet.Code(text)
-        cycles, at = code.between_frames()
+        work, at = code.between_frames()
+        sorts = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
+        exits = {f"exit_p{p}" for p in ports} | {"exit_fall"}
+        rises = tuple(costs.ENTRY + 2 + code.longest(f"emit_p{p}", exits) + code.longest_exit(exits)
+                      for p in ports)
     except wcet.WcetError as exc:
         return None, str(exc)
-    return cycles, code.label_at(at)
+    return costs.Budget(work, sorts, rises, lines), code.label_at(at)

@@ -5,10 +5,13 @@ from here, and `api.assemble` reads the fit report from here, so each fact
 about the firmware's memory is stated once.
 
 RAM (AT89C52, 256 bytes):
-    0x00-0x07  register bank 0
-    0x08-0x1F  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
+    0x00-0x07  register bank 0 (the program and the runtime)
+    0x08-0x0F  register bank 1 (the edge handler's)
+    0x10-0x1F  SORT: one port's distinct N (DN) and their lines (DM), sorted for the handler
     0x20-0x2C  bit-addressable per-port masks (ACT, MOVB, DIRB, RMASK) and FLAGS
-    0x2D-0x7F  direct variables, sort work and each port's edge blocks (allocated in order)
+    0x2D-0x2F  F of the current move
+    0x30-0x47  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
+    0x48-0x7F  direct variables and the handler's items (allocated in order)
     0x80-0xDF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
     0xE0-0xFF  the stack (STACK_BYTES)
 
@@ -23,12 +26,14 @@ from dataclasses import dataclass
 from . import costs
 
 RAM_SIZE = 256
-CUR_BASE = 0x08                 # current N per pin
+HANDLER_BANK = 0x08             # register bank 1: the edge handler's
+SORT_BASE = 0x10                # DN (8 bytes), then DM (8 bytes)
+CUR_BASE = 0x30                 # current N per pin
 STATE_BASE = 0x80               # motion state, 4 bytes per pin
 STATE_BYTES = 4
 DIRECT_END = 0x80               # direct addressing reaches 0x00..0x7F
 STACK_BASE = RAM_SIZE - costs.STACK_BYTES
-WORK_BASE = 0x30                # sort work and variables after the bit-addressable bytes
+WORK_BASE = CUR_BASE + 24       # variables after CUR
 
 # Bit-addressable bytes: (name, address, what). A pin's bit address is (byte - 0x20) x 8 + pin.
 MASK_BYTES = (
@@ -85,7 +90,7 @@ class LayoutError(Exception):
 
 class RamFull(LayoutError):
     code = "ram-overflow"
-    help = "use fewer ports or servos: each port in use needs edge blocks in direct RAM"
+    help = "use fewer ports or servos"
 
 
 class StackTooDeep(LayoutError):
@@ -100,7 +105,7 @@ class SlowServo(LayoutError):
 
 class PeriodTooLong(LayoutError):
     code = "period-too-long"
-    help = "use a shorter `frame`: Timer2 counts at most 65535 machine cycles a frame"
+    help = "use a shorter `frame`: Timer0 counts at most 65535 machine cycles from edge to edge"
 
 
 class RamAllocator:

@@ -6,11 +6,11 @@ check, the simulator's crystal and the reports all read the resulting
 `Target`. Every chip is 8052-class: Timer2 and 256 bytes of internal RAM.
 
 Each line falls round_half_up((500 + 8 N) µs / t_c) machine cycles after its
-port's rise (`Target.width_cycles`). With a 1 µs machine cycle (12 MHz, or
-6 MHz in 6T mode) a DIV is 8 whole cycles and the pulse routines count DIVs;
-at any other clock they count machine cycles (`servoc/costs.py`, "cycles
-engine"), which needs a DIV of at least MIN_DIV_CYCLES cycles:
-`Target.timing_problem` names the lowest clock that works.
+port's rise (`Target.width_cycles`). The edge handler puts two edges of one
+port as close as MIN_DIV_CYCLES cycles apart (`servoc/costs.py`), so a DIV
+must be at least that many cycles: `Target.timing_problem` names the lowest
+clock that works. With a 1 µs machine cycle (12 MHz, or 6 MHz in 6T mode)
+C(N) = 500 + 8 N is computed; at other clocks it comes from a table.
 """
 
 from __future__ import annotations
@@ -56,8 +56,8 @@ def chip(name: str) -> Chip | None:
     return CHIPS.get(ALIASES.get(key, key))
 DEFAULT_CLOCK_HZ = 12 * MHZ
 GRID_CYCLE_US = Fraction(1)          # the machine cycle at which a DIV is 8 whole cycles
-MIN_DIV_CYCLES = 6                   # the closest two edges the cycles engine can put out (costs.py)
-TIMER2_CYCLES = 0xFFFF               # the longest frame period Timer2 counts (auto-reload from 0x0001)
+MIN_DIV_CYCLES = 7                   # the closest two edges of one port the handler puts out (costs.STEP)
+TIMER_CYCLES = 0xFFFF                # the longest time Timer0 counts from one edge to the next
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,7 @@ class Target:
 
     @property
     def grid(self) -> bool:
-        """True when a DIV (8 µs) is 8 whole machine cycles: the pulse routines count DIVs."""
+        """True when a DIV (8 µs) is 8 whole machine cycles: C(N) = 500 + 8 N."""
         return self.cycle_us == GRID_CYCLE_US
 
     @property
@@ -107,8 +107,8 @@ class Target:
         return max(abs(self.width_cycles(n) * self.cycle_us - (500 + 8 * n)) for n in range(251))
 
     def max_period_us(self) -> int:
-        """The longest whole-µs frame period whose machine cycles Timer2 can count."""
-        return self.us_at_least(TIMER2_CYCLES + 1) - 1
+        """The longest whole-µs frame period whose machine cycles Timer0 can count between two edges."""
+        return self.us_at_least(TIMER_CYCLES + 1) - 1
 
     def us_at_least(self, cycles: int) -> int:
         """The shortest whole-µs period P with round_half_up(P / t_c) >= cycles."""

@@ -87,8 +87,7 @@ def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
     lead = first_pulse_frame(plan)
     golden = [] if lead is None else list(itertools.islice(expand(plan), lead, lead + frames))
     target = plan.program.target
-    sizes = tuple(sum(1 for c in plan.channels if c.port == port) for port in plan.ports)
-    port_offset = rise_offsets(plan.ports, target, sizes)
+    port_offset = rise_offsets(plan.ports, target)
     reset_limit = int(RESET_LOW_US / target.cycle_us)
     unit = "us" if target.grid else "cycles"
     max_jitter = int(MAX_JITTER_US / target.cycle_us)

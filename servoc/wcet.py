@@ -199,6 +199,52 @@ class Code:
             best = max(best, max(r["ret"] + self.resume(s + 1) for s in sites))
         return best
 
+    def longest(self, start: str, stops: set[str]) -> int:
+        """Longest cycles from label `start` until a label in `stops` is reached (its instruction
+        not counted) or the routine returns (its RET or RETI counted)."""
+        if start not in self.labels:
+            raise WcetError(f"no label `{start}`")
+        stop_at = {self.labels[s] for s in stops if s in self.labels}
+        memo: dict[int, int] = {}
+        on_path: set[int] = set()
+
+        def go(i: int) -> int:
+            if i in stop_at and i != self.labels[start]:
+                return 0
+            if i in memo:
+                return memo[i]
+            if i in on_path:
+                raise WcetError(f"a loop through {self.label_at(i)}")
+            if i >= len(self.instrs):
+                raise WcetError("a path runs off the end of the code")
+            on_path.add(i)
+            ins = self.instrs[i]
+            c = ins.cycles
+            if ins.op in ("RET", "RETI"):
+                out = c
+            elif ins.op in _CALLS:
+                callee = self.walk(self.target(ins))
+                if "ret" not in callee:
+                    raise WcetError(f"line {ins.line}: a call that does not return")
+                out = c + callee["ret"] + go(i + 1)
+            elif ins.op == "JMP":
+                raise WcetError(f"line {ins.line}: an indirect jump")
+            elif ins.op in _JUMPS:
+                out = c + go(self.target(ins))
+            elif ins.op in _BRANCH2:
+                out = c + max(go(i + 1), go(self.target(ins)))
+            else:
+                out = c + go(i + 1)
+            on_path.discard(i)
+            memo[i] = out
+            return out
+
+        return go(self.labels[start])
+
+    def longest_exit(self, labels: set[str]) -> int:
+        """The longest of the paths from each label to its RETI."""
+        return max(self.longest(name, set()) for name in labels)
+
     def between_frames(self) -> tuple[int, int]:
         """(cycles, resume instruction) of the longest path from any frame to the next."""
         resumes = [ins.index + 1 for ins in self.instrs if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE]
