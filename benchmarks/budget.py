@@ -32,7 +32,14 @@ from servoc.plan import Plan
 from servoc.source import SourceFile
 from servoc.units import DEFAULT_PERIOD_FLOOR_US
 
-PORT_CYCLES = costs.PORT_CYCLES
+from servoc.target import DEFAULT as _T12
+
+SPAN = costs.port_span(_T12)
+"""A port's rise to the next port's at 12 MHz: the floor of P is SPAN x ports (the pulses alone)."""
+
+
+def pulse_floor(ports: int) -> int:
+    return SPAN * ports
 QUICK_STEP = 8
 """Resolution (us) of the stress programs' search in quick mode; the figure is then an upper bound."""
 
@@ -134,7 +141,7 @@ def shortest_exact_period(ports: int, per_port: int = 8, runtime_f: bool = False
     reports, to 1 us over 400 frames, or in quick mode to QUICK_STEP us over 100 frames."""
     frames = 100 if quick else 400
     return shortest_period(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth),
-                           PORT_CYCLES * ports,        # never enough: no time between frames
+                           pulse_floor(ports) - costs.SPLIT,     # never enough: the next rise before the last fall
                            budget_period(ports, per_port, runtime_f, depth),
                            QUICK_STEP if quick else 1)
 
@@ -164,8 +171,8 @@ def hold_shortest(ports: int, quick: bool) -> tuple[int, int]:
     """(shortest exact P, resolution) of the held pose: the port routines and a little more."""
     step = 2 if quick else 1
     frames = 100 if quick else 150
-    p = shortest_period(lambda q: hold_exact_at(ports, q, frames), PORT_CYCLES * ports, PORT_CYCLES * ports + 512,
-                        step)
+    lo = pulse_floor(ports - 1) + _T12.width_cycles(max(POSITIONS))     # the next rise at the last fall
+    p = shortest_period(lambda q: hold_exact_at(ports, q, frames), lo, pulse_floor(ports) + 512, step)
     return p, step
 
 
@@ -198,7 +205,7 @@ def frame_budget(quick: bool, progress=None) -> dict:
 
     Full: 1, 2 and 3 ports, with and without run-time F, to 1 us. Quick: 1 and 3 ports, to QUICK_STEP us."""
     say = progress or (lambda s: None)
-    out: dict = {"port_cycles": PORT_CYCLES, "worst_case": [], "steady_state": []}
+    out: dict = {"port_span_cycles": SPAN, "worst_case": [], "steady_state": []}
     for ports in (1, 3) if quick else (1, 2, 3):
         for rf in (False, True):
             say(f"shortest exact P, stress program, {ports} port(s){', run-time F' if rf else ''}")
@@ -208,7 +215,7 @@ def frame_budget(quick: bool, progress=None) -> dict:
             out["worst_case"].append({
                 "ports": ports, "servos": 8 * ports, "runtime_f": rf,
                 "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
-                "resolution_us": QUICK_STEP if quick else 1, "between_frames_cycles": p - PORT_CYCLES * ports,
+                "resolution_us": QUICK_STEP if quick else 1, "over_pulses_cycles": p - pulse_floor(ports),
                 "default_p_us": stress_default_period(ports, rf),
                 "search_seconds": round(time.perf_counter() - t0, 1)})
         say(f"shortest exact P, pose held, {ports} port(s)")
@@ -217,7 +224,7 @@ def frame_budget(quick: bool, progress=None) -> dict:
         out["steady_state"].append({
             "ports": ports, "servos": 8 * ports, "reported_min_p_us": plan.min_period_us,
             "shortest_exact_p_us": p, "difference_us": plan.min_period_us - p, "resolution_us": step,
-            "between_frames_cycles": p - PORT_CYCLES * ports, "default_p_us": plan.period_us})
+            "over_pulses_cycles": p - pulse_floor(ports), "default_p_us": plan.period_us})
     return out
 
 
@@ -228,7 +235,7 @@ def main() -> None:
             p = shortest_exact_period(ports, per_port, rf)
             print(f"ports={ports} servos={ports * per_port:2d} runtime_f={rf!s:5}: shortest exact P = {p} us "
                   f"(servoc reports {budget_period(ports, per_port, rf)} us), "
-                  f"between frames {p - PORT_CYCLES * ports} cycles", flush=True)
+                  f"{p - pulse_floor(ports)} cycles over the pulses alone", flush=True)
 
 
 if __name__ == "__main__":

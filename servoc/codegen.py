@@ -328,7 +328,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
                       "rnext": (period_cycles if last else rise[nxt]) - rise[port]})
         ports[-1]["s"] = len(ports[-1]["pins"])
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
-    most = max(p["s"] for p in ports)
+    most = max((p["s"] for p in ports), default=1)
     ram.alloc("ITEMS", 1 + 3 * (most - 1) + 3, "the handler's items for the port being pulsed")
     ram.alloc("RISEM", 1, "the lines of the next port to rise that have a target")
     ram.alloc("DC", 1, "how many distinct N the sorted port has")

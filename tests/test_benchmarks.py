@@ -126,9 +126,9 @@ def test_servoc_is_exact(servoc_side):
 
 
 def test_hold_search_brackets():
-    # below one port routine nothing is exact; with a long frame the held pose is
-    assert not budget.hold_exact_at(1, budget.PORT_CYCLES, 20)
-    assert budget.hold_exact_at(1, budget.PORT_CYCLES + 512, 20)
+    # with the next frame's rise at the last fall nothing is exact; with a longer frame the held pose is
+    assert not budget.hold_exact_at(1, target.DEFAULT.width_cycles(max(baselines.POSITIONS)), 20)
+    assert budget.hold_exact_at(1, budget.pulse_floor(1) + 512, 20)
     calls = []
 
     def ok(p):
@@ -167,14 +167,14 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
         "comparison": {"hobby": {"rom_bytes": 1, **hobby.summary()},
                        "source_algorithm": {"rom_bytes": 2, **source_algorithm.summary()},
                        "servoc": {"rom_bytes": fw.rom_bytes, "period_chosen_us": fe.plan.period_us, **d.summary()}},
-        "frame_budget": {"port_cycles": budget.PORT_CYCLES,
+        "frame_budget": {"port_span_cycles": budget.SPAN,
                          "worst_case": [{"ports": p, "servos": 8 * p, "runtime_f": rf, "reported_min_p_us": 10020,
                                          "shortest_exact_p_us": 9999, "difference_us": 21, "resolution_us": 8,
-                                         "between_frames_cycles": 777, "default_p_us": 5300}
+                                         "over_pulses_cycles": 777, "default_p_us": 5300}
                                         for p in (1, 3) for rf in (False, True)],
                          "steady_state": [{"ports": p, "servos": 8 * p, "reported_min_p_us": 2600 * p,
                                            "shortest_exact_p_us": 2540 * p, "difference_us": 60 * p,
-                                           "resolution_us": 1, "between_frames_cycles": 30, "default_p_us": 5300}
+                                           "resolution_us": 1, "over_pulses_cycles": 30, "default_p_us": 5300}
                                           for p in (1, 3)]},
         "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "bytes_per_keyframe_24_servos": 36.0,
                    "keyframes_fit_estimate": 146, "keyframes_fit_confirmed": 146, "ram_bytes_8_servos": 196,
