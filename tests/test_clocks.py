@@ -1,8 +1,8 @@
 """Crystals other than 12 MHz: every line falls round_half_up((500 + 8 N) µs / t_c) machine cycles
 after its port's rise, measured on ucsim's own trace (not only through `verify`).
 
-The programs put lines on one port one DIV apart (the short path of a 6-7 cycle DIV), many lines on
-one N (merged edges), N = 0 and 250 together (the longest gaps), and all three ports in use.
+The programs put lines on one port one DIV apart (7 cycles at the lowest clock), many lines on one N
+(merged edges), N = 0 and 250 together (the longest gaps), and all three ports in use.
 """
 
 from fractions import Fraction
@@ -11,15 +11,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import assert_exact, build_text, front_end_text
-from servoc import api, costs, target
+from servoc import api, costs, target, toolchain
 
 pytestmark = pytest.mark.toolchain
 
 CLOCKS = [
     ("stc89c52rc", "11.0592MHz", ""), ("at89c52", "22.1184MHz", ""), ("at89c52", "24MHz", ""),
     ("at89s52", "33MHz", ""), ("stc89c52rc", "11.0592MHz", "6T"), ("stc89c58rd", "22.1184MHz", "6T"),
-    ("stc89c58rd", "40MHz", "6T"), ("at89c55wd", "9MHz", ""), ("stc89c52rc", "10MHz", ""),
-    ("stc89c52rc", "4.5MHz", "6T"),      # the lowest clocks that work: 9 MHz, 4.5 MHz in 6T mode
+    ("stc89c58rd", "40MHz", "6T"), ("at89c55wd", "10.5MHz", ""), ("stc89c52rc", "10.6MHz", ""),
+    ("stc89c52rc", "5.25MHz", "6T"),     # the lowest clocks that work: 10.5 MHz, 5.25 MHz in 6T mode
 ]
 
 
@@ -70,12 +70,15 @@ def test_widths_follow_the_formula_in_machine_cycles(chip, clock, mode):
 
 
 def test_the_edge_table_is_the_formula():
-    t = target.Target(target.CHIPS["stc89c52rc"], 11_059_200)
-    engine = costs.cycles_engine(t)
-    assert engine.table == tuple(expected_cycles(Fraction("11.0592"), False, n) for n in range(251))
-    assert engine.table[0] == 461 and engine.table[250] == 2304
-    assert engine.short and engine.div_floor == 7 and engine.flip
-    assert not costs.cycles_engine(target.Target(target.CHIPS["at89c52"], 24_000_000)).short
+    """The firmware's C(N) table (`ctab`: low bytes, then high bytes a page later) is the formula."""
+    built = build_text(program("target stc89c52rc clock 11.0592MHz", ROWS[:1]))
+    image = built.firmware.image
+    ih = toolchain._load_hex(image.hex_text)
+    at = image.symbols["ctab"]
+    table = [ih[at + n] + 256 * ih[at + 256 + n] for n in range(251)]
+    assert table == [expected_cycles(Fraction("11.0592"), False, n) for n in range(251)]
+    assert table[0] == 461 and table[250] == 2304
+    t = built.plan.program.target
     assert float(t.width_error_us()) == pytest.approx(0.5417, abs=1e-4)
     assert target.DEFAULT.width_error_us() == 0
 
@@ -90,8 +93,8 @@ def test_compile_reports_the_clock_and_the_width_error(tmp_path, capsys):
     assert (tmp_path / "b.hex").read_text().startswith(":")
 
 
-def test_a_frame_timer2_cannot_count_is_refused():
-    """At 40 MHz in 6T mode a machine cycle is 0.15 µs: Timer2's 65535 cycles are 9.83 ms."""
+def test_a_frame_the_timer_cannot_count_is_refused():
+    """At 40 MHz in 6T mode a machine cycle is 0.15 µs: Timer0's 65535 cycles are 9.83 ms."""
     text = program("target stc89c58rd clock 40MHz mode 6T", ROWS[:1]).replace("main", "frame 10ms\nmain", 1)
     _, diags = front_end_text(text)
     (err,) = [d for d in diags if d.is_error]
@@ -103,7 +106,7 @@ def test_the_longest_period_compile_accepts_verifies(line):
     """The limit itself: a frame of exactly max_period_us builds and runs exact in ucsim; 1 µs more is refused."""
     t = front_end_text(program(line, ROWS[:1]))[0].plan.program.target
     most = t.max_period_us()
-    assert t.cycles(most) <= target.TIMER2_CYCLES < t.cycles(most + 1)
+    assert t.cycles(most) <= target.TIMER_CYCLES < t.cycles(most + 1)
     text = program(line, [ROWS[0][:8], ROWS[1][:8]]).replace("main", f"frame {most}us\nmain", 1)
     built = build_text(text)
     assert built.plan.period_us == most
@@ -113,21 +116,20 @@ def test_the_longest_period_compile_accepts_verifies(line):
 
 
 def test_ports_follow_each_other_as_the_budget_counts():
-    """Measured in ucsim at 11.0592 MHz: P1 rises lead(8) + tail cycles after P0, the lead being the
-    prep that runs before the rise (470 cycles for 8 lines, as docs/language.md says)."""
+    """Measured in ucsim at 11.0592 MHz: P1 rises C(250) + SPLIT cycles after P0 (2304 + 117)."""
     built = build_text(program("target stc89c52rc clock 11.0592MHz", [r[:16] for r in ROWS]))
-    engine = costs.cycles_engine(built.plan.program.target)
-    assert engine.lead(8) == 470
+    span = costs.port_span(built.plan.program.target)
+    assert span == 2304 + costs.SPLIT
     widths = measured_widths(built, 4)
     p0 = [rise for rise, _ in widths[0]]
     p1 = [rise for rise, _ in widths[8]]
-    assert {b - a for a, b in zip(p0, p1)} == {engine.lead(8) + engine.tail}
-    assert built.firmware.unit.rise_offsets == (0, engine.lead(8) + engine.tail)
+    assert {b - a for a, b in zip(p0, p1)} == {span}
+    assert built.firmware.unit.rise_offsets == (0, span)
 
 
 @settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
 @given(st.lists(st.lists(st.integers(0, 250), min_size=9, max_size=9), min_size=2, max_size=3),
-       st.sampled_from([("stc89c52rc", "11.0592MHz", ""), ("at89c52", "10MHz", ""), ("at89s52", "22.1184MHz", "")]))
+       st.sampled_from([("stc89c52rc", "11.0592MHz", ""), ("at89c52", "10.5MHz", ""), ("at89s52", "22.1184MHz", "")]))
 def test_random_positions_verify_exactly(rows, clock):
     chip, hz, mode = clock
     line = f"target {chip} clock {hz}" + (f" mode {mode}" if mode else "")
