@@ -314,10 +314,10 @@ def test_clock_mode_and_timing_errors_name_what_works():
     (msg,) = messages("target at89s52 mode 6T" + MAIN, "unsupported-target")
     assert "no 6T mode" in msg
     (msg,) = messages("target stc89c52rc clock 8MHz" + MAIN, "bad-clock")
-    assert "too slow" in msg and "5.33 machine cycles" in msg and "the lowest clock that works is 9 MHz" in msg
+    assert "too slow" in msg and "5.33 machine cycles" in msg and "the lowest clock that works is 10.5 MHz" in msg
     (msg,) = messages("target stc89c52rc clock 4MHz mode 6T" + MAIN, "bad-clock")
-    assert "the lowest clock that works is 4.5 MHz" in msg
-    assert ok("target stc89c52rc clock 9MHz" + MAIN).target.clock_hz == 9_000_000
+    assert "the lowest clock that works is 5.25 MHz" in msg
+    assert ok("target stc89c52rc clock 10.5MHz" + MAIN).target.clock_hz == 10_500_000
     eleven = ok("target stc89c52rc clock 11.0592MHz" + MAIN).target
     assert not eleven.grid and eleven.width_cycles(0) == 461 and eleven.width_cycles(250) == 2304
     six = ok("target stc89c52rc clock 6MHz mode 6T" + MAIN).target

@@ -147,143 +147,90 @@ def test_too_many_speed_classes_is_a_rom_diagnostic_not_an_exception(tmp_path):
     assert [d.code for d in reporter.diagnostics if d.is_error] == ["rom-overflow"]
 
 
-# ============================================================ 9. constant-time code, from the listing
+# ============================================================ 9. the edge handler's timing, from the listing
 
 CONDITIONAL = {"JC", "JNC", "JZ", "JNZ", "JB", "JNB", "JBC", "CJNE", "DJNZ"}
 JUMPS = {"SJMP", "LJMP", "AJMP"}
-
-
-def path_cycles(instrs, labels, start: int, stop=lambda ins: ins.op == "RET") -> set[int]:
-    """Cycles of every path from instruction `start` through the first instruction `stop` accepts
-    (inclusive). Forward branches only; `DJNZ R7, .` counts its MOV R7,#k loop; LCALL adds the callee."""
-    memo: dict[int, frozenset[int]] = {}
-
-    def walk(i: int) -> frozenset[int]:
-        if i in memo:
-            return memo[i]
-        ins = instrs[i]
-        if stop(ins):
-            out = frozenset({ins.cycles})
-        elif ins.op == "DJNZ" and ins.args[1] == ".":
-            prev = instrs[i - 1]
-            assert prev.op == "MOV" and prev.args[0] == ins.args[0], "a pad loop needs its MOV before it"
-            k = int(prev.args[1].lstrip("#"), 0) or 256
-            out = frozenset(c + ins.cycles * k for c in walk(i + 1))
-        elif ins.op == "DJNZ" and ins.args[1] == ".-4":     # codegen.delay's outer loop of 513 cycles
-            first = instrs[i - 3]
-            assert first.op == "MOV" and first.args[0] == ins.args[0]
-            b = int(first.args[1].lstrip("#"), 0) or 256
-            out = frozenset(c + ins.cycles + 513 * (b - 1) for c in walk(i + 1))
-        elif ins.op in CONDITIONAL:
-            target = labels[ins.args[-1]]
-            assert target > i, f"backward branch at {ins} in straight-line code"
-            out = frozenset(c + ins.cycles for c in walk(i + 1) | walk(target))
-        elif ins.op in JUMPS:
-            target = labels[ins.args[0]]
-            assert target > i
-            out = frozenset(c + ins.cycles for c in walk(target))
-        elif ins.op in ("LCALL", "ACALL"):
-            callee = path_cycles(instrs, labels, labels[ins.args[0]])
-            out = frozenset(c + ins.cycles + d for c in walk(i + 1) for d in callee)
-        else:
-            assert ins.op not in ("RET", "RETI", "JMP"), ins
-            out = frozenset(c + ins.cycles for c in walk(i + 1))
-        memo[i] = out
-        return out
-
-    return set(walk(start))
-
-
-def run_block(instrs, labels, start: int, mem: dict[str, int], stop) -> int:
-    """Interpret the edge chain's few instructions from `start`; cycles through the instruction `stop` accepts."""
-    i, cycles = start, 0
-    while True:
-        ins = instrs[i]
-        cycles += ins.cycles
-        if stop(ins):
-            return cycles
-        if ins.op == "DJNZ":
-            mem[ins.args[0]] = (mem[ins.args[0]] - 1) & 0xFF
-            i = labels[ins.args[1]] if mem[ins.args[0]] else i + 1
-        elif ins.op == "SJMP":
-            i = labels[ins.args[0]]
-        else:
-            assert ins.op in ("NOP", "MOV", "INC"), ins     # padding: NOP and INC DPTR
-            i += 1
-        assert cycles < 10_000
-
 
 PORT_LAYOUTS = {s: [(1, b) for b in range(8)][:s] for s in range(1, 9)}
 
 
 @pytest.fixture(scope="module")
-def listing_firmware():
-    """One firmware with s = 1..3 servos on P0..P2 and one with 4..8 (all edges<s> routines)."""
+def handler_firmware():
+    """Firmware with 1..8 lines on P0..P2, at 12 MHz and at 11.0592 MHz (the C(N) table)."""
     out = []
-    for sizes in [(1, 2, 3), (8, 5, 4), (6, 7, 8)]:
-        pins = [(port, b) for port, s in enumerate(sizes) for b in range(s)]
-        text = servo_decls(pins) + pose("p", {f"s{p}_{b}": 17 for p, b in pins}) + "main { move p }\n"
-        built = build_text(text)
-        out.append((sizes, built))
+    for line in ("", "target stc89c52rc clock 11.0592MHz\n"):
+        for sizes in [(1, 2, 3), (8, 5, 4), (6, 7, 8)]:
+            pins = [(port, b) for port, s in enumerate(sizes) for b in range(s)]
+            text = line + servo_decls(pins) + pose("p", {f"s{p}_{b}": 17 for p, b in pins}) + "main { move p }\n"
+            out.append((sizes, build_text(text)))
     return out
 
 
-def test_edges_routines_take_the_same_time_on_every_path(listing_firmware):
-    seen = set()
-    for sizes, built in listing_firmware:
+def entry_cycles(instrs, labels, tl0: int) -> int:
+    """Cycles from the handler's first instruction through its JMP @A+DPTR when TL0 reads `tl0`."""
+    i, cycles, acc = labels["t0_entry"], 0, None
+    while True:
+        ins = instrs[i]
+        cycles += ins.cycles
+        if ins.op == "JMP":
+            return cycles
+        if ins.op == "MOV" and ins.args == ("A", "TL0"):
+            acc = tl0
+        if ins.op == "JB" and ins.args[0].startswith("ACC."):
+            if (acc >> int(ins.args[0][4:])) & 1:
+                i = labels[ins.args[1]]
+                continue
+        else:
+            assert ins.op in ("MOV", "NOP", "PUSH", "JB"), ins
+        i += 1
+
+
+def test_the_entry_pads_every_latency_to_one_fixed_point(handler_firmware):
+    """Whatever TL0 reads in the window (the cycles since the overflow), the handler reaches its
+    jump the same number of cycles after the overflow: the latency never moves an edge."""
+    for _, built in handler_firmware:
         instrs, labels = parse_listing(built.firmware.image.listing)
-        for s in sizes:
-            paths = path_cycles(instrs, labels, labels[f"edges{s}"])
-            assert paths == {codegen.edges_cycles(s)}, (s, sorted(paths))
-            seen.add(s)
-    assert seen == set(range(1, 9))
+        fixed = {entry_cycles(instrs, labels, v) + v for v in range(2 ** costs.WINDOW_BITS)}
+        assert len(fixed) == 1, sorted(fixed)
 
 
-def test_port_head_is_493_cycles_for_every_port_size(listing_firmware):
-    seen = set()
-    for sizes, built in listing_firmware:
+def test_each_window_steps_exactly_its_gap(handler_firmware):
+    """In each port's window an item's sled offset S + 7 - g puts the next edge exactly g cycles after
+    the one before, for every g from STEP to SPLIT - 1; a rise and a cluster's first fall both come 3
+    cycles after the entry's jump; the exits sit at their offsets."""
+    for sizes, built in handler_firmware:
         instrs, labels = parse_listing(built.firmware.image.listing)
-        for port, s in enumerate(sizes):
-            rise = next(i for i, ins in enumerate(instrs) if ins.op == "ORL" and ins.args == (f"P{port}", "A"))
-            assert instrs[rise - 1].op == "MOV" and instrs[rise - 1].args == ("A", f"ACT+{port}")
-            head = path_cycles(instrs, labels, rise, stop=lambda ins: ins.op == "JMP")
-            assert head == {costs.HEAD_CYCLES} == {493}, (port, s, sorted(head))
-            seen.add(s)
-    assert seen == set(range(1, 9))
+        by_addr = {ins.address: k for k, ins in enumerate(instrs)}
+        for port in range(len(sizes)):
+            base = instrs[labels[f"win_p{port}"]].address
+            at = lambda off: instrs[by_addr[base + off]]                  # noqa: E731
+            sled = [instrs[by_addr[base]]]
+            while len(sled) < costs.SLED:
+                sled.append(instrs[by_addr[sled[-1].address + 1]])
+            assert all(ins.op == "NOP" and ins.cycles == 1 for ins in sled)
+            tail = [at(costs.SLED), at(costs.SLED + 1), at(costs.SLED + 2)]
+            assert [(t.op, t.args) for t in tail] == [("MOV", ("A", "@R0")), ("INC", ("R0",)), ("XRL", (f"P{port}", "A"))]
+            k = by_addr[tail[2].address]
+            after = instrs[k + 1:k + 4]
+            assert [(t.op, t.args) for t in after] == [("MOV", ("A", "@R0")), ("INC", ("R0",)), ("JMP", ("@A+DPTR",))]
+            for gap in range(costs.STEP, costs.SPLIT):
+                off = costs.SLED + 7 - gap
+                nops = (costs.SLED - off) * 1
+                assert sum(t.cycles for t in after) + nops + sum(t.cycles for t in tail) == gap
+            assert at(costs.SLED + 7).args == ("exit_far",) and at(costs.SLED + 10).args == (f"exit_p{port}",)
+            rise = [at(costs.SLED + 13), at(costs.SLED + 15), at(costs.SLED + 16)]
+            assert [(t.op, t.args) for t in rise] == [("MOV", ("A", "RISEM")), ("NOP", ()), ("XRL", (f"P{port}", "A"))]
+            assert sum(t.cycles for t in rise) == sum(t.cycles for t in tail) == 3
 
 
-def test_edge_blocks_take_8_cycles_per_count(listing_firmware):
-    """Block j of a chain reaches its ANL after exactly 8 x count cycles, for every count 1..251;
-    the closing block ends after 8 x count cycles too, so the port routine has a fixed length."""
-    for sizes, built in listing_firmware:
-        instrs, labels = parse_listing(built.firmware.image.listing)
-        for port, s in enumerate(sizes):
-            start = labels[f"chain_P{port}"]
-            for j in range(1, s + 1):
-                block = start if j == 1 else labels[f"e{port}_{j - 1}"] + 1
-                mask_mov = instrs[block]
-                assert mask_mov.op == "MOV" and mask_mov.args[0] == "A"
-                djnz = instrs[block + 1]
-                for count in (1, 2, 3, 100, 250, 251):
-                    got = run_block(instrs, labels, block, {djnz.args[0]: count},
-                                    stop=lambda ins: ins.op == "ANL" and ins.args == (f"P{port}", "A"))
-                    assert got == 8 * count, (port, j, count, got)
-            closing = labels[f"e{port}_{s}"] + 1
-            for count in (1, 2, 251):
-                got = run_block(instrs, labels, closing, {f"FIN{port}": count},
-                                stop=lambda ins, end=labels[f"ef{port}"]: ins is instrs[end])
-                assert got == 8 * count
-
-
-def test_port_routines_follow_each_other_without_a_gap(listing_firmware):
-    """The verify model puts port i's rise PORT_CYCLES x i after the first: the routines are back to back."""
-    for sizes, built in listing_firmware:
-        instrs, labels = parse_listing(built.firmware.image.listing)
-        for port in range(len(sizes) - 1):
-            after = labels[f"ef{port}"] + 1
-            assert instrs[after].op == "MOV" and instrs[after].args == ("A", f"ACT+{port + 1}")
-        assert built.firmware.unit.rise_offsets == tuple(costs.PORT_CYCLES * i for i in range(len(sizes)))
-        assert costs.PORT_CYCLES == 1 + costs.HEAD_CYCLES + 8 * (costs.FINAL_N + 1)
+def test_exits_stop_timer0_for_stop_cycles(handler_firmware):
+    _, built = handler_firmware[0]
+    instrs, _ = parse_listing(built.firmware.image.listing)
+    clr = next(k for k, ins in enumerate(instrs) if ins.op == "CLR" and ins.args == ("TR0",))
+    setb = next(k for k, ins in enumerate(instrs) if k > clr and ins.op == "SETB" and ins.args == ("TR0",))
+    assert all(ins.op not in CONDITIONAL | JUMPS for ins in instrs[clr:setb])
+    assert sum(ins.cycles for ins in instrs[clr:setb]) == costs.STOP
 
 
 def test_sorting_networks_sort_every_zero_one_vector():
@@ -298,18 +245,17 @@ def test_sorting_networks_sort_every_zero_one_vector():
             assert v == sorted(v), (s, k)
 
 
-def test_listing_checks_can_fail(listing_firmware):
-    """The path analysis sees a one-cycle change on one path of edges<s> and a changed head pad."""
-    _, built = listing_firmware[0]
+def test_listing_checks_can_fail(handler_firmware):
+    """The entry check sees one NOP more in the cascade."""
+    _, built = handler_firmware[0]
     listing = built.firmware.image.listing
-    keep = next(line for line in listing.splitlines() if re.search(r"\bok3_1:\s+MUL", line))
-    mutated = listing.replace(keep, keep.replace("[48]", "[36]"))
-    instrs, labels = parse_listing(mutated)
-    assert path_cycles(instrs, labels, labels["edges3"]) == {codegen.edges_cycles(3), codegen.edges_cycles(3) - 1}
-    pad = next(line for line in listing.splitlines() if "pad the head" in line)
-    instrs, labels = parse_listing(listing.replace(pad, re.sub(r"#(\d+)", lambda m: f"#{int(m[1]) + 1}", pad)))
-    rise = next(i for i, ins in enumerate(instrs) if ins.op == "ORL" and ins.args == ("P0", "A"))
-    assert path_cycles(instrs, labels, rise, stop=lambda ins: ins.op == "JMP") == {costs.HEAD_CYCLES + 2}
+    lines = listing.splitlines()
+    k = next(i for i, line in enumerate(lines) if line[40:].strip().startswith("tc1:"))
+    extra = lines[k - 1]                    # a NOP of the bit-1 group, written twice
+    assert "NOP" in extra
+    instrs, labels = parse_listing("\n".join(lines[:k] + [extra] + lines[k:]))
+    fixed = {entry_cycles(instrs, labels, v) + v for v in range(2 ** costs.WINDOW_BITS)}
+    assert len(fixed) == 2
 
 
 def test_records_leave_out_servos_already_at_their_target():
@@ -337,34 +283,3 @@ def test_records_leave_out_servos_already_at_their_target():
     assert [len(d) for d in data] == [2 + 4, 2 + 1 + 1, 2 + 1 + 1, 2 + 4]
     assert data[1][-1].strip() == "60" and data[2][-1].strip() == "10"
     assert_exact(built.verify(), text)
-
-
-@pytest.fixture(scope="module")
-def cycles_firmware():
-    """Firmware of the cycles engine with 1..8 lines a port, below 12 MHz (short path) and above."""
-    out = []
-    for line in ("target stc89c52rc clock 11.0592MHz", "target at89c52 clock 22.1184MHz"):
-        for sizes in [(1, 2, 3), (8, 5, 4), (6, 7, 8)]:
-            pins = [(port, b) for port, s in enumerate(sizes) for b in range(s)]
-            text = line + "\n" + servo_decls(pins) + pose("p", {f"s{p}_{b}": 17 for p, b in pins}) + "main { move p }\n"
-            out.append((sizes, build_text(text)))
-    return out
-
-
-def test_cycles_engine_prep_is_constant_and_enters_the_chain_on_time(cycles_firmware):
-    """Static proof beside the ucsim tests: every path of each prep routine takes the same cycles, and
-    from the rise through the chain's JMP @A+DPTR the port takes exactly th + 1 cycles: the first block
-    starts 1 cycle after the virtual edge at th."""
-    seen = set()
-    for sizes, built in cycles_firmware:
-        engine = costs.cycles_engine(built.plan.program.target)
-        instrs, labels = parse_listing(built.firmware.image.listing)
-        for port, s in enumerate(sizes):
-            k = engine.split(s)
-            assert path_cycles(instrs, labels, labels[f"edgesc{s}_a"]) == {engine.pre_cycles(s, k)}
-            assert path_cycles(instrs, labels, labels[f"edgesc{s}_b"]) == {engine.post_cycles(s, k)}
-            rise = next(i for i, ins in enumerate(instrs) if ins.op == "ORL" and ins.args == (f"P{port}", "A"))
-            head = path_cycles(instrs, labels, rise, stop=lambda ins: ins.op == "JMP")
-            assert head == {engine.th + 1}, (port, s, sorted(head))
-            seen.add((engine.short, s))
-    assert seen == {(short, s) for short in (True, False) for s in range(1, 9)}

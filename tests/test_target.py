@@ -64,7 +64,7 @@ def test_a_program_too_big_for_8_kb_builds_for_the_at89c55wd():
 def test_too_slow_a_clock_is_refused_before_any_code():
     fe, diags = front_end_text("target stc89c52rc clock 8MHz\n" + SMALL)
     (err,) = [d for d in diags if d.is_error]
-    assert err.code == "bad-clock" and "the lowest clock that works is 9 MHz" in err.help
+    assert err.code == "bad-clock" and "the lowest clock that works is 10.5 MHz" in err.help
 
 
 @pytest.mark.parametrize("chip", ["at89c55wd", "stc89c58rd"])
