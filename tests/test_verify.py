@@ -15,7 +15,7 @@ import re
 import pytest
 from intelhex import IntelHex
 
-from servoc import api, verify
+from servoc import api, costs, verify
 
 from servoc.plan import expand
 from conftest import assert_exact, build_text, parse_listing
@@ -78,41 +78,43 @@ def mismatch_text_ok(m: verify.Mismatch) -> None:
         assert f"measured {m.measured_us} cycles" in text
 
 
-def test_longer_head_pad_is_caught(good):
-    """One more pad loop in P1's head: every P1 pulse 2 cycles long."""
-    instrs, _ = parse_listing(good.firmware.image.listing)
-    head_pads = [a for a, b in zip(instrs, instrs[1:]) if b.op == "DJNZ" and b.args == ("R7", ".")]
-    assert len(head_pads) == 2      # one per port in use: P1, then P2
-    p1_pad = head_pads[0]
-    k = int(p1_pad.args[1].lstrip("#"), 0)
-    report = api.verify(good.plan, patched(good, {p1_pad.address + 1: k + 1}), 12)
+def test_a_late_rise_is_caught(good):
+    """P1's rise stub takes a 2-cycle INC DPTR for its 1-cycle NOP: the rise comes 1 cycle late,
+    the falls do not move, so every P1 pulse is 1 cycle short; P2's are not."""
+    instrs, labels = parse_listing(good.firmware.image.listing)
+    rise = next(i for i, ins in enumerate(instrs) if ins.op == "MOV" and ins.args == ("A", "RISEM")
+                and instrs[i + 2].args == ("P1", "A"))
+    nop = instrs[rise + 1]
+    assert nop.op == "NOP"
+    report = api.verify(good.plan, patched(good, {nop.address: 0xA3}), 12)     # INC DPTR
     assert not report.ok
-    widths = [m for m in report.mismatches if "width off by 2 cycles" in m.what]
+    widths = [m for m in report.mismatches if "width off by -1 cycles" in m.what]
     assert {m.servo for m in widths} == {"a", "b", "c"}
     assert {m.frame for m in widths} == set(range(1, 13))
     for m in widths:
         mismatch_text_ok(m)
-        assert m.measured_us == m.expected_us + 2
+        assert m.measured_us == m.expected_us - 1
     first = next(m for m in widths if m.frame == 1 and m.servo == "b")
-    assert (first.expected_us, first.measured_us) == (500 + 8 * 120, 500 + 8 * 120 + 2)
-    assert report.max_error_cycles == 2
+    assert (first.expected_us, first.measured_us) == (500 + 8 * 120, 500 + 8 * 120 - 1)
     assert not any(m.servo == "d" and "width" in m.what for m in report.mismatches)
 
 
-def test_shorter_chain_block_is_caught(good):
-    """A 2-cycle INC DPTR of P1's first edge block becomes a 1-cycle NOP: its edge and all later ones early."""
-    anl, instrs, labels = instr(good, "ANL", label="e1_1")
-    pads = instrs[labels["e1_1"] - 2: labels["e1_1"]]
-    assert [(i.op, i.args) for i in pads] == [("INC", ("DPTR",))] * 2
-    report = api.verify(good.plan, patched(good, {pads[0].address: 0x00}), 5)
+def test_a_wrong_interval_between_entries_is_caught(good):
+    """exit_far adds one more to Timer0: each later entry of a port comes 1 cycle earlier than it
+    should. P1's lines fall in three entries (N 10, 120, 250 are far apart): b 1 short, c 2 short."""
+    instrs, labels = parse_listing(good.firmware.image.listing)
+    start = labels["exit_far"]
+    add = next(ins for ins in instrs[start:] if ins.op == "ADD" and ins.args == ("A", f"#{costs.STOP + 1}"))
+    value = int(add.args[1].lstrip("#"), 0)
+    report = api.verify(good.plan, patched(good, {add.address + 1: value + 1}), 5)
     assert not report.ok
-    bad = {(m.frame, m.servo): m for m in report.mismatches}
+    bad = {(m.frame, m.servo): m for m in report.mismatches if "width" in m.what}
     for frame in range(1, 6):
-        for servo in "abc":
+        for servo, off in (("b", -1), ("c", -2)):
             m = bad[(frame, servo)]
             mismatch_text_ok(m)
-            assert m.measured_us == m.expected_us - 1 and "off by -1 cycles" in m.what
-    assert not any(m.servo == "d" for m in report.mismatches)
+            assert m.measured_us == m.expected_us + off and f"off by {off} cycles" in m.what
+        assert (frame, "a") not in bad and (frame, "d") not in bad
 
 
 def test_wrong_target_in_a_record_is_caught(good):
