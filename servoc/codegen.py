@@ -340,13 +340,13 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
                     ("WM", layout.SORT_BASE + 8, "sort work: the lines (then DM)")]
     if target.grid:
         near_dn = -(-costs.SPLIT // 8)
-        ctime = ["MOV     B, #8                   ; t = C(N) = 500 + 8 N, in B:A", "MUL     AB",
-                 f"ADD     A, #<{target.width_cycles(0)}", "XCH     A, B",
-                 f"ADDC    A, #>{target.width_cycles(0)}", "XCH     A, B"]
+        ctime = ["SWAP    A                       ; t = C(N) = 500 + 8 N, in R7:A", "RR      A",
+                 "MOV     R7, A", "ANL     A, #0xF8", f"ADD     A, #<{target.width_cycles(0)}", "XCH     A, R7",
+                 "ANL     A, #0x07", f"ADDC    A, #>{target.width_cycles(0)}", "XCH     A, R7"]
     else:
         near_dn = next(d for d in range(1, 256) if int(d * target.div_cycles) >= costs.SPLIT)
-        ctime = ["MOV     DPTR, #ctab             ; t = C(N) from the table, in B:A", "MOV     B, A",
-                 "MOVC    A, @A+DPTR", "XCH     A, B", "INC     DPH", "MOVC    A, @A+DPTR", "XCH     A, B"]
+        ctime = ["MOV     DPTR, #ctab             ; t = C(N) from the table, in R7:A", "MOV     R7, A",
+                 "MOVC    A, @A+DPTR", "XCH     A, R7", "INC     DPH", "MOVC    A, @A+DPTR", "XCH     A, R7"]
     sizes = sorted({p["s"] for p in ports})
     return {
         "window_bits": costs.WINDOW_BITS, "stop": costs.STOP, "entry": costs.ENTRY, "split": costs.SPLIT,

@@ -46,9 +46,9 @@ STEP = 7            # the shortest step between two edges of one entry
 # v = latency + 7 this is 57 whatever the latency (measured in ucsim).
 ENTRY = 57
 # The last edge of an entry to the end of its RETI on the longest exit: the step's
-# read and jump (4), LJMP (2), exit_far (32 with PUSH B), MOV R6 (1), the add to SETB
-# (8), POPs (10), RETI (2); `tests/test_costs.py` reads it from the code.
-EXIT = 59
+# read and jump (4), LJMP (2), exit_far (28), MOV R6 (1), the add to SETB (8), POPs (8),
+# RETI (2); `tests/test_costs.py` reads it from the code.
+EXIT = 53
 SPLIT = ENTRY + EXIT + 1   # edges this far apart or more: separate entries (the next
                            # overflow comes after the RETI before it)
 SLED = SPLIT - 1 - STEP    # NOPs before each port's edge: any gap from STEP to SPLIT - 1
@@ -107,7 +107,7 @@ def default_period_us(min_period: int) -> int:
 # the edge handler, which may come at any instruction, HANDLER_STACK more.
 STACK_BYTES = 32
 RUNTIME_STACK = 8
-HANDLER_STACK = 9           # LCALL, PSW, ACC, DPL, DPH, B, and its own LCALL
+HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL
 ENGINE_STACK = RUNTIME_STACK + HANDLER_STACK
 
 

@@ -154,7 +154,8 @@ def check_pulses(plan, unit, trace, frames: int, text: str) -> None:
 
 def check_stack(plan, firmware, cycles: int, text: str, reached: bool) -> None:
     """Statically within the 32 bytes, and in ucsim never a byte past what was reserved
-    (with `reached`: the run uses every byte reserved, so the static bound is also tight)."""
+    (with `reached`: the run uses every byte the program and the runtime reserve, so the static
+    bound is tight up to the edge handler's share, which only an interrupt at the deepest point uses)."""
     unit = firmware.unit
     assert unit.stack_bytes == costs.stack_bytes(plan.nesting) <= costs.STACK_BYTES
     written = stack_bytes_written(firmware.hex_text, cycles)
@@ -163,7 +164,8 @@ def check_stack(plan, firmware, cycles: int, text: str, reached: bool) -> None:
     assert deepest <= unit.stack_bytes, (
         f"the firmware used {deepest} bytes of stack, {unit.stack_bytes} were reserved\n--- source:\n{text}")
     if reached:
-        assert deepest == unit.stack_bytes, f"{unit.stack_bytes} bytes of stack reserved, {deepest} used"
+        assert deepest >= unit.stack_bytes - costs.HANDLER_STACK, (
+            f"{unit.stack_bytes} bytes of stack reserved, {deepest} used")
 
 
 def _first_difference(got: list[int], want: list[int]) -> str:
