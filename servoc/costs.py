@@ -101,11 +101,12 @@ def default_period_us(min_period: int) -> int:
     return max(DEFAULT_PERIOD_FLOOR_US, min_period)
 
 
-# The stack: 32 bytes at the top of the indirect RAM. Each `repeat` keeps its
+# The stack: 46 bytes from the end of the direct variables (0x72, with 24 servos
+# on three ports) up to the motion state at 0xA0. Each `repeat` keeps its
 # pass counter there and each `play` its return address (2 bytes a level);
 # the runtime goes at most RUNTIME_STACK bytes deeper below a program call, and
 # the edge handler, which may come at any instruction, HANDLER_STACK more.
-STACK_BYTES = 32
+STACK_BYTES = 46
 RUNTIME_STACK = 8
 HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL
 ENGINE_STACK = RUNTIME_STACK + HANDLER_STACK

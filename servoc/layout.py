@@ -11,9 +11,9 @@ RAM (AT89C52, 256 bytes):
     0x20-0x2C  bit-addressable per-port masks (ACT, MOVB, DIRB, RMASK) and FLAGS
     0x2D-0x2F  F of the current move
     0x30-0x47  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
-    0x48-0x7F  direct variables and the handler's items (allocated in order)
-    0x80-0xDF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
-    0xE0-0xFF  the stack (STACK_BYTES)
+    0x48-0x71  direct variables and the handler's items (allocated in order)
+    0x72-0x9F  the stack (STACK_BYTES), growing up
+    0xA0-0xFF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
 
 A record list is a run of move and hold records in code memory; each record
 starts with a flags byte (RECORD_FLAGS) and a flags byte with ENDF ends the list.
@@ -29,10 +29,10 @@ RAM_SIZE = 256
 HANDLER_BANK = 0x08             # register bank 1: the edge handler's
 SORT_BASE = 0x10                # DN (8 bytes), then DM (8 bytes)
 CUR_BASE = 0x30                 # current N per pin
-STATE_BASE = 0x80               # motion state, 4 bytes per pin
 STATE_BYTES = 4
-DIRECT_END = 0x80               # direct addressing reaches 0x00..0x7F
-STACK_BASE = RAM_SIZE - costs.STACK_BYTES
+STATE_BASE = RAM_SIZE - 24 * STATE_BYTES     # motion state, 4 bytes per pin: 0xA0..0xFF
+STACK_BASE = STATE_BASE - costs.STACK_BYTES  # the stack below it: 0x72..0x9F
+DIRECT_END = STACK_BASE         # direct variables end where the stack starts
 WORK_BASE = CUR_BASE + 24       # variables after CUR
 
 # Bit-addressable bytes: (name, address, what). A pin's bit address is (byte - 0x20) x 8 + pin.
@@ -119,7 +119,7 @@ class RamAllocator:
         addr = self.next
         self.next += size
         if self.next > DIRECT_END:
-            raise RamFull(f"direct RAM is full: {name} does not fit below 0x{DIRECT_END:02X}")
+            raise RamFull(f"direct RAM is full: {name} does not fit below the stack at 0x{DIRECT_END:02X}")
         self.symbols.append((name, addr, what))
         return addr
 

@@ -110,7 +110,7 @@ def test_too_deep_nesting_is_a_diagnostic_not_an_exception(tmp_path):
     rep = Reporter(source)
     assert api.generate(fe.plan, source, rep) is None
     assert [d.code for d in rep.diagnostics] == ["too-deep"]
-    assert re.search(r"needs \d+ bytes of stack, the firmware has 32", rep.diagnostics[0].message)
+    assert re.search(r"needs \d+ bytes of stack, the firmware has 46", rep.diagnostics[0].message)
 
 
 def test_rom_overflow_is_a_diagnostic_not_an_exception(tmp_path):

@@ -17,7 +17,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, example, given, settings
 from hypothesis import strategies as st
 
-from servoc import api
+from servoc import api, costs
 from servoc.diagnostics import Reporter
 from servoc.plan import expand
 from servoc.units import DEFAULT_T_DAV_US, t_dav_from_speed
@@ -590,7 +590,7 @@ def test_deepest_nesting_that_fits_runs_without_stack_overflow(with_repeats):
     assert depth >= (5 if with_repeats else 10)
     text = nested_source(depth, with_repeats)
     built = build_text(text)
-    assert built.firmware.unit.stack_bytes <= 32
+    assert built.firmware.unit.stack_bytes <= costs.STACK_BYTES
     assert any(inst.step.frames is None for inst in built.plan.moves), "the run-time F path is not used"
     assert_exact(built.verify(), text)
 

@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 
-from servoc import api, costs, sim, toolchain
+from servoc import api, costs, layout, sim, toolchain
 from servoc.plan import expand
 from servoc.units import BASE_US, DIV_US, N_MAX
 from servoc.verify import first_pulse_frame
@@ -39,8 +39,8 @@ SAFE = dict(deadline=None, derandomize=True, phases=[Phase.explicit, Phase.gener
 FRAMES = 2000                   # frames from the first pulse, each program
 MIN_WIDTH, MAX_WIDTH = BASE_US, BASE_US + DIV_US * N_MAX     # 500 .. 2500 us
 RESET_LOW = 20
-STACK_TOP = 0x100               # the stack lives in STACK_TOP - STACK_BYTES .. 0xFF
-STACK_BOTTOM = STACK_TOP - costs.STACK_BYTES
+STACK_TOP = layout.STATE_BASE   # the stack lives in STACK_BASE .. STATE_BASE - 1
+STACK_BOTTOM = layout.STACK_BASE
 
 
 # ============================================================ the stack, watched in ucsim
@@ -57,7 +57,7 @@ def _limit_vcd(cycles: int) -> str:
 
 
 def stack_bytes_written(hex_text: str, cycles: int) -> set[int]:
-    """The IRAM addresses in 0xE0..0xFF the firmware writes during `cycles` machine cycles.
+    """The IRAM addresses of the stack the firmware writes during `cycles` machine cycles.
 
     One write breakpoint per address (`break iram w ADDR`); each prints its address and deletes
     itself on its first hit (breakpoints are numbered 1, 2, ... in the order they are set), so

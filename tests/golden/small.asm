@@ -12,8 +12,8 @@ T2CON   = 0xC8
 
 ; ---------------------------------------------------------------- RAM
 CUR     = 0x30              ; current N of pin p (0..23) at CUR + p
-STATE   = 0x80              ; motion state of pin p at STATE + 4 p: Q|N0, REM|DMAG, ERR lo, ERR hi
-STACK   = 0xE0              ; the stack: STACK..0xFF
+STATE   = 0xA0              ; motion state of pin p at STATE + 4 p: Q|N0, REM|DMAG, ERR lo, ERR hi
+STACK   = 0x72              ; the stack: STACK up to STATE
 ACT     = 0x20              ; per port: lines that have a target (the rise mask); bit address = pin
 MOVB    = 0x23              ; per port: lines moving in the current move; bit address 0x18 + pin
 DIRB    = 0x26              ; per port: lines moving down; bit address 0x30 + pin
@@ -58,9 +58,13 @@ reset:
         ANL     P2, #0xBF        ; 2  servo lines low at once: claw
         MOV     SP, #STACK-1            ; 2  the first PUSH writes STACK
         MOV     R0, #0x08
-clear:  MOV     @R0, #0                 ; clear the handler's bank, CUR, flags, work and motion state
+clear:  MOV     @R0, #0                 ; clear the handler's bank, CUR, flags and work
         INC     R0
         CJNE    R0, #STACK, clear
+        MOV     R0, #STATE
+clears: MOV     @R0, #0                 ; and the motion state, above the stack
+        INC     R0
+        CJNE    R0, #0, clears
         MOV     T2CON, #0               ; Timer2 unused (and not the UART's clock)
         LJMP    main
 
@@ -136,7 +140,7 @@ dm_all:
 dm_pins:
         JNB     0x50, su_8              ; 2  pan (P1.0)
         MOV     R0, #0x38            ; 1
-        MOV     R1, #0xA0            ; 1
+        MOV     R1, #0xC0            ; 1
         MOV     C, 0x08              ; 1  has a target?
         LCALL   setup_pin
         SETB    0x08
@@ -147,7 +151,7 @@ dm_pins:
 su_8:
         JNB     0x53, su_11              ; 2  tilt (P1.3)
         MOV     R0, #0x3B            ; 1
-        MOV     R1, #0xAC            ; 1
+        MOV     R1, #0xCC            ; 1
         MOV     C, 0x0B              ; 1  has a target?
         LCALL   setup_pin
         SETB    0x0B
@@ -158,7 +162,7 @@ su_8:
 su_11:
         JNB     0x5E, su_22              ; 2  claw (P2.6)
         MOV     R0, #0x46            ; 1
-        MOV     R1, #0xD8            ; 1
+        MOV     R1, #0xF8            ; 1
         MOV     C, 0x16              ; 1  has a target?
         LCALL   setup_pin
         SETB    0x16
@@ -187,15 +191,15 @@ dm_dda: CLR     C                       ; ERR0 = floor(-F / 2), 16 bits: the DDA
         RRC     A
         MOV     ERR0, A
         JNB     0x20, dd_8              ; pan: linear DDA terms
-        MOV     R1, #0xA0
+        MOV     R1, #0xC0
         LCALL   dda_pin
 dd_8:
         JNB     0x23, dd_11              ; tilt: linear DDA terms
-        MOV     R1, #0xAC
+        MOV     R1, #0xCC
         LCALL   dda_pin
 dd_11:
         JNB     0x2E, dd_22              ; claw: linear DDA terms
-        MOV     R1, #0xD8
+        MOV     R1, #0xF8
         LCALL   dda_pin
 dd_22:
 dm_run: MOV     FLEFT, SEGF
@@ -227,19 +231,19 @@ dm_ev:  JNB     EASED, dm_step
 dm_step:
         JNB     0x20, st_8              ; 2  pan: next N
         MOV     R0, #0x38            ; 1
-        MOV     R1, #0xA0            ; 1
+        MOV     R1, #0xC0            ; 1
         MOV     C, 0x38              ; 1
         LCALL   step_pin                ; 2
 st_8:
         JNB     0x23, st_11              ; 2  tilt: next N
         MOV     R0, #0x3B            ; 1
-        MOV     R1, #0xAC            ; 1
+        MOV     R1, #0xCC            ; 1
         MOV     C, 0x3B              ; 1
         LCALL   step_pin                ; 2
 st_11:
         JNB     0x2E, st_22              ; 2  claw: next N
         MOV     R0, #0x46            ; 1
-        MOV     R1, #0xD8            ; 1
+        MOV     R1, #0xF8            ; 1
         MOV     C, 0x46              ; 1
         LCALL   step_pin                ; 2
 st_22:
