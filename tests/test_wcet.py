@@ -9,7 +9,7 @@ reaches a frame.
 import pytest
 
 from conftest import build_text, parse_listing, pose, servo_decls
-from servoc import codegen, wcet
+from servoc import codegen, costs, wcet
 
 
 @pytest.mark.toolchain
@@ -70,6 +70,17 @@ def test_a_loop_that_reaches_no_frame_is_an_error():
         wcet.Code(looping).between_frames()
 
 
+def test_longest_path_between_labels():
+    code = wcet.Code(SMALL)
+    # from skip: LCALL work (2, then NOP 1 + RET 2) + SJMP 2, stopping at the label main
+    assert code.longest("skip", {"main"}) == 7
+    assert code.longest("work", set()) == 3
+    with pytest.raises(wcet.WcetError, match="loop"):
+        code.longest("skip", set())
+    with pytest.raises(wcet.WcetError):
+        code.longest("nowhere", set())
+
+
 def test_counted_pad_loops_are_bounded():
     padded = SMALL.replace("work:   NOP", "work:   MOV     R7, #5\n        DJNZ    R7, .")
     # MOV 1 + DJNZ 2 x 5 instead of NOP 1
@@ -82,6 +93,10 @@ def test_generated_code_budget_names_its_start():
     fe, _ = front_end_text(servo_decls([(1, 0), (1, 1)]) + pose("a", {"s1_0": 1, "s1_1": 2})
                            + pose("b", {"s1_0": 100, "s1_1": 3}) + "main { loop { move a in 1s; move b in 1s } }\n")
     unit = codegen.generate(fe.plan)
-    assert unit.work_cycles and unit.min_period_us == 13 + 2510 + unit.work_cycles
+    b = unit.budget
+    assert b.work and b.lines == (2,) and len(b.sorts) == len(b.rises) == 1
+    # one port: the pulses alone, or the sort, the work and the handler's load in one frame
+    load = b.rises[0] + costs.SPLIT * 2
+    assert unit.min_period_us == max(costs.port_span(fe.plan.program.target), b.sorts[0] + b.work + load)
     assert unit.work_from
     assert make_plan(fe.plan.program).min_period_us == unit.min_period_us
