@@ -209,8 +209,10 @@ def _seq_label(plan: Plan, name: str) -> str:
     return f"seq{[s.name for s in plan.sequences].index(name) + 1}"
 
 
-def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
-    """Lay out the firmware for a plan (which must have passed lint without errors)."""
+def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) -> AsmUnit:
+    """Lay out the firmware for a plan (which must have passed lint without errors).
+    `hold_off` > 0 makes a test build that holds interrupts off for that many cycles (NOPs
+    between CLR EA and SETB EA) at several points of the background: the edges must not move."""
     ctx = _Ctx(plan, source, [], {})
     main_ops: list[dict] = []
     _ops(ctx, plan.main, main_ops)
@@ -277,7 +279,7 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
     text = render("firmware.asm.j2",
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
                   ram=ram.symbols, flag_bits=layout.flag_equates(),
-                  end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold="",
+                  end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
                   state_base=layout.STATE_BASE, stack_base=layout.STACK_BASE,
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
@@ -306,6 +308,13 @@ def generate(plan: Plan, source: SourceFile | None = None) -> AsmUnit:
                    budget, work_from,
                    None if budget is None else target.us_at_least(costs.frame_cycles(target, budget)),
                    target)
+
+
+def _hold(cycles: int) -> str:
+    if not cycles:
+        return ""
+    return ("        CLR     EA                      ; test build: interrupts held off\n"
+            + "        NOP\n" * cycles + "        SETB    EA\n")
 
 
 def _port_pins(plan: Plan, port: int) -> list[dict]:

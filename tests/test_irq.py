@@ -1,0 +1,71 @@
+"""The edge interrupt against its latency: a test build holds interrupts off at several points of
+the background (CLR EA, k NOPs, SETB EA: in frame_io's wait, in run_list, do_hold and every servo's
+step), so Timer0's overflow often comes while they are off, and each edge must still land on its
+exact cycle. On an 8051 the entry latency is 3 to 9 cycles (an instruction under way, up to a
+4-cycle MUL, plus one more after a RETI or a write to IE); the handler's pad covers 24 cycles of
+latency, so interrupts held off for 10 cycles on top of the worst case still leave every edge in
+place. Held off for much longer, the pad runs out: the check can fail.
+"""
+
+import pytest
+
+from conftest import front_end_text
+from servoc import api, codegen
+from servoc.diagnostics import Reporter
+
+pytestmark = pytest.mark.toolchain
+
+PROGRAM = """\
+frame {P}us
+{servos}
+pose a {{ {a} }}
+pose b {{ {b} }}
+pose c {{ {c} }}
+sequence swing {{ move b in {P2}us; move a in {P3}us ease in-out }}
+main {{
+  move a
+  loop {{ play swing; move c in {P1}us; hold {P2}us; repeat 2 {{ move b in {P1}us; move a in {P2}us }} }}
+}}
+"""
+
+PINS = [(1, b) for b in range(8)] + [(2, 0), (2, 3), (2, 4)]
+
+
+def source(period: int) -> str:
+    servos = "\n".join(f"servo s{p}{b} = P{p}.{b} speed 0.0001s/60deg" for p, b in PINS)
+    pose = lambda f: ", ".join(f"s{p}{b}: {f(i)}" for i, (p, b) in enumerate(PINS))   # noqa: E731
+    return PROGRAM.format(P=period, P1=period, P2=2 * period, P3=3 * period, servos=servos,
+                          a=pose(lambda i: 7 * i), b=pose(lambda i: 250 - 3 * i), c=pose(lambda i: (40 * i) % 251))
+
+
+def build(hold: int):
+    """The test build at the shortest period its own code holds."""
+    period = 20000
+    for _ in range(6):
+        fe, diags = front_end_text(source(period))
+        assert fe.plan is not None, diags
+        unit = codegen.generate(fe.plan, fe.source, hold_off=hold)
+        if unit.min_period_us == period:
+            break
+        period = unit.min_period_us
+    fe, _ = front_end_text(source(period))
+    unit = codegen.generate(fe.plan, fe.source, hold_off=hold)
+    assert unit.min_period_us <= period
+    firmware = api.assemble(unit, Reporter(fe.source))
+    assert firmware is not None
+    return fe.plan, firmware
+
+
+@pytest.mark.parametrize("hold", [0, 1, 2, 4, 7, 10])
+def test_every_edge_stays_on_its_cycle_with_interrupts_held_off(hold):
+    plan, firmware = build(hold)
+    assert firmware.unit.text.count("CLR     EA") == (5 if hold else 0)   # frame_io's waits, run_list, do_hold, step_pin
+    report = api.verify(plan, firmware, 300)
+    assert report.ok and report.max_error_cycles == 0, (hold, report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
+def test_the_check_can_fail_when_the_pad_runs_out():
+    """Held off for 40 cycles, an overflow can wait longer than the pad covers: edges move."""
+    plan, firmware = build(40)
+    report = api.verify(plan, firmware, 300)
+    assert not report.ok
