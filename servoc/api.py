@@ -15,7 +15,7 @@ import os
 from dataclasses import dataclass
 
 from . import check as _check
-from . import codegen, layout, lint as _lint, syntax, toolchain
+from . import codegen, layout, lint as _lint, nodes, syntax, toolchain, walk
 from . import plan as _plan
 from . import sim as _sim
 from . import verify as _verify
@@ -149,10 +149,34 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
     return Firmware(unit, image, toolchain.rom_used(image.hex_text), room.runtime, room.program, room.data)
 
 
+NOT_IN_FIRMWARE = (nodes.InputDecl, nodes.SerialDecl, nodes.SelectStmt, nodes.WaitStmt, nodes.SendStmt)
+
+
+def not_in_firmware(tree) -> object | None:
+    """The first declaration or statement, in source order, that the firmware generator does not
+    build yet (`input`, `serial`, `select`, `wait`, `send`); None when there is none."""
+    found = [item for item in tree.items if isinstance(item, NOT_IN_FIRMWARE)]
+    bodies = [item.body for item in tree.items if isinstance(item, (nodes.SequenceDecl, nodes.MainDecl))]
+    found += [st for st in walk.statements(bodies) if isinstance(st, NOT_IN_FIRMWARE)]
+    return min(found, key=lambda n: n.span.start, default=None)
+
+
 def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | None]:
-    """The whole compile: front end, then code generation and assembly if there were no errors."""
+    """The whole compile: front end, then code generation and assembly if there were no errors.
+    A program with inputs, serial commands or selects is refused (`not-in-firmware`): `lint` and
+    `plan` check it fully, but the firmware for them is not built yet."""
     fe = front_end(source, reporter)
     if fe.plan is None or reporter.has_errors:
+        return fe, None
+    first = not_in_firmware(fe.tree)
+    if first is not None:
+        word = {nodes.InputDecl: "input", nodes.SerialDecl: "serial", nodes.SelectStmt: "select",
+                nodes.WaitStmt: "wait", nodes.SendStmt: "send"}[type(first)]
+        reporter.error("not-in-firmware", f"the firmware generator does not support `{word}` yet",
+                       Span(first.span.start, first.span.start + len(word)),
+                       help="`servoc lint` and `servoc plan` check this program fully (every branch is "
+                            "speed-checked), but firmware with inputs, `serial`, `select`, `wait` and `send` "
+                            "cannot be built yet")
         return fe, None
     unit = generate(fe.plan, source, reporter)
     if unit is None:

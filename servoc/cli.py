@@ -26,7 +26,7 @@ from fractions import Fraction
 
 from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_dict
-from .plan import Plan, verify_frames
+from .plan import AfterBranch, Plan, SelectStep, SendStep, branch_text, has_selects, steps, verify_frames
 from .starter import starter
 from .target import fmt_us
 from .units import DAV_DEG, fmt_ms
@@ -536,7 +536,9 @@ def _plan_line(plan: Plan) -> str:
     servos = len(plan.channels)
     ports = ", ".join(f"P{p}" for p in plan.ports) or "no ports"
     kind = "default" if plan.period_is_default else "frame"
-    if plan.total_frames is None:
+    if has_selects(plan):
+        length = "runs as its events come"
+    elif plan.total_frames is None:
         length = "loops forever"
     else:
         length = (f"{plan.total_frames} frame{'' if plan.total_frames == 1 else 's'} = "
@@ -564,14 +566,41 @@ def _plan_rows(plan: Plan, source) -> list:
     return rows
 
 
+def _branch_rows(plan: Plan, source) -> list:
+    """Every branch of every select and every send, in source order: (line, head, frames or None, what)."""
+    rows = []
+    for st in steps(plan):
+        if isinstance(st, SelectStep):
+            line, _ = source.line_col(st.span.start)
+            for b in st.branches:
+                b_line, _ = source.line_col(b.span.start)
+                if isinstance(b, AfterBranch):
+                    what = f"after {b.frames} frame{'s' if b.frames != 1 else ''} with no event"
+                else:
+                    what = "when " + (f"input `{b.event.input}` is active" if b.event.input is not None
+                                      else f"byte {b.event.byte} is received")
+                head = ("wait " if st.wait else "") + (b.event.text if st.wait else branch_text(b))
+                rows.append((b_line, head, b.frames if isinstance(b, AfterBranch) else None,
+                             what + ("" if st.wait else f" (select at line {line})")))
+        elif isinstance(st, SendStep):
+            line, _ = source.line_col(st.span.start)
+            rows.append((line, f"send {st.text}", 0, f"byte {st.byte}, takes no frame"))
+    return sorted(rows, key=lambda r: r[0])
+
+
 def plan_data(plan: Plan, source) -> dict:
-    """`servoc plan --format json`: the table's rows as objects, and the period and length."""
-    return {"file": source.path, "period_us": plan.period_us, "period_is_default": plan.period_is_default,
+    """`servoc plan --format json`: the table's rows as objects, and the period and length; with
+    selects, their branches (and the sends) too."""
+    data = {"file": source.path, "period_us": plan.period_us, "period_is_default": plan.period_is_default,
             "min_period_us": plan.min_period_us, "total_frames": plan.total_frames, "dav_deg": float(DAV_DEG),
             "moves": [{"line": line, "pose": pose, "frames": frames, "ms": ms, "ease": ease,
                        "servos": [{"servo": name, "delta": None if delta == "set" else int(delta),
                                    "speed_percent": speed} for name, delta, speed in cells]}
                       for line, pose, frames, ms, ease, cells in _plan_rows(plan, source)]}
+    if has_selects(plan):
+        data["branches"] = [{"line": line, "branch": head, "frames": frames, "what": what}
+                            for line, head, frames, what in _branch_rows(plan, source)]
+    return data
 
 
 def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
@@ -588,11 +617,19 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
     out = [f"frame period P = {fmt_ms(plan.period_us)}; speed = share of the servo's top speed "
            f"(delta in DAV of {float(DAV_DEG):g}°)",
            f"{'line':>5}  {'pose':<14} {'frames':>6} {'ms':>9}  servos (delta, speed)"]
+    lines = []
     for line, pose, frames, ms, ease, cells in rows:
         servos = ", ".join(f"{n} {d}" + ("" if s is None else f" ({s}%)") for n, d, s in cells) or "(already there)"
         tag = "" if ease == "linear" else f" [{ease}]"
-        out.append(f"{line:>5}  {pose:<14} {frames:>6} {ms:>9.1f}  {servos}{tag}")
-    if plan.total_frames is None:
+        lines.append((line, 1, f"{line:>5}  {pose:<14} {frames:>6} {ms:>9.1f}  {servos}{tag}"))
+    for line, head, frames, what in _branch_rows(plan, source):
+        f_text = "-" if frames is None else str(frames)
+        ms_text = "-" if frames is None else f"{frames * plan.period_us / 1000:.1f}"
+        lines.append((line, 0, f"{line:>5}  {head:<14} {f_text:>6} {ms_text:>9}  {what}"))
+    out += [text for _, _, text in sorted(lines, key=lambda x: (x[0], x[1]))]
+    if has_selects(plan):
+        out.append("total: depends on the events (each move above is listed once per state it can start in)")
+    elif plan.total_frames is None:
         out.append("total: the program loops forever")
     else:
         out.append(f"total: {plan.total_frames} frames = {fmt_ms(plan.total_frames * plan.period_us)}, "

@@ -44,15 +44,17 @@ logger = logging.getLogger(__name__)
 
 NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 KINDS = {nodes.ServoDecl: "servo", nodes.GroupDecl: "group", nodes.PoseDecl: "pose",
-         nodes.SequenceDecl: "sequence"}
+         nodes.SequenceDecl: "sequence", nodes.InputDecl: "input"}
 SEVERITY = {Severity.ERROR: lsp.DiagnosticSeverity.Error, Severity.WARNING: lsp.DiagnosticSeverity.Warning,
             Severity.NOTE: lsp.DiagnosticSeverity.Information}
 COMPLETION_KIND = {"servo": lsp.CompletionItemKind.Variable, "group": lsp.CompletionItemKind.Module,
-                   "pose": lsp.CompletionItemKind.Constant, "sequence": lsp.CompletionItemKind.Function}
+                   "pose": lsp.CompletionItemKind.Constant, "sequence": lsp.CompletionItemKind.Function,
+                   "input": lsp.CompletionItemKind.Event}
 SYMBOL_KIND = {"servo": lsp.SymbolKind.Variable, "group": lsp.SymbolKind.Array,
-               "pose": lsp.SymbolKind.Constant, "sequence": lsp.SymbolKind.Function}
+               "pose": lsp.SymbolKind.Constant, "sequence": lsp.SymbolKind.Function,
+               "input": lsp.SymbolKind.Event}
 # After these words only one kind of name fits.
-WANTS = {"move": "pose", "play": "sequence"}
+WANTS = {"move": "pose", "play": "sequence", "wait": "input", "on": "input"}
 MAX_INSTANCES = 6       # move contexts shown in one hover
 
 
@@ -183,6 +185,11 @@ class Symbols:
                 self.names.append(st.pose)
             elif isinstance(st, nodes.PlayStmt):
                 self.names.append(st.name)
+            elif isinstance(st, nodes.WaitStmt) and isinstance(st.event, nodes.Name):
+                self.names.append(st.event)
+            elif isinstance(st, nodes.SelectStmt):
+                self.names.extend(b.event for b in st.branches
+                                  if isinstance(b, nodes.OnBranch) and isinstance(b.event, nodes.Name))
 
     def at(self, offset: int) -> nodes.Name | None:
         """The name under the cursor (touching either end of it counts)."""
@@ -192,7 +199,7 @@ class Symbols:
         return sorted((n for n in self.names if n.text == text), key=lambda n: n.span.start)
 
 
-DECL_RE = re.compile(r"(?<![A-Za-z0-9_])(servo|group|pose|sequence)[ \t]+([A-Za-z_][A-Za-z0-9_]*)")
+DECL_RE = re.compile(r"(?<![A-Za-z0-9_])(servo|group|pose|sequence|input)[ \t]+([A-Za-z_][A-Za-z0-9_]*)")
 
 
 def declared_names(a: Analysis) -> dict[str, str]:

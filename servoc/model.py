@@ -3,7 +3,9 @@
 Input: produced by `servoc.check` from the syntax tree. Invariants: every name
 refers to something declared; every target is an output N in 0..250 (limit,
 then reverse, then trim already applied); times are exact Fractions in
-microseconds; servos are on P0.0-P2.7, one per pin. Spans never take part in
+microseconds; servos are on P0.0-P2.7, one per pin; inputs are on other pins
+(P0.0-P3.7, never RXD/TXD when `serial` is declared); every event names a
+declared input or a byte 0..255, and a byte is only used with `serial`. Spans never take part in
 equality, so a program printed and parsed back compares equal.
 """
 
@@ -110,7 +112,81 @@ class Play:
     span: Span = _span()
 
 
-Stmt = Union[Move, Hold, Repeat, Loop, Play]
+@dataclass(frozen=True)
+class Input:
+    """`input NAME = Px.b [low|high]`: a pin the program reads, never drives."""
+    name: str
+    port: int                       # 0..3
+    bit: int                        # 0..7
+    active_high: bool = False       # `low` (the default): active when the pin reads 0
+    span: Span = _span()
+
+    @property
+    def pin(self) -> str:
+        return f"P{self.port}.{self.bit}"
+
+
+@dataclass(frozen=True)
+class Serial:
+    """`serial BAUD`: the UART at `baud`, made by Timer1 in mode 2 with TH1 and SMOD."""
+    baud: int
+    th1: int
+    smod: int
+    actual: Fraction                # the rate TH1 and SMOD make at the target's clock
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Event:
+    """What an `on` or a `wait` waits for: an input (its name) or a received byte."""
+    input: str | None               # the input's name, or None for a byte
+    byte: int | None                # 0..255, or None for an input
+    text: str                       # as written: `button`, `"w"`, `119`
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class On:
+    """`on EVENT { ... }`."""
+    event: Event
+    body: tuple["Stmt", ...]
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class After:
+    """`after DUR { ... }`: taken when no event was taken for floor(DUR / P + 1/2) frames."""
+    duration_us: Fraction
+    body: tuple["Stmt", ...]
+    span: Span = _span()
+
+
+@dataclass(frozen=True)
+class Select:
+    """`select { on ... after ... }`: `branches` in the order written, an `After` only last.
+    `wait EVENT` is a Select with one `On` of an empty body and `wait` True."""
+    branches: tuple[Union[On, After], ...]
+    wait: bool = False
+    span: Span = _span()
+
+    @property
+    def ons(self) -> tuple[On, ...]:
+        return tuple(b for b in self.branches if isinstance(b, On))
+
+    @property
+    def after(self) -> "After | None":
+        return next((b for b in self.branches if isinstance(b, After)), None)
+
+
+@dataclass(frozen=True)
+class Send:
+    """`send BYTE`."""
+    byte: int
+    text: str                       # as written
+    span: Span = _span()
+
+
+Stmt = Union[Move, Hold, Repeat, Loop, Play, Select, Send]
 
 
 @dataclass(frozen=True)
@@ -133,6 +209,13 @@ class Program:
     references: frozenset[str] = frozenset()  # names used after their declaration
     main_span: Span = _span()
     frame_span: Span = _span()
+    inputs: tuple[Input, ...] = ()            # `input` declarations, in source order
+    serial: Serial | None = None              # `serial BAUD`, if given
+
+    @property
+    def reacts(self) -> bool:
+        """Whether the program reads inputs or the serial line (declares `input` or `serial`)."""
+        return bool(self.inputs) or self.serial is not None
 
     def servo(self, name: str) -> Servo:
         return next(s for s in self.servos if s.name == name)

@@ -104,6 +104,22 @@ class TargetDecl:
 
 
 @dataclass(frozen=True)
+class InputDecl:
+    """`input NAME = PIN [low|high]`; `level` is the word as written (must be `low` or `high`)."""
+    name: Name
+    pin: Pin
+    level: Name | None
+    span: Span
+
+
+@dataclass(frozen=True)
+class SerialDecl:
+    """`serial BAUD`."""
+    baud: Quantity
+    span: Span
+
+
+@dataclass(frozen=True)
 class ServoDecl:
     """`servo NAME = PIN OPTION*`."""
     name: Name
@@ -177,7 +193,55 @@ class PlayStmt:
     span: Span
 
 
-Stmt = Union[MoveStmt, HoldStmt, RepeatStmt, LoopStmt, PlayStmt]
+@dataclass(frozen=True)
+class StringLit:
+    """A string as written, `"w"`: `text` is what is between the quotes."""
+    text: str
+    span: Span
+
+
+# An event or a byte as written: an input's name, a string or a number.
+Event = Union[Name, StringLit, Quantity]
+
+
+@dataclass(frozen=True)
+class OnBranch:
+    """`on EVENT { STATEMENTS }` inside a select."""
+    event: Event
+    body: tuple["Stmt", ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class AfterBranch:
+    """`after DUR { STATEMENTS }` inside a select."""
+    duration: Quantity
+    body: tuple["Stmt", ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class SelectStmt:
+    """`select { BRANCH ... }`: the branches in the order written (not checked yet)."""
+    branches: tuple[Union[OnBranch, AfterBranch], ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class WaitStmt:
+    """`wait EVENT`."""
+    event: Event
+    span: Span
+
+
+@dataclass(frozen=True)
+class SendStmt:
+    """`send BYTE` (an Event as written; the checker wants a byte)."""
+    byte: Event
+    span: Span
+
+
+Stmt = Union[MoveStmt, HoldStmt, RepeatStmt, LoopStmt, PlayStmt, SelectStmt, WaitStmt, SendStmt]
 
 
 @dataclass(frozen=True)
@@ -196,7 +260,7 @@ class MainDecl:
     span: Span
 
 
-Item = Union[FrameDecl, TargetDecl, ServoDecl, GroupDecl, PoseDecl, SequenceDecl, MainDecl]
+Item = Union[FrameDecl, TargetDecl, InputDecl, SerialDecl, ServoDecl, GroupDecl, PoseDecl, SequenceDecl, MainDecl]
 
 
 @dataclass(frozen=True)

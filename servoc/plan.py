@@ -9,9 +9,20 @@ statement can run in (first and later passes of repeats and loops, every
 place a sequence is played) and records each distinct move instance with its
 start and end N, which is what the speed lint reads.
 
-`expand(plan)` is the golden model: the exact N of every channel in every
-frame, following the spec's formulas. Invariants: all N in 0..250; frame F of
-a move equals the pose; after `main` ends the last frame repeats forever.
+A `select` becomes a `SelectStep` whose branches keep their bodies (an
+`after` gets its frame count, floor(DUR / P + 1/2)); `send` a `SendStep`.
+With selects, the program can be in several states at one point: the planner
+walks every body once per distinct state it can be entered in, from the state
+a select is reached in into each of its branches, and closes loops and
+repeats over the states they can come round in (a fixpoint: the states are
+tuples of N from the poses, so there are finitely many). Each move instance
+keeps where its state came from (`MoveInstance.origin`) and the innermost
+branch it runs in (`MoveInstance.branch`), for the speed lint's messages.
+
+`expand(plan, choices)` is the golden model: the exact N of every channel in
+every frame, following the spec's formulas. Invariants: all N in 0..250; frame
+F of a move equals the pose; after `main` ends the last frame repeats forever.
+At a select it follows `choices` (see `expand`); without one it waits forever.
 """
 
 from __future__ import annotations
@@ -19,7 +30,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from fractions import Fraction
-from typing import Iterator, Union
+from typing import Iterable, Iterator, Union
 
 from . import costs, model, walk
 from .diagnostics import Reporter
@@ -90,7 +101,61 @@ class PlayStep:
     span: Span = field(default=NO_SPAN, compare=False)
 
 
-Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep]
+@dataclass(frozen=True)
+class OnBranch:
+    """`on EVENT { ... }` of a select."""
+    event: model.Event
+    body: tuple["Step", ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class AfterBranch:
+    """`after DUR { ... }`: taken when no event was taken for `frames` = floor(DUR / P + 1/2) frames."""
+    frames: int
+    duration_us: Fraction
+    body: tuple["Step", ...]
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+@dataclass(frozen=True)
+class SelectStep:
+    """`select { ... }` (or `wait EVENT`, `wait` True): its branches in the order written, an
+    `AfterBranch` only last. While it waits, the current targets repeat frame after frame."""
+    branches: tuple[Union[OnBranch, AfterBranch], ...]
+    wait: bool = False
+    span: Span = field(default=NO_SPAN, compare=False)
+
+    @property
+    def after(self) -> AfterBranch | None:
+        return next((b for b in self.branches if isinstance(b, AfterBranch)), None)
+
+
+@dataclass(frozen=True)
+class SendStep:
+    """`send BYTE`: takes no frame."""
+    byte: int
+    text: str                               # as written: `"w"` or `119`
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep, SelectStep, SendStep]
+Branch = Union[OnBranch, AfterBranch]
+
+
+def branch_head(branch: Branch) -> Span:
+    """The span of a branch's head: `on "w"` or `after` (not its body)."""
+    if isinstance(branch, OnBranch):
+        return Span(branch.span.start, branch.event.span.end)
+    return Span(branch.span.start, branch.span.start + len("after"))
+
+
+def branch_text(branch: Branch) -> str:
+    """A branch as written at its head: `on "w"`, `on button`, `after 2s`."""
+    if isinstance(branch, OnBranch):
+        return f"on {branch.event.text}"
+    from .units import fmt_ms
+    return f"after {fmt_ms(branch.duration_us)}"
 
 
 @dataclass(frozen=True)
@@ -111,12 +176,21 @@ class ServoMotion:
         return 0 if self.n0 is None else self.n1 - self.n0
 
 
+# Where a state comes from, for messages: ("start",) the start of `main`; ("move", POSE, span) the
+# end of a move; ("play", SEQUENCE, span) the end of a sequence.
+Origin = tuple
+
+
 @dataclass(frozen=True)
 class MoveInstance:
-    """One move in one context the program can reach."""
+    """One move in one context the program can reach. `origin` and `branch` say (for messages) where
+    the state it starts from was made and the innermost select branch it runs in (None: none);
+    the first context found of those that give the same instance."""
     step: MoveStep
     frames: int
     motions: tuple[ServoMotion, ...]
+    origin: Origin = field(default=("start",), compare=False)
+    branch: Branch | None = field(default=None, compare=False)
 
 
 @dataclass(frozen=True)
@@ -227,20 +301,40 @@ def budget(p: Plan) -> Plan:
     When no firmware can be generated (a resource limit, reported later), P itself."""
     from . import codegen, layout    # codegen builds on the plan types
     try:
-        unit = codegen.generate(p)
+        unit = codegen.generate(firmware_stand_in(p))
     except layout.LayoutError:
         return replace(p, min_period_us=p.period_us)
     return replace(p, min_period_us=unit.min_period_us or p.period_us)
 
 
-def _any_frame(acc: bool, st: Step, inner: bool | None) -> bool:
+def firmware_stand_in(p: Plan) -> Plan:
+    """The plan, or for a program with selects and sends (which the firmware generator does not
+    build yet) a stand-in to size its frame budget on: each select becomes `repeat 1` of its branches
+    one after another, each send a hold of no frame. Programs without them are returned as they are."""
+    if not any(isinstance(st, (SelectStep, SendStep)) for st in steps(p)):
+        return p
+
+    def swap(st: Step) -> Step:
+        if isinstance(st, SelectStep):
+            return RepeatStep(1, tuple(x for b in st.branches for x in b.body), st.span)
+        if isinstance(st, SendStep):
+            return HoldStep(0, Fraction(0), st.span)
+        return st
+    return replace(p, main=walk.rebuild(p.main, swap),
+                   sequences=tuple(replace(q, body=walk.rebuild(q.body, swap)) for q in p.sequences))
+
+
+def _any_frame(acc: bool, st: Step, inner) -> bool:
     kind = walk.kind(st)
+    if kind == "select":
+        return acc or (bool(inner) and all(inner))
     return acc or kind == "move" or (kind == "hold" and st.frames > 0) or bool(inner)
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
     """Whether every pass of `body` takes at least one frame (a move always does; a hold when
-    it is at least half a frame; repeat, loop and play when their body does). Pass one `memo`
+    it is at least half a frame; repeat, loop and play when their body does; a select when every
+    branch does, since its event may be there already; a send never). Pass one `memo`
     to calls on the same plan so each sequence is looked at once."""
     return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_frame, memo)
 
@@ -271,6 +365,13 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
                 out.append(RepeatStep(st.count, steps(st.body), st.span))
             elif isinstance(st, model.Loop):
                 out.append(LoopStep(steps(st.body), st.span))
+            elif isinstance(st, model.Select):
+                branches = tuple(OnBranch(b.event, steps(b.body), b.span) if isinstance(b, model.On) else
+                                 AfterBranch(frames_for(b.duration_us, period), b.duration_us, steps(b.body), b.span)
+                                 for b in st.branches)
+                out.append(SelectStep(branches, st.wait, st.span))
+            elif isinstance(st, model.Send):
+                out.append(SendStep(st.byte, st.text, st.span))
             else:
                 out.append(PlayStep(st.sequence, st.span))
         return tuple(out)
@@ -279,7 +380,7 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
     main = steps(program.main)
     seq_bodies = {s.name: SequencePlan(s.name, steps(s.body), s.span) for s in program.sequences}
     walker = _Walker(seq_bodies, tables, speed_classes)
-    walker.walk(main, (None,) * len(channels))
+    walker.start(main, len(channels))
     # A move without duration whose F is the same in every context gets that F fixed;
     # only the others are left to the firmware's run-time rule.
     fixed: dict[int, int] = {}
@@ -293,14 +394,20 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
         main = _fix_frames(main, fixed)
         seq_bodies = {n: SequencePlan(sp.name, _fix_frames(sp.body, fixed), sp.span) for n, sp in seq_bodies.items()}
         walker = _Walker(seq_bodies, tables, speed_classes)
-        walker.walk(main, (None,) * len(channels))
-    _, total, infinite = walker.walk(main, (None,) * len(channels))
+    exits, total = walker.start(main, len(channels))
+    infinite = not exits
     # Every sequence main can name, also after a `loop` (code there never runs, but later
     # stages still walk it and look its sequences up).
     named = _named_sequences(main, seq_bodies)
     used = [seq_bodies[s.name] for s in program.sequences if s.name in named]
     return Plan(program, tuple(channels), ports, period, is_default, period, tables, tuple(classes),
                 main, tuple(used), tuple(walker.instances.values()), None if infinite else total, depth)
+
+
+def has_selects(plan: Plan) -> bool:
+    """Whether the program waits for events anywhere (a `select` or a `wait`): then how many
+    frames it runs depends on them, and `total_frames` is None."""
+    return any(isinstance(st, SelectStep) for st in steps(plan))
 
 
 def _named_sequences(main: tuple[Step, ...], sequences: dict[str, SequencePlan]) -> set[str]:
@@ -342,19 +449,34 @@ def verify_frames(plan: Plan) -> int:
     frames = 0
     for st in plan.main:
         if isinstance(st, LoopStep):
-            state, first, _ = walker.walk(st.body, state)
-            _, later, _ = walker.walk(st.body, state)
-            frames += first + later
+            exits, first = walker.walk(st.body, state)
+            if len(exits) == 1 and first is not None:
+                _, later = walker.walk(st.body, next(iter(exits)))
+                frames += first + (later or 0)
             break
-        state, more, infinite = walker.walk((st,), state)
+        exits, more = walker.walk((st,), state)
+        if len(exits) != 1 or more is None:     # a loop inside a repeat or a sequence, or a select:
+            frames += more or 0                 # what precedes it, and a margin
+            break
         frames += more
-        if infinite:            # a loop inside a repeat or a sequence: what precedes it, and a margin
-            break
+        state = next(iter(exits))
     return min(VERIFY_MAX_FRAMES, max(400, frames + VERIFY_TAIL_FRAMES))
 
 
+# The states a body can end in, each with where it was made (None: it is the state the body was
+# entered in, made where that was), in the order found.
+Exits = dict
+
+
 class _Walker:
-    """Runs the steps over states, not frames: each body is walked once per distinct entry state."""
+    """Runs the steps over states, not frames: each body is walked once per distinct entry state.
+
+    `walk(body, state)` gives the states the body can end in (none: it never ends) and the frames it
+    takes (None when that depends on events, i.e. it meets a select). A select walks each branch
+    from the state it is reached in; a repeat walks its body pass after pass over the set of states a
+    pass can start in, until that set comes round again (poses are absolute, so without selects the
+    second pass starts where every later one does); a loop walks its body from every state a pass
+    can start in until no new one appears. Every move instance is recorded once per entry state."""
 
     def __init__(self, sequences: dict[str, SequencePlan], tables, classes):
         self.sequences = sequences
@@ -362,50 +484,117 @@ class _Walker:
         self.classes = classes
         self.instances: dict[tuple, MoveInstance] = {}
         self.played: set[str] = set()
-        self.memo: dict[tuple, tuple[State, int, bool]] = {}
+        self.memo: dict[tuple, tuple[Exits, int | None]] = {}
 
-    def walk(self, body: tuple[Step, ...], state: State) -> tuple[State, int, bool]:
+    def start(self, main: tuple[Step, ...], channels: int) -> tuple[Exits, int | None]:
+        return self.walk(main, (None,) * channels, ("start",), None)
+
+    def walk(self, body: tuple[Step, ...], state: State, origin: Origin = ("start",),
+             branch: Branch | None = None) -> tuple[Exits, int | None]:
+        """(exits, frames) of `body` entered in `state`; `origin` and `branch` are where `state` was
+        made and the innermost select branch around `body`, for the move instances found first here."""
         key = (id(body), state)
         if key in self.memo:
             return self.memo[key]
-        total, infinite = 0, False
+        cur: Exits = {state: None}
+        total: int | None = 0
+
+        def made(where: Origin | None) -> Origin:
+            return origin if where is None else where
+
         for st in body:
+            new: Exits = {}
             if isinstance(st, MoveStep):
-                f = move_frames_at(st, state, self.tables, self.classes)
-                motions = tuple(ServoMotion(ch, state[ch], n1) for ch, n1 in st.targets)
-                self.instances.setdefault((id(st), state), MoveInstance(st, f, motions))
-                new = list(state)
-                for ch, n1 in st.targets:
-                    new[ch] = n1
-                state = tuple(new)
-                total += f
+                for s, where in cur.items():
+                    f = move_frames_at(st, s, self.tables, self.classes)
+                    motions = tuple(ServoMotion(ch, s[ch], n1) for ch, n1 in st.targets)
+                    self.instances.setdefault((id(st), s), MoveInstance(st, f, motions, made(where), branch))
+                    after = list(s)
+                    for ch, n1 in st.targets:
+                        after[ch] = n1
+                    new.setdefault(tuple(after), ("move", st.pose, st.span))
+                    if total is not None:
+                        total += f
             elif isinstance(st, HoldStep):
-                total += st.frames
+                new = cur
+                if total is not None:
+                    total += st.frames
+            elif isinstance(st, SendStep):
+                new = cur
             elif isinstance(st, RepeatStep):
-                # Poses are absolute, so every pass after the first starts from the same state.
-                state, first, inf = self.walk(st.body, state)
-                if st.count > 1 and not inf:
-                    state, later, inf = self.walk(st.body, state)
-                    total += first + later * (st.count - 1)
-                else:
-                    total += first
-                infinite = infinite or inf
+                for s, where in cur.items():
+                    exits, frames = self._repeat(st, s, made(where), branch)
+                    for s2, w2 in exits.items():
+                        new.setdefault(s2, where if w2 is None else w2)
+                    total = None if total is None or frames is None else total + frames
             elif isinstance(st, LoopStep):
-                # A second pass starts where the first ended, unless the first never ends
-                # (a loop inside): then there is no second pass to walk.
-                state, _, inf = self.walk(st.body, state)
-                if not inf:
-                    state, _, _ = self.walk(st.body, state)
-                infinite = True
+                for s, where in cur.items():
+                    self._loop(st, s, made(where), branch)
+            elif isinstance(st, SelectStep):
+                for s, where in cur.items():
+                    for b in st.branches:
+                        exits, _ = self.walk(b.body, s, made(where), b)
+                        for s2, w2 in exits.items():
+                            new.setdefault(s2, where if w2 is None else w2)
+                total = None
             else:
                 self.played.add(st.sequence)
-                state, f, inf = self.walk(self.sequences[st.sequence].body, state)
-                total += f
-                infinite = infinite or inf
-            if infinite:
+                for s, where in cur.items():
+                    exits, frames = self.walk(self.sequences[st.sequence].body, s, made(where), branch)
+                    for s2 in exits:
+                        new.setdefault(s2, ("play", st.sequence, st.span))
+                    total = None if total is None or frames is None else total + frames
+            cur = new
+            if not cur:
                 break
-        self.memo[key] = (state, total, infinite)
+        self.memo[key] = (cur, total)
         return self.memo[key]
+
+    def _repeat(self, st: RepeatStep, state: State, origin: Origin,
+                branch: Branch | None) -> tuple[Exits, int | None]:
+        """The states `st` ends in: layer k holds the states after k passes; the layers repeat with
+        some period, from which layer `count` follows."""
+        layers: list[Exits] = [{state: None}]
+        seen = {frozenset(layers[0]): 0}
+        totals: list[int | None] = []
+        while len(layers) <= st.count:
+            nxt: Exits = {}
+            frames: int | None = 0
+            for s, where in layers[-1].items():
+                exits, f = self.walk(st.body, s, origin if where is None else where, branch)
+                for s2, w2 in exits.items():
+                    nxt.setdefault(s2, where if w2 is None else w2)
+                frames = None if frames is None or f is None or len(layers[-1]) > 1 else f
+            totals.append(frames)
+            if not nxt:             # the first pass never ends: the frames until it stops
+                return {}, totals[0] if len(totals) == 1 else None
+            k = len(layers)
+            j = seen.get(frozenset(nxt))
+            if j is not None:
+                final = layers[j + (st.count - j) % (k - j)]
+                break
+            seen[frozenset(nxt)] = k
+            layers.append(nxt)
+        else:
+            final = layers[st.count]
+        # Without selects every pass after the first takes what the second does.
+        first = totals[0]
+        later = totals[1] if len(totals) > 1 else (first if st.count > 1 else 0)
+        if first is None or later is None:
+            return final, None
+        return final, first + later * (st.count - 1)
+
+    def _loop(self, st: LoopStep, state: State, origin: Origin, branch: Branch | None) -> None:
+        """Walk the body from every state a pass can start in (a fixpoint)."""
+        todo: list[tuple[State, Origin]] = [(state, origin)]
+        seen = {state}
+        while todo:
+            s, where = todo.pop(0)
+            exits, _ = self.walk(st.body, s, where, branch)
+            for s2, w2 in exits.items():
+                if s2 not in seen:
+                    seen.add(s2)
+                    todo.append((s2, where if w2 is None else w2))
 
 
 # ----------------------------------------------------------------- golden frames
@@ -416,6 +605,7 @@ class GoldenFrame:
     curve: tuple[int | None, ...]   # per channel: the language's N (differs from n by at most 1, and only
                                     # on an eased move's intermediate frames, where the firmware reads its table)
     span: Span                      # the statement that produced the frame
+    sent: tuple[int, ...] = ()      # the bytes `send` gave since the frame before, in order
 
 
 def firmware_value(n0: int, n1: int, k: int, frames: int, ease: str, table: tuple[int, ...]) -> int:
@@ -427,18 +617,63 @@ def firmware_value(n0: int, n1: int, k: int, frames: int, ease: str, table: tupl
     return n0 + step if n1 >= n0 else n0 - step
 
 
-def expand(plan: Plan) -> Iterator[GoldenFrame]:
-    """Every frame of the program, from the first timer frame; after main, the last repeats forever."""
+@dataclass(frozen=True)
+class Choice:
+    """What happens at one select `expand` reaches: it waits `frames` frames (the current targets
+    repeating), then runs branch `branch` (an index into `SelectStep.branches`). For an `after`
+    branch the wait is always its own F; an `on` branch of a select with an `after` must be taken
+    before that F runs out (`frames` < F)."""
+    branch: int
+    frames: int = 0
+
+
+def expand(plan: Plan, choices: Iterable[Choice] = ()) -> Iterator[GoldenFrame]:
+    """Every frame of the program, from the first timer frame; after main, the last repeats forever.
+
+    A select cannot know which event comes: `expand` takes the next of `choices` at each select it
+    reaches, in the order reached; when they run out it waits in that select forever, repeating the
+    current targets (so without choices a program stops at its first select). A `send` adds its byte
+    to the next frame's `sent`. Raises ValueError for a choice the select cannot make."""
     count = len(plan.channels)
     state: list[int | None] = [None] * count
     last_span = NO_SPAN
     classes = tuple(c.speed_class for c in plan.channels)
+    pending: list[int] = []
+    picks = iter(choices)
 
     memo: dict = {}
 
-    def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
+    def frame(span: Span, curve: tuple | None = None) -> GoldenFrame:
         nonlocal last_span
+        last_span = span
+        sent = tuple(pending)
+        pending.clear()
+        now = tuple(state)
+        return GoldenFrame(now, now if curve is None else curve, span, sent)
+
+    def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         for st in body:
+            if isinstance(st, SendStep):
+                pending.append(st.byte)
+                continue
+            if isinstance(st, SelectStep):
+                pick = next(picks, None)
+                if pick is None:
+                    while True:
+                        yield frame(st.span)
+                if not 0 <= pick.branch < len(st.branches):
+                    raise ValueError(f"choice {pick}: the select has {len(st.branches)} branches")
+                branch = st.branches[pick.branch]
+                after = st.after
+                wait = pick.frames
+                if isinstance(branch, AfterBranch):
+                    wait = branch.frames
+                elif after is not None and wait >= after.frames:
+                    raise ValueError(f"choice {pick}: its `after` is taken after {after.frames} frames")
+                for _ in range(wait):
+                    yield frame(st.span)
+                yield from run(branch.body)
+                continue
             if not takes_frames((st,), plan, memo):
                 continue        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through
             if isinstance(st, MoveStep):
@@ -450,12 +685,10 @@ def expand(plan: Plan) -> Iterator[GoldenFrame]:
                         n0 = start[ch]
                         state[ch] = n1 if n0 is None else firmware_value(n0, n1, k, f, st.ease, st.ease_table)
                         curve[ch] = n1 if n0 is None else frame_value(n0, n1, k, f, st.ease)
-                    last_span = st.span
-                    yield GoldenFrame(tuple(state), tuple(curve), st.span)
+                    yield frame(st.span, tuple(curve))
             elif isinstance(st, HoldStep):
                 for _ in range(st.frames):
-                    last_span = st.span
-                    yield GoldenFrame(tuple(state), tuple(state), st.span)
+                    yield frame(st.span)
             elif isinstance(st, RepeatStep):
                 for _ in range(st.count):
                     yield from run(st.body)
@@ -472,4 +705,4 @@ def expand(plan: Plan) -> Iterator[GoldenFrame]:
 
     yield from run(plan.main)
     while True:
-        yield GoldenFrame(tuple(state), tuple(state), last_span)
+        yield frame(last_span)

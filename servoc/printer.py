@@ -50,6 +50,15 @@ def format_quantity(q: nodes.Quantity) -> str:
     return format_number(q.value) + q.unit
 
 
+def format_event(ev: nodes.Event) -> str:
+    """An event or a byte as written: `button`, `"w"`, `119`."""
+    if isinstance(ev, nodes.Name):
+        return ev.text
+    if isinstance(ev, nodes.StringLit):
+        return f'"{ev.text}"'
+    return format_quantity(ev)
+
+
 def format_program(tree: nodes.Program) -> str:
     """The canonical text of a program (ends with one newline)."""
     chunks: list[list[str]] = []
@@ -68,7 +77,8 @@ def format_program(tree: nodes.Program) -> str:
 
 
 # Consecutive declarations of one kind share a paragraph; blocks stand alone.
-_KIND = {nodes.FrameDecl: "setting", nodes.TargetDecl: "setting", nodes.ServoDecl: "servo",
+_KIND = {nodes.FrameDecl: "setting", nodes.TargetDecl: "setting", nodes.SerialDecl: "setting",
+         nodes.InputDecl: "input", nodes.ServoDecl: "servo",
          nodes.GroupDecl: "group", nodes.PoseDecl: "pose"}
 
 
@@ -78,6 +88,11 @@ def _item(item: nodes.Item) -> list[str]:
     if isinstance(item, nodes.TargetDecl):
         clock = f" clock {format_quantity(item.clock)}" if item.clock is not None else ""
         return [f"target {item.chip.text}{clock}"]
+    if isinstance(item, nodes.InputDecl):
+        level = f" {item.level.text}" if item.level is not None else ""
+        return [f"input {item.name.text} = {item.pin.text}{level}"]
+    if isinstance(item, nodes.SerialDecl):
+        return [f"serial {format_quantity(item.baud)}"]
     if isinstance(item, nodes.ServoDecl):
         options = "".join(" " + _option(o) for o in item.options)
         return [f"servo {item.name.text} = {item.pin.text}{options}"]
@@ -134,4 +149,16 @@ def _stmt(stmt: nodes.Stmt, depth: int) -> list[str]:
         return _block("loop", stmt.body, depth)
     if isinstance(stmt, nodes.PlayStmt):
         return [f"{pad}play {stmt.name.text}"]
+    if isinstance(stmt, nodes.SelectStmt):
+        lines = [f"{pad}select {{"]
+        for b in stmt.branches:
+            head = f"on {format_event(b.event)}" if isinstance(b, nodes.OnBranch) else \
+                f"after {format_quantity(b.duration)}"
+            lines.extend(_block(head, b.body, depth + 1))
+        lines.append(f"{pad}}}")
+        return lines
+    if isinstance(stmt, nodes.WaitStmt):
+        return [f"{pad}wait {format_event(stmt.event)}"]
+    if isinstance(stmt, nodes.SendStmt):
+        return [f"{pad}send {format_event(stmt.byte)}"]
     raise TypeError(f"not a statement: {stmt!r}")

@@ -190,6 +190,16 @@ class _Builder(Transformer_NonRecursive):
         mode = (_name(rest[0]), _quantity(rest[1])) if rest else None
         return nodes.TargetDecl(_name(chip), clock, _span(meta), mode)
 
+    # input_decl: "input" NAME "=" PIN NAME?      the second NAME: `low` or `high`
+    def input_decl(self, meta, ch):
+        name, pin, *level = ch
+        return nodes.InputDecl(_name(name), nodes.Pin(str(pin), _tspan(pin)),
+                               _name(level[0]) if level else None, _span(meta))
+
+    # serial_decl: "serial" NUMBER
+    def serial_decl(self, meta, ch):
+        return nodes.SerialDecl(_quantity(ch[0]), _span(meta))
+
     # servo_decl: "servo" NAME "=" PIN _servo_option*
     def servo_decl(self, meta, ch):
         name, pin, *options = ch
@@ -273,11 +283,41 @@ class _Builder(Transformer_NonRecursive):
     def play_stmt(self, meta, ch):
         return nodes.PlayStmt(_name(ch[0]), _span(meta))
 
+    # select_stmt: "select" "{" _stmt_sep* (_branch _stmt_sep+)* _branch? "}"
+    def select_stmt(self, meta, ch):
+        return nodes.SelectStmt(tuple(ch), _span(meta))
+
+    # on_branch: "on" event block
+    def on_branch(self, meta, ch):
+        return nodes.OnBranch(ch[0], ch[1], _span(meta))
+
+    # after_branch: "after" NUMBER block
+    def after_branch(self, meta, ch):
+        return nodes.AfterBranch(_quantity(ch[0]), ch[1], _span(meta))
+
+    # wait_stmt: "wait" event
+    def wait_stmt(self, meta, ch):
+        return nodes.WaitStmt(ch[0], _span(meta))
+
+    # send_stmt: "send" event
+    def send_stmt(self, meta, ch):
+        return nodes.SendStmt(ch[0], _span(meta))
+
+    # event: NAME | STRING | NUMBER
+    def event(self, meta, ch):
+        tok = ch[0]
+        if tok.type == "STRING":
+            return nodes.StringLit(str(tok)[1:-1], _tspan(tok))
+        if tok.type == "NUMBER":
+            return _quantity(tok)
+        return _name(tok)
+
 
 # ---- error messages ---------------------------------------------------------
 
-_DECL_KWS = ("SERVO", "GROUP", "POSE", "SEQUENCE", "MAIN", "FRAME", "TARGET")
-_STMT_KWS = ("MOVE", "HOLD", "REPEAT", "LOOP", "PLAY")
+_DECL_KWS = ("SERVO", "GROUP", "POSE", "SEQUENCE", "MAIN", "FRAME", "TARGET", "INPUT", "SERIAL")
+_STMT_KWS = ("MOVE", "HOLD", "REPEAT", "LOOP", "PLAY", "SELECT", "WAIT", "SEND")
+_BRANCH_KWS = ("ON", "AFTER")
 _OPTION_KWS = ("SPEED", "TRIM", "LIMIT", "REVERSE")
 _EASE_KWS = ("LINEAR", "IN", "OUT", "IN_OUT")
 _ENDS = ("_NL", "SEMICOLON")
@@ -299,7 +339,11 @@ _NUMBER_AFTER = {
     "LIMIT": "a position such as `20deg` (as in `limit 20deg..160deg`)",
     "DOTDOT": "a position such as `160deg` (as in `limit 20deg..160deg`)",
     "CLOCK": "a clock frequency such as `12MHz`",
+    "SERIAL": "a baud rate such as `9600`",
+    "AFTER": _DURATION,
 }
+_EVENT = "an input's name or a byte such as `\"w\"` or `119`"
+_BYTE = "a byte such as `\"w\"` or `119`"
 
 # What a NAME is, by the token before it (and, for `=` and `,`, the keyword
 # that opened the declaration).
@@ -311,6 +355,7 @@ _NAME_AFTER = {
     "TARGET": "a chip name such as `at89c52`",
     "MOVE": "the name of a pose",
     "PLAY": "the name of a sequence",
+    "INPUT": "a name for the input",
 }
 
 
@@ -396,6 +441,12 @@ def _expected_words(expected: set[str], prev: list[str], term_text: dict[str, st
     if set(_OPTION_KWS) <= exp:
         words.append("a servo option (" + _listing(_OPTION_KWS, term_text) + ")")
         exp -= set(_OPTION_KWS)
+    if set(_BRANCH_KWS) <= exp:
+        words.append("a branch (`on EVENT { ... }` or `after DUR { ... }`)")
+        exp -= set(_BRANCH_KWS)
+    if {"NAME", "STRING", "NUMBER"} <= exp and last in ("ON", "WAIT", "SEND"):
+        words.append(_BYTE if last == "SEND" else _EVENT)
+        exp -= {"NAME", "STRING", "NUMBER"}
     if set(_EASE_KWS) <= exp:
         words.append("an easing (" + _listing(_EASE_KWS, term_text) + ")")
         exp -= set(_EASE_KWS)
@@ -434,6 +485,8 @@ def _name_word(prev: list[str]) -> str:
         return "a servo or group name"
     if last == "EQUAL" and opener == "POSE":
         return "the name of the pose to start from"
+    if opener == "INPUT" and last == "PIN":
+        return "`low` or `high`"
     if opener == "POSE" and last in ("LBRACE", "COMMA", "_NL"):
         return "a servo, group or port name"
     return "a name"
@@ -500,6 +553,9 @@ def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
         if kind == "NUMBER" and "IN" in expected and prev and prev[-1] == "NAME":
             return (f"expected `in` before the duration, found {found}", span,
                     f"write `move {toks[-1].value} in {tok.value}`")
+        if kind == "STRING" and "STRING" not in expected:
+            return ("unexpected string: .servo has no strings except a byte after `on`, `wait` or `send`", span,
+                    "names and chip names are written without quotes")
         if kind == "RBRACE" and "RBRACE" not in expected and not _open_braces(toks):
             return ("unexpected `}`: there is no open block to close", span, "")
         if tok.type == "$END":
@@ -519,7 +575,7 @@ def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
         else:
             message = f"expected {_join(words)}{after}, found {found}"
         if kind == "PIN" and "NAME" in expected:
-            help_ = "a pin is only written in a `servo` declaration; here use the servo's name"
+            help_ = "a pin is only written in a `servo` or `input` declaration; here use the name"
         elif kind == "NAME" and "PIN" in expected:
             help_ = "pins are written as a port and a bit: `P0.0` to `P2.7`"
         elif kind == "NAME" and expected & set(_EASE_KWS):
@@ -535,9 +591,12 @@ def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
     span = Span(pos, pos + 1) if ch else Span(pos, pos)
     expected = _expected_at(exc)
     shown = _describe_char(ch)
-    if ch in "\"'":
-        return (f"unexpected quote {shown}: .servo has no strings", span,
-                "names and chip names are written without quotes")
+    if ch == '"':
+        return ("this string has no closing `\"` on its line", span,
+                "a byte is written as one character between quotes, `\"w\"`, or as a number 0..255")
+    if ch == "'":
+        return (f"unexpected quote {shown}", span,
+                "a byte is written between double quotes, `\"w\"`; names and chip names without quotes")
     if ch == ".":
         return ("unexpected `.`", span,
                 "a number needs digits on both sides of its point, as in `0.25s`; "

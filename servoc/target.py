@@ -11,6 +11,9 @@ port as close as MIN_DIV_CYCLES cycles apart (`servoc/costs.py`), so a DIV
 must be at least that many cycles: `Target.timing_problem` names the lowest
 clock that works. With a 1 µs machine cycle (12 MHz, or 6 MHz in 6T mode)
 C(N) = 500 + 8 N is computed; at other clocks it comes from a table.
+
+The serial line's rate comes from Timer1 (`timer1_baud`: TH1, SMOD and the
+rate they make), checked by the checker and read by firmware generation.
 """
 
 from __future__ import annotations
@@ -143,3 +146,54 @@ def fmt_hz(hz: int | Fraction) -> str:
 def fmt_us(us: Fraction) -> str:
     text = f"{float(us):.4f}".rstrip("0").rstrip(".")
     return f"{text} µs"
+
+
+# ---- the serial line: Timer1 in mode 2 (8-bit auto-reload) makes the baud rate ------------------
+
+STANDARD_BAUDS = (300, 600, 1200, 2400, 4800, 9600, 14400, 19200, 28800, 38400, 57600, 115200)
+BAUD_TOLERANCE = Fraction(2, 100)        # the UART receives reliably within 2 % of the rate
+# Crystals sold for 8051 boards, the baud-rate crystals first: what a hint may suggest.
+CRYSTALS_HZ = (11_059_200, 22_118_400, 14_745_600, 18_432_000, 12 * MHZ, 24 * MHZ, 16 * MHZ, 20 * MHZ, 33 * MHZ)
+
+
+def timer1_baud(target: Target, baud: int) -> tuple[int, int, Fraction]:
+    """(TH1, SMOD, actual rate) of the Timer1 setting nearest to `baud`, for the UART in mode 1 with
+    Timer1 in mode 2: rate = 2^SMOD x (1 / t_c) / (32 x (256 - TH1)), t_c the machine cycle. The
+    nearest by relative error; on a tie, SMOD 0 (PCON left alone), then the larger TH1."""
+    cycles_per_s = Fraction(MHZ) / target.cycle_us
+    best: tuple[Fraction, int, int, Fraction] | None = None
+    for smod in (0, 1):
+        for th1 in range(255, -1, -1):
+            rate = (1 << smod) * cycles_per_s / (32 * (256 - th1))
+            err = abs(rate - baud) / baud
+            if best is None or err < best[0]:
+                best = (err, th1, smod, rate)
+    _, th1, smod, rate = best
+    return th1, smod, rate
+
+
+def baud_error(target: Target, baud: int) -> Fraction:
+    """|actual - baud| / baud for the nearest rate Timer1 makes."""
+    return abs(timer1_baud(target, baud)[2] - baud) / baud
+
+
+def baud_works(target: Target, baud: int) -> bool:
+    """Whether Timer1 makes `baud` within BAUD_TOLERANCE at the target's clock."""
+    return baud_error(target, baud) <= BAUD_TOLERANCE
+
+
+def working_bauds(target: Target) -> list[int]:
+    """The standard rates Timer1 makes within the tolerance at the target's clock, ascending."""
+    return [b for b in STANDARD_BAUDS if baud_works(target, b)]
+
+
+def crystal_for(target: Target, baud: int) -> int | None:
+    """A usual crystal, within the chip's rating, at which Timer1 makes `baud` exactly (else within the
+    tolerance), in the target's mode; None when there is none."""
+    fits = [hz for hz in CRYSTALS_HZ if hz <= target.chip.max_hz]
+    for exact in (True, False):
+        for hz in fits:
+            err = baud_error(Target(target.chip, hz, target.six_t), baud)
+            if err == 0 if exact else err <= BAUD_TOLERANCE:
+                return hz
+    return None

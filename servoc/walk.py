@@ -1,9 +1,11 @@
 """Walking statement trees: one set of traversals for the syntax tree, the model and the plan.
 
 The three trees have the same shape: a `repeat` and a `loop` hold a `body` (a tuple
-of statements), a `play` names a sequence, and the other statements (move, hold)
-are leaves. The functions here see a statement only through `kind`, `children` and
-`callee`, so a new statement needs teaching here once, not in every pass.
+of statements), a `select` holds `branches` each with a `body` (its `on`s and its
+`after`, in the order written), a `play` names a sequence, and the other statements
+(move, hold, send, and `wait` in the syntax tree) are leaves. The functions here see
+a statement only through `kind`, `blocks`, `children` and `callee`, so a new
+statement needs teaching here once, not in every pass.
 
 Nothing here uses Python recursion: chains of sequences playing sequences can be
 far longer than the interpreter's recursion limit. Sequences are found through
@@ -20,20 +22,31 @@ BodyOf = Callable[[str], tuple]
 
 # The statement classes of the three trees, by name: nodes.*Stmt, model.*, plan.*Step.
 _KINDS = {f"{word}{suffix}": word.lower()
-          for word in ("Move", "Hold", "Repeat", "Loop", "Play") for suffix in ("Stmt", "", "Step")}
+          for word in ("Move", "Hold", "Repeat", "Loop", "Play", "Select", "Send", "Wait")
+          for suffix in ("Stmt", "", "Step")}
+COMPOUND = ("repeat", "loop", "select")     # the statements with bodies inside
 
 
 def kind(st: Any) -> str:
-    """'move', 'hold', 'repeat', 'loop' or 'play'."""
+    """'move', 'hold', 'repeat', 'loop', 'play', 'select', 'send' or 'wait' (syntax tree only)."""
     try:
         return _KINDS[type(st).__name__]
     except KeyError:
         raise TypeError(f"not a statement: {st!r}") from None
 
 
+def blocks(st: Any) -> tuple[tuple, ...]:
+    """The bodies directly inside `st`: a repeat's or a loop's one body, a select's branch bodies in
+    the order written; () for the others."""
+    k = kind(st)
+    if k == "select":
+        return tuple(b.body for b in st.branches)
+    return (st.body,) if k in ("repeat", "loop") else ()
+
+
 def children(st: Any) -> tuple:
-    """The statements directly inside `st`: a repeat's or a loop's body; () for the others."""
-    return st.body if kind(st) in ("repeat", "loop") else ()
+    """The statements directly inside `st`: its blocks one after another; () for a leaf."""
+    return tuple(x for body in blocks(st) for x in body)
 
 
 def callee(st: Any) -> str | None:
@@ -51,7 +64,7 @@ def bodies(roots: Iterable[tuple]) -> Iterator[tuple]:
         while work:
             body = work.pop()
             yield body
-            work.extend(reversed([children(st) for st in body if kind(st) in ("repeat", "loop")]))
+            work.extend(reversed([b for st in body for b in blocks(st)]))
 
 
 def statements(roots: Iterable[tuple]) -> Iterator[Any]:
@@ -70,8 +83,8 @@ def reachable(root: tuple, body_of: BodyOf) -> set[str]:
             if name is not None and name not in named:
                 named.add(name)
                 work.append(body_of(name))
-            elif name is None and children(st):
-                work.append(children(st))
+            elif name is None:
+                work.extend(blocks(st))
     return named
 
 
@@ -79,33 +92,46 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
          memo: dict | None = None) -> Any:
     """Reduce `body` to one value, inside out: `step(acc, st, inner)` for each statement in
     order, from `start`, where `inner` is the folded value of the statement's own body (a
-    repeat or a loop) or of the sequence it plays, and None for a leaf. `memo` holds the
+    repeat or a loop), the tuple of the folded values of its branches (a select, in the order
+    written), the value of the sequence it plays, or None for a leaf. `memo` holds the
     values of sequences by name; pass the same dict to share them between calls."""
     memo = {} if memo is None else memo
-    # Each frame: [statements, index of the next one, accumulator, the sequence they are the body of].
-    stack: list[list] = [[body, 0, start, None]]
+    # Each frame: [statements, index of the next one, accumulator, the sequence they are the body
+    # of, the values of the blocks of the statement at the index folded so far].
+    stack: list[list] = [[body, 0, start, None, []]]
     done = False                      # a frame just finished: its value is `value`
     value: Any = None
     while True:
         frame = stack[-1]
-        sts, i, acc, _ = frame
-        if i < len(sts) and not done:
+        sts, i, acc, _, got = frame
+        if done:
+            done = False
+            st = sts[i]
+            if callee(st) is None:
+                got.append(value)
+                bl = blocks(st)
+                if len(got) < len(bl):
+                    stack.append([bl[len(got)], 0, start, None, []])
+                    continue
+                value = tuple(got) if kind(st) == "select" else got[0]
+                frame[4] = []
+            frame[2] = step(acc, st, value)
+            frame[1] = i + 1
+        elif i < len(sts):
             st = sts[i]
             name = callee(st)
             if name is not None and name not in memo:
                 if any(f[3] == name for f in stack):
                     raise ValueError(f"sequence `{name}` plays itself")
-                stack.append([body_of(name), 0, start, name])
+                stack.append([body_of(name), 0, start, name, []])
                 continue
-            if name is None and kind(st) in ("repeat", "loop"):
-                stack.append([st.body, 0, start, None])
+            bl = blocks(st) if name is None else ()
+            if bl:
+                stack.append([bl[0], 0, start, None, []])
                 continue
-            frame[2] = step(acc, st, None if name is None else memo[name])
+            inner = None if name is None else memo[name]
+            frame[2] = step(acc, st, () if kind(st) == "select" else inner)
             frame[1] = i + 1
-        elif done:
-            frame[2] = step(acc, sts[i], value)
-            frame[1] = i + 1
-            done = False
         else:
             stack.pop()
             if frame[3] is not None:
@@ -115,14 +141,17 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
             done, value = True, acc
 
 
-def _deepest(acc: int, st: Any, inner: int | None) -> int:
+def _deepest(acc: int, st: Any, inner: Any) -> int:
     if inner is None:
         return acc
+    if kind(st) == "select":
+        return max(acc, max(inner, default=0))
     return max(acc, inner + (kind(st) != "loop"))
 
 
 def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:
-    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` costs nothing)."""
+    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` and a `select`
+    cost nothing)."""
     return fold(body, body_of, 0, _deepest, memo)
 
 
@@ -140,27 +169,37 @@ def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
                 if used + 1 + nesting(inner, body_of, memo) > limit:
                     body, used = inner, used + 1
                     break
-            elif k == "loop" and used + nesting(st.body, body_of, memo) > limit:
-                body = st.body
-                break
+            elif k in ("loop", "select"):
+                deep = next((b for b in blocks(st) if used + nesting(b, body_of, memo) > limit), None)
+                if deep is not None:
+                    body = deep
+                    break
         else:
             return None
 
 
 def rebuild(body: tuple, change: Callable[[Any], Any]) -> tuple:
     """A copy of `body` with `change(st)` in place of each statement, applied inside out
-    (a repeat or loop is given to `change` with its body already rebuilt)."""
-    stack: list[tuple[tuple, list]] = [(body, [])]
+    (a repeat, loop or select is given to `change` with its bodies already rebuilt)."""
+    # Each frame: (old statements, rebuilt so far, rebuilt blocks of the next old statement).
+    stack: list[tuple[tuple, list, list]] = [(body, [], [])]
     done: tuple | None = None         # the body just rebuilt, for the block in its parent
     while True:
-        old, out = stack[-1]
+        old, out, got = stack[-1]
         i = len(out)
         if done is not None:
-            out.append(change(dataclasses.replace(old[i], body=done)))
+            got.append(done)
             done = None
+            bl = blocks(old[i])
+            if len(got) < len(bl):
+                stack.append((bl[len(got)], [], []))
+                continue
+            out.append(change(_with_blocks(old[i], tuple(got))))
+            got.clear()
         elif i < len(old):
-            if kind(old[i]) in ("repeat", "loop"):
-                stack.append((old[i].body, []))
+            bl = blocks(old[i])
+            if bl:
+                stack.append((bl[0], [], []))
             else:
                 out.append(change(old[i]))
         else:
@@ -168,3 +207,11 @@ def rebuild(body: tuple, change: Callable[[Any], Any]) -> tuple:
             if not stack:
                 return tuple(out)
             done = tuple(out)
+
+
+def _with_blocks(st: Any, new: tuple[tuple, ...]) -> Any:
+    """`st` with its blocks replaced by `new` (as `blocks` lists them)."""
+    if kind(st) == "select":
+        return dataclasses.replace(st, branches=tuple(dataclasses.replace(b, body=nb)
+                                                      for b, nb in zip(st.branches, new)))
+    return dataclasses.replace(st, body=new[0])

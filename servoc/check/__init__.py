@@ -15,7 +15,8 @@ position's output N is: the position's N, checked against the servo's
 
 The checker is a few passes over one `Context`, run in order: declarations
 (the symbol table), settings (`frame`, `target`), servos (pins, options),
-resolve (groups and poses), statements (sequences and `main`) and calls
+inputs (`input` pins, `serial` and its rate), resolve (groups and poses),
+statements (sequences and `main`, selects and their events) and calls
 (recursion, nesting). Unit conversions are pure functions in `quantities`.
 """
 
@@ -26,6 +27,7 @@ from ..diagnostics import Reporter
 from .calls import calls
 from .context import Context
 from .declarations import declarations
+from .inputs import inputs
 from .resolve import resolve
 from .servos import servos
 from .settings import settings
@@ -39,6 +41,7 @@ def check(tree: nodes.Program, reporter: Reporter, path: str) -> model.Program |
     declarations(tree, ctx)
     settings(tree, ctx)
     servos(tree, ctx)
+    inputs(tree, ctx)
     statements(tree, ctx, resolve(tree, ctx))
     calls(tree, ctx)
     after = sum(1 for d in reporter.diagnostics if d.is_error)
@@ -50,4 +53,4 @@ def check(tree: nodes.Program, reporter: Reporter, path: str) -> model.Program |
         poses=tuple(p for n in ctx.declared("pose") if (p := ctx.poses.get(n)) is not None),
         sequences=tuple(ctx.sequences), main=ctx.main, frame_us=ctx.frame_us, target=ctx.target,
         references=frozenset(ctx.references), main_span=ctx.main_span,
-        frame_span=ctx.frame_span)
+        frame_span=ctx.frame_span, inputs=tuple(ctx.inputs.values()), serial=ctx.serial)

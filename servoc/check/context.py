@@ -16,12 +16,13 @@ from .quantities import Problem
 
 PORTS = {"P0": 0, "P1": 1, "P2": 2}
 
-KIND_WORD = {"servo": "a servo", "group": "a group", "pose": "a pose", "sequence": "a sequence"}
+KIND_WORD = {"servo": "a servo", "group": "a group", "pose": "a pose", "sequence": "a sequence",
+             "input": "an input"}
 
 
 @dataclass
 class Decl:
-    kind: str                   # servo, group, pose, sequence
+    kind: str                   # servo, group, pose, sequence, input
     node: Any
     name: nodes.Name
 
@@ -40,6 +41,10 @@ class Context:
     order: dict[str, int] = field(default_factory=dict)          # servo -> declaration index
     servo_limits: dict[str, nodes.LimitOption] = field(default_factory=dict)
     bad_pins: set[str] = field(default_factory=set)               # servos whose pin was reported
+    inputs: dict[str, model.Input] = field(default_factory=dict)  # inputs pass, declaration order
+    serial: model.Serial | None = None
+    serial_span: Span = Span(0, 0)
+    has_serial: bool = False                                      # `serial` written (even at a bad rate)
     groups: dict[str, model.Group | None] = field(default_factory=dict)     # resolve pass
     poses: dict[str, model.Pose | None] = field(default_factory=dict)
     sequences: list[model.Sequence] = field(default_factory=list)          # statements pass

@@ -7,7 +7,8 @@ from ..diagnostics import Label
 from ..source import Span
 from .context import KIND_WORD, PORTS, Context, Decl
 
-_KIND = {nodes.ServoDecl: "servo", nodes.GroupDecl: "group", nodes.PoseDecl: "pose", nodes.SequenceDecl: "sequence"}
+_KIND = {nodes.ServoDecl: "servo", nodes.GroupDecl: "group", nodes.PoseDecl: "pose", nodes.SequenceDecl: "sequence",
+         nodes.InputDecl: "input"}
 
 
 def declarations(tree: nodes.Program, ctx: Context) -> None:

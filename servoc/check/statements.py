@@ -1,9 +1,14 @@
-"""Pass 5, statements: the bodies of the sequences and of `main`, and what each sequence plays."""
+"""Pass 5, statements: the bodies of the sequences and of `main`, and what each sequence plays.
+
+A `select` needs at least one `on` and at most one `after`, written last; `wait EVENT` becomes
+`select { on EVENT { } }`. An event is a declared input or a byte (a one-character ASCII string or
+a whole number 0..255), and a byte needs `serial`; so does `send`."""
 
 from __future__ import annotations
 
 from .. import model, nodes
-from ..printer import format_quantity
+from ..diagnostics import Label
+from ..printer import format_event, format_quantity
 from ..source import Span
 from . import quantities
 from .context import PORTS, Context
@@ -61,7 +66,98 @@ class _Statements:
                 return None
             calls.append((name.text, stmt.span))
             return model.Play(name.text, stmt.span)
+        if isinstance(stmt, nodes.SelectStmt):
+            return self.select(stmt, calls)
+        if isinstance(stmt, nodes.WaitStmt):
+            event = self.event(stmt.event, "wait")
+            return None if event is None else model.Select((model.On(event, (), stmt.span),), True, stmt.span)
+        if isinstance(stmt, nodes.SendStmt):
+            byte = self.byte(stmt.byte, "send")
+            if byte is None:
+                return None
+            self.need_serial(stmt.span, "`send` transmits on the serial line")
+            return model.Send(byte, format_event(stmt.byte), stmt.span)
         raise TypeError(f"not a statement: {stmt!r}")
+
+    def select(self, stmt: nodes.SelectStmt, calls: Calls) -> model.Select | None:
+        ctx = self.ctx
+        ok = True
+        keyword = Span(stmt.span.start, stmt.span.start + len("select"))
+        afters = [b for b in stmt.branches if isinstance(b, nodes.AfterBranch)]
+        if not any(isinstance(b, nodes.OnBranch) for b in stmt.branches):
+            ctx.r.error("bad-select", "this `select` has no `on` branch: there is nothing to wait for", keyword,
+                        help="add `on EVENT { ... }` (an input's name or a byte such as `\"w\"`); "
+                             "to wait a fixed time, use `hold`")
+            ok = False
+        for extra in afters[1:]:
+            ctx.r.error("bad-select", "a `select` has at most one `after`", _kw(extra, "after"),
+                        help=f"the first `after` is at line {ctx.line(afters[0].span)}; keep one",
+                        secondary=[Label(_kw(afters[0], "after"), "first `after` here")])
+            ok = False
+        if afters and stmt.branches[-1] is not afters[-1] and len(afters) == 1:
+            ctx.r.error("bad-select", "`after` must be the last branch of a `select`", _kw(afters[0], "after"),
+                        help="move the `after` branch below every `on` (the `on`s are tried in the order written)")
+            ok = False
+        branches: list[model.On | model.After] = []
+        for b in stmt.branches:
+            body = self.body(b.body, calls)
+            if isinstance(b, nodes.OnBranch):
+                event = self.event(b.event, "on")
+                if event is None:
+                    ok = False
+                else:
+                    branches.append(model.On(event, body, b.span))
+            else:
+                duration = ctx.take(quantities.duration_us(b.duration, "`after`"), b.duration.span)
+                if duration is None:
+                    ok = False
+                else:
+                    branches.append(model.After(duration, body, b.span))
+        return model.Select(tuple(branches), False, stmt.span) if ok else None
+
+    def event(self, ev: nodes.Event, word: str) -> model.Event | None:
+        """An input or a byte, after `on` or `wait`."""
+        if isinstance(ev, nodes.Name):
+            if self.ctx.lookup(ev, "input", "an input or a byte",
+                               {k: f"an event is an input (`input {ev.text} = P3.2`) or a byte such as `\"w\"`"
+                                for k in ("servo", "group", "pose", "sequence")}) is None:
+                return None
+            return model.Event(ev.text, None, ev.text, ev.span)
+        byte = self.byte(ev, word)
+        if byte is None:
+            return None
+        self.need_serial(ev.span, f"a byte after `{word}` is received on the serial line")
+        return model.Event(None, byte, format_event(ev), ev.span)
+
+    def byte(self, ev: nodes.Event, word: str) -> int | None:
+        """A one-character ASCII string or a whole number 0..255, else None after `bad-byte`."""
+        r = self.ctx.r
+        if isinstance(ev, nodes.Name):
+            kind = self.ctx.decls[ev.text].kind if ev.text in self.ctx.decls else None
+            what = f"the {kind} `{ev.text}`" if kind else f"the name `{ev.text}`"
+            r.error("bad-byte", f"`{word}` transmits a byte, not {what}", ev.span,
+                    help=f"write the byte as one character in quotes or as a number: `{word} \"{ev.text[0]}\"`")
+            return None
+        if isinstance(ev, nodes.StringLit):
+            if len(ev.text) != 1 or ord(ev.text) > 127:
+                what = "empty" if not ev.text else (f"{len(ev.text)} characters long" if len(ev.text) != 1
+                                                    else "not an ASCII character")
+                r.error("bad-byte", f"the string `\"{ev.text}\"` is {what}: a byte is one ASCII character",
+                        ev.span, help="write one character, such as `\"w\"`, or the byte's number 0..255 "
+                                      "(`10` for a newline, `34` for `\"`)")
+                return None
+            return ord(ev.text)
+        if ev.unit != "" or ev.value.denominator != 1 or not 0 <= ev.value <= 255:
+            r.error("bad-byte", f"`{format_quantity(ev)}` is not a byte: a byte is a whole number 0..255",
+                    ev.span, help="write a number 0..255 without a unit, or one character in quotes, `\"w\"`")
+            return None
+        return int(ev.value)
+
+    def need_serial(self, span: Span, why: str) -> None:
+        if not self.ctx.has_serial:
+            self.ctx.r.error("no-serial", f"{why}, but the program declares no `serial`", span,
+                             help="declare the serial line and its rate, e.g. `serial 4800` (at 12 MHz) "
+                                  "or `serial 9600` (at 11.0592 MHz)")
 
     def pose_ref(self, name: nodes.Name) -> model.Pose | None:
         ctx = self.ctx
@@ -82,3 +178,8 @@ class _Statements:
                              f"`{format_quantity(q)}`", q.span, help="to repeat forever, use `loop { ... }`")
             return None
         return int(value)
+
+
+def _kw(node, word: str) -> Span:
+    return Span(node.span.start, node.span.start + len(word))
+

@@ -36,3 +36,21 @@ def positions(plan: Plan):
 def num(x) -> str:
     """A Fraction as written: `7` or `7.5`."""
     return str(x.numerator) if x.denominator == 1 else f"{float(x):g}"
+
+
+def origin_text(origin: tuple, source) -> str:
+    """Where a state comes from (`MoveInstance.origin`), in words: `the start of `main``, `the end
+    of `walk``, `the end of `move stand` (line 12)`."""
+    if origin[0] == "play":
+        return f"the end of `{origin[1]}`"
+    if origin[0] == "move":
+        return f"the end of `move {origin[1]}` (line {source.line_col(origin[2].start)[0]})"
+    return "the start of `main`"
+
+
+def context_text(inst, source) -> str:
+    """The branch a move instance runs in and where its state comes from: `after `on "w"` from the
+    end of `walk``; without a branch, `from the end of `walk``."""
+    from ..plan import branch_text
+    where = f"from {origin_text(inst.origin, source)}"
+    return where if inst.branch is None else f"after `{branch_text(inst.branch)}` {where}"

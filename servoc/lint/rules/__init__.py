@@ -5,7 +5,7 @@ from . import (  # noqa: F401
     infeasible_speed, eased_overspeed,
     off_grid_width, inexact_angle,
     period_too_short, period_too_long, short_gap, short_hold, empty_loop, too_long,
-    unused, unreachable,
+    unused, unreachable, duplicate_event,
     p0_pull_up,
     too_deep,
 )

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ... import walk
 from ...diagnostics import Severity
-from ...plan import HoldStep, LoopStep, MoveStep, Plan, RepeatStep, Step, steps
+from ...plan import AfterBranch, HoldStep, LoopStep, MoveStep, Plan, RepeatStep, SelectStep, SendStep, Step, steps
 from .. import Report, rule
 from ..common import body_of
 
@@ -17,7 +17,13 @@ def empty_loop(plan: Plan, report: Report) -> None:
                    st.span, help="put a `move` or a `hold` of at least one frame inside the loop")
 
 
-def _fewest(acc: int, st: Step, inner: int | None) -> int:
+def _fewest(acc: int, st: Step, inner) -> int:
+    if isinstance(st, SendStep):
+        return acc
+    if isinstance(st, SelectStep):
+        # an event may be there already: an `on` branch can start at once, `after` after its F
+        return acc + min((v + (b.frames if isinstance(b, AfterBranch) else 0)
+                          for b, v in zip(st.branches, inner)), default=0)
     if isinstance(st, MoveStep):
         return acc + (st.frames or 1)
     if isinstance(st, HoldStep):
@@ -26,5 +32,6 @@ def _fewest(acc: int, st: Step, inner: int | None) -> int:
 
 
 def fewest_frames(plan: Plan, body: tuple[Step, ...]) -> int:
-    """The fewest frames one pass of `body` can take (a move takes at least one)."""
+    """The fewest frames one pass of `body` can take (a move takes at least one; a select none when
+    the event of a branch that takes none is there already)."""
     return walk.fold(body, body_of(plan), 0, _fewest)

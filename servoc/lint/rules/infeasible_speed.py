@@ -3,17 +3,22 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...diagnostics import Label
+from ...plan import Plan, branch_head, has_selects
 from ...speed import t_dav_of, too_fast
 from ...units import DAV_DEG, fmt_deg, fmt_ms
 from .. import Report, rule
-from ..common import whole_ms_for
+from ..common import context_text, whole_ms_for
 
 
 @rule("infeasible-speed", Severity.ERROR)
 def infeasible_speed(plan: Plan, report: Report) -> None:
     """|delta| x t_DAV > F x P: the servo cannot get there in time (`servoc.speed`, the rule the
-    plot draws in red)."""
+    plot draws in red).
+
+    In a program with selects, the message also says in which branch and from which state (the
+    worst of the states the move can start in), with a label at the branch."""
+    reacts = has_selects(plan)
     for excess, inst, ch in too_fast(plan).values():
         m = next(x for x in inst.motions if x.channel == ch)
         ch_ = plan.channels[ch]
@@ -23,10 +28,17 @@ def infeasible_speed(plan: Plan, report: Report) -> None:
         frames_min = plan.speed_tables[ch_.speed_class][abs(m.delta)]
         step = inst.step
         written = fmt_ms(step.duration_us) if step.duration_us is not None else fmt_ms(asked)
+        context, secondary = "", ()
+        if reacts:
+            text = context_text(inst, report.reporter.source)
+            context = f", {text}"
+            span = branch_head(inst.branch) if inst.branch is not None else inst.origin[2] if len(inst.origin) > 2 else None
+            if span is not None:
+                secondary = (Label(span, text if inst.branch is not None else "the state comes from here"),)
         report(
             f"servo `{ch_.name}` cannot move {abs(m.delta)} DAV ({fmt_deg(abs(m.delta) * DAV_DEG)}) "
-            f"in {written} ({inst.frames} frame{'s' if inst.frames != 1 else ''} = {fmt_ms(asked)}): "
+            f"in {written} ({inst.frames} frame{'s' if inst.frames != 1 else ''} = {fmt_ms(asked)}){context}: "
             f"at its top speed it needs {fmt_ms(need)}",
-            step.span, label=f"too fast for `{ch_.name}`",
+            step.span, label=f"too fast for `{ch_.name}`", secondary=secondary,
             help=f"use `in {whole_ms_for(frames_min, plan.period_us, need)}` or longer, or drop the duration "
                  f"(`move {step.pose}`) to go as fast as the slowest servo allows")

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import MoveStep, Plan, RepeatStep, steps
+from ...plan import MoveStep, Plan, RepeatStep, SelectStep, steps
 from .. import Report, rule
 
 MAX_FRAMES = 65535           # frames of one move or hold, and passes of one repeat
@@ -17,6 +17,11 @@ def too_long(plan: Plan, report: Report) -> None:
             what = "passes" if isinstance(st, RepeatStep) else "frames"
             report(f"this statement runs {count} {what}; the firmware counts at most {MAX_FRAMES}",
                    st.span, help="split it into several statements (e.g. a repeat around a shorter one)")
+    for st in steps(plan):
+        after = st.after if isinstance(st, SelectStep) else None
+        if after is not None and after.frames > MAX_FRAMES:
+            report(f"this `after` waits {after.frames} frames; the firmware counts at most {MAX_FRAMES}",
+                   after.span, help="wait in several steps: an inner `select` in the `after` branch")
     for inst in plan.moves:
         if isinstance(inst.step, MoveStep) and inst.step.frames is None and inst.frames > MAX_FRAMES:
             report(f"this move runs {inst.frames} frames; the firmware counts at most {MAX_FRAMES}",

@@ -1,4 +1,4 @@
-"""unused-servo, unused-group, unused-pose, unused-sequence: a declaration nothing uses.
+"""unused-servo, unused-group, unused-pose, unused-sequence, unused-input: a declaration nothing uses.
 
 One rule for four kinds of declaration, registered once per kind. Up to `EACH`
 unused declarations of a kind get a warning each; more get one warning, at the
@@ -15,7 +15,8 @@ NAMED = 5       # names the one warning lists
 
 # how to use a declaration of each kind: (one, several)
 _USE = {"servo": ("name it in a pose", "name them in poses"), "group": ("name it in a pose", "name them in poses"),
-        "pose": ("`move` to it", "`move` to them"), "sequence": ("`play` it from `main`", "`play` them from `main`")}
+        "pose": ("`move` to it", "`move` to them"), "sequence": ("`play` it from `main`", "`play` them from `main`"),
+        "input": ("wait for it (`wait NAME`, or `on NAME` in a `select`)", "wait for them with `wait` or `on`")}
 
 
 def _unused(kind: str, declarations: str) -> None:
@@ -35,5 +36,6 @@ def _unused(kind: str, declarations: str) -> None:
     rule(f"unused-{kind}", Severity.WARNING)(unused)
 
 
-for _kind, _declarations in (("servo", "servos"), ("group", "groups"), ("pose", "poses"), ("sequence", "sequences")):
+for _kind, _declarations in (("servo", "servos"), ("group", "groups"), ("pose", "poses"), ("sequence", "sequences"),
+                             ("input", "inputs")):
     _unused(_kind, _declarations)
