@@ -149,12 +149,12 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
     return Firmware(unit, image, toolchain.rom_used(image.hex_text), room.runtime, room.program, room.data)
 
 
-NOT_IN_FIRMWARE = (nodes.InputDecl, nodes.SerialDecl, nodes.SelectStmt, nodes.WaitStmt, nodes.SendStmt)
+NOT_IN_FIRMWARE = (nodes.SerialDecl, nodes.SendStmt)
 
 
 def not_in_firmware(tree) -> object | None:
     """The first declaration or statement, in source order, that the firmware generator does not
-    build yet (`input`, `serial`, `select`, `wait`, `send`); None when there is none."""
+    build yet (`serial`, `send`); None when there is none."""
     found = [item for item in tree.items if isinstance(item, NOT_IN_FIRMWARE)]
     bodies = [item.body for item in tree.items if isinstance(item, (nodes.SequenceDecl, nodes.MainDecl))]
     found += [st for st in walk.statements(bodies) if isinstance(st, NOT_IN_FIRMWARE)]
@@ -163,20 +163,18 @@ def not_in_firmware(tree) -> object | None:
 
 def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | None]:
     """The whole compile: front end, then code generation and assembly if there were no errors.
-    A program with inputs, serial commands or selects is refused (`not-in-firmware`): `lint` and
-    `plan` check it fully, but the firmware for them is not built yet."""
+    A program with the serial line is refused (`not-in-firmware`): `lint` and `plan` check it
+    fully, but the firmware for `serial` and `send` is not built yet."""
     fe = front_end(source, reporter)
     if fe.plan is None or reporter.has_errors:
         return fe, None
     first = not_in_firmware(fe.tree)
     if first is not None:
-        word = {nodes.InputDecl: "input", nodes.SerialDecl: "serial", nodes.SelectStmt: "select",
-                nodes.WaitStmt: "wait", nodes.SendStmt: "send"}[type(first)]
+        word = {nodes.SerialDecl: "serial", nodes.SendStmt: "send"}[type(first)]
         reporter.error("not-in-firmware", f"the firmware generator does not support `{word}` yet",
                        Span(first.span.start, first.span.start + len(word)),
                        help="`servoc lint` and `servoc plan` check this program fully (every branch is "
-                            "speed-checked), but firmware with inputs, `serial`, `select`, `wait` and `send` "
-                            "cannot be built yet")
+                            "speed-checked), but firmware with `serial` and `send` cannot be built yet")
         return fe, None
     unit = generate(fe.plan, source, reporter)
     if unit is None:
@@ -184,10 +182,34 @@ def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | 
     return fe, assemble(unit, reporter)
 
 
-def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET) -> _sim.SimTrace:
+def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
+             inputs: tuple = ()) -> _sim.SimTrace:
     """Run an Intel HEX image in ucsim for `cycles` machine cycles of `target`, recording every port
-    write (a 6T chip runs as ucsim's 12-clock core at twice its crystal: the same machine cycle)."""
-    return _sim.run(hex_text, cycles, xtal_hz=target.sim_hz)
+    write (a 6T chip runs as ucsim's 12-clock core at twice its crystal: the same machine cycle).
+    `inputs`: (cycle, port, level) changes of the pins the firmware reads."""
+    return _sim.run(hex_text, cycles, xtal_hz=target.sim_hz, inputs=inputs)
+
+
+def resting_inputs(plan_: _plan.Plan) -> tuple:
+    """Every input inactive from the first cycle (an active-high input's pin held low)."""
+    from . import events as _events
+    return tuple(_events.pin_changes([], plan_.program.inputs, plan_.program.target))
+
+
+def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list) -> _verify.VerifyReport:
+    """Compare a run driven by `events` with the plan: the branch taken at each select is read from
+    the trace (`verify.infer_choices`), then each `on` must start within 2 P of its event."""
+    import dataclasses
+    choices, report = _verify.infer_choices(plan_, trace, frames)
+    target = plan_.program.target
+    offsets = _verify.rise_offsets(plan_.ports, target)
+    firsts = [ps[0][0] - offsets[c.port] for c in plan_.channels if (ps := trace.pulses(c.port, c.bit))]
+    t1 = None if not firsts else float(min(firsts) * target.cycle_us)
+    late = _verify.check_event_delays(plan_, choices, events, t1)
+    if not late:
+        return report
+    extra = tuple(_verify.Mismatch(0, "-", "-", None, None, text) for text in late)
+    return dataclasses.replace(report, mismatches=report.mismatches + extra)
 
 
 def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
@@ -207,4 +229,5 @@ def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.Verify
 
 def verify_hex(plan_: _plan.Plan, hex_text: str, frames: int) -> _verify.VerifyReport:
     """Simulate a HEX image (built from this plan, or given) and compare `frames` frames with the plan."""
-    return check_trace(plan_, simulate(hex_text, cycles_needed(plan_, frames), plan_.program.target), frames)
+    trace = simulate(hex_text, cycles_needed(plan_, frames), plan_.program.target, resting_inputs(plan_))
+    return check_trace(plan_, trace, frames)

@@ -115,6 +115,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = add("verify", "compile, run in ucsim and compare every pulse with the plan")
     p.add_argument("--vcd", metavar="OUT.vcd", help="also write the simulated pin waveforms (needs servoc[vcd])")
     p.add_argument("--hex", metavar="FILE.hex", help="check this HEX (built from FILE.servo) instead of compiling")
+    p.add_argument("--events", metavar="EVENTS", help="drive the program's inputs with these timed changes "
+                   "(lines `500ms button active`; docs/language.md, \"servoc verify --events\")")
     p.add_argument("--frames", type=int, metavar="N",
                    help="frames to check from the first pulse (default: the whole program and 20 more; for a "
                         "program that loops forever, up to its loop and two passes of it, at least 400)")
@@ -302,16 +304,36 @@ def _main(argv: list[str], run: _Run) -> int:
     frames = args.frames or verify_frames(plan)
     if hex_text is None:
         hex_text = firmware.hex_text
+    events = None
+    changes = api.resting_inputs(plan)
+    if getattr(args, "events", None):
+        from . import events as _events
+        try:
+            with open(args.events, encoding="utf-8") as fh:
+                events = _events.parse(fh.read(), plan.program.inputs)
+        except OSError as exc:
+            raise _Stop(f"cannot read {args.events}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise _Stop(f"{args.events} is not UTF-8 text") from None
+        except _events.EventsError as exc:
+            raise _Stop(f"{args.events}: {exc}") from None
+        if events and not args.frames:     # the run goes on 2 s past the last event
+            last = max(e.time_us for e in events)
+            frames = max(frames, int((last + 2_000_000) / plan.period_us) + 1)
+        changes = tuple(_events.pin_changes(events, plan.program.inputs, plan.program.target))
     progress = _color(sys.stderr) and not run.json
     try:
         if progress:
             sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
-        trace = api.simulate(hex_text, api.cycles_needed(plan, frames), plan.program.target)
+        cycles = api.cycles_needed(plan, frames)
+        if changes and changes[-1][0] >= cycles:
+            cycles = changes[-1][0] + 1
+        trace = api.simulate(hex_text, cycles, plan.program.target, changes)
         if progress:
             sys.stderr.write(" " * 60 + "\r")
     except api.ToolNotFound as exc:
         raise _Stop(str(exc), "missing-tool") from None
-    report = api.check_trace(plan, trace, frames)
+    report = api.check_trace(plan, trace, frames) if events is None else api.check_events(plan, trace, frames, events)
     if args.vcd:
         from .vcd import MissingExtra, write_vcd
         try:

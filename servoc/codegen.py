@@ -29,7 +29,8 @@ from . import costs
 from . import wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .plan import HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, Step, steps, takes_frames
+from .plan import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, Step, steps,
+                   takes_frames)
 from .source import SourceFile
 from .units import N_MAX
 
@@ -180,6 +181,10 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             run.clear()
 
     for st in body:
+        if isinstance(st, SelectStep):
+            flush()
+            out.append(_select_op(ctx, st))
+            continue
         if not takes_frames((st,), ctx.plan, ctx.frames_memo):
             continue            # takes no frame: no code, so nothing it does can delay a frame
         where = ctx.where(st.span)
@@ -203,6 +208,27 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
         elif isinstance(st, PlayStep):
             out.append({"op": "play", "label": _seq_label(ctx.plan, st.sequence), "name": st.sequence, "where": where})
     flush()
+
+
+def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
+    """A select: each frame it looks at its inputs in the order written and runs the first
+    branch whose input is active; with `after`, once F frames passed with none, the after branch.
+    While it waits, frame_io repeats the current targets."""
+    inputs = {i.name: i for i in ctx.plan.program.inputs}
+    lab = ctx.label("sel")
+    ons, after = [], None
+    for k, br in enumerate(st.branches):
+        ops: list[dict] = []
+        _ops(ctx, br.body, ops)
+        if isinstance(br, AfterBranch):
+            if br.frames >= 0xFFFF:
+                raise layout.SlowServo("an `after` of 65535 frames or more")
+            after = {"frames": br.frames + 1, "ops": ops, "where": ctx.where(br.span)}
+            continue
+        pin = inputs[br.event.input]
+        ons.append({"k": k, "ops": ops, "port": pin.port, "bit": pin.bit, "active_high": pin.active_high,
+                    "text": br.event.text, "where": ctx.where(br.span)})
+    return {"op": "select", "label": lab, "ons": ons, "after": after, "where": ctx.where(st.span)}
 
 
 def _seq_label(plan: Plan, name: str) -> str:

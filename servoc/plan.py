@@ -627,13 +627,15 @@ class Choice:
     frames: int = 0
 
 
-def expand(plan: Plan, choices: Iterable[Choice] = ()) -> Iterator[GoldenFrame]:
+def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = None) -> Iterator[GoldenFrame]:
     """Every frame of the program, from the first timer frame; after main, the last repeats forever.
 
     A select cannot know which event comes: `expand` takes the next of `choices` at each select it
-    reaches, in the order reached; when they run out it waits in that select forever, repeating the
-    current targets (so without choices a program stops at its first select). A `send` adds its byte
-    to the next frame's `sent`. Raises ValueError for a choice the select cannot make."""
+    reaches, in the order reached; when they run out it does what the firmware does when no event
+    comes: it takes the select's `after` after its F frames, or waits there forever, repeating the
+    current targets. A `send` adds its byte to the next frame's `sent`. Raises ValueError for a
+    choice the select cannot make. `reached`, if given, gets (frames yielded so far, the select)
+    each time a select is reached."""
     count = len(plan.channels)
     state: list[int | None] = [None] * count
     last_span = NO_SPAN
@@ -643,9 +645,12 @@ def expand(plan: Plan, choices: Iterable[Choice] = ()) -> Iterator[GoldenFrame]:
 
     memo: dict = {}
 
+    made = 0
+
     def frame(span: Span, curve: tuple | None = None) -> GoldenFrame:
-        nonlocal last_span
+        nonlocal last_span, made
         last_span = span
+        made += 1
         sent = tuple(pending)
         pending.clear()
         now = tuple(state)
@@ -657,7 +662,11 @@ def expand(plan: Plan, choices: Iterable[Choice] = ()) -> Iterator[GoldenFrame]:
                 pending.append(st.byte)
                 continue
             if isinstance(st, SelectStep):
+                if reached is not None:
+                    reached.append((made, st))
                 pick = next(picks, None)
+                if pick is None and st.after is not None:
+                    pick = Choice(len(st.branches) - 1, st.after.frames)
                 if pick is None:
                     while True:
                         yield frame(st.span)

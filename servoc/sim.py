@@ -205,7 +205,8 @@ def _check_pin(port: int, bit: int) -> None:
         raise ValueError(f"bit must be 0..7, got {bit!r}")
 
 
-def _script(hex_name: str, limit_name: str, ports: Iterable[int]) -> str:
+def _script(hex_name: str, limit_name: str, ports: Iterable[int],
+            inputs: tuple[tuple[int, int, int], ...] = ()) -> str:
     lines = [f'file "{hex_name}"']
     for port in ports:
         sfr = PORT_SFR[port]
@@ -217,6 +218,11 @@ def _script(hex_name: str, limit_name: str, ports: Iterable[int]) -> str:
         f'set hardware vcd[0] input "{limit_name}"',
         "set hardware vcd[0] break",
         "set hardware vcd[0] start",
+    ]
+    # Each input change is an event of the VCD unit: the run stops there, the pins change, it goes on.
+    for _, port, level in inputs:
+        lines += ["run", f"set hardware port[{port}] {level:#04x}"]
+    lines += [
         "run",
         f"expr {_MARK_END} /u sim_ticks",
         "state",
@@ -225,21 +231,23 @@ def _script(hex_name: str, limit_name: str, ports: Iterable[int]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _limit_vcd(cycles: int, xtal_hz: int = XTAL_HZ) -> str:
+def _limit_vcd(cycles: int, xtal_hz: int = XTAL_HZ, stops: tuple[int, ...] = ()) -> str:
     # One event half a machine cycle before the limit, in ps (12 MHz:
     # 1 cycle = 1000000 ps), so the stop is the first instruction boundary at
-    # or after `cycles` whatever the floating-point rounding.
+    # or after `cycles` whatever the floating-point rounding; one more event at
+    # each of `stops` (cycles, increasing), on another variable, for the inputs.
     cycle_ps = CLOCKS_PER_CYCLE * 10**12 / xtal_hz
-    event_ps = round((cycles - 0.5) * cycle_ps)
-    return (
+    text = (
         "$timescale 1ps $end\n"
         "$scope module servoc_limit $end\n"
         "$var wire 8 ! variables[0xf0] $end\n"
+        "$var wire 8 \" variables[0xf1] $end\n"
         "$upscope $end\n"
         "$enddefinitions $end\n"
-        f"#{event_ps}\n"
-        "b00000001 !\n"
     )
+    for k, at in enumerate(stops):
+        text += f"#{round((at - 0.5) * cycle_ps)}\nb{(k + 1) % 256:08b} \"\n"
+    return text + f"#{round((cycles - 0.5) * cycle_ps)}\nb00000001 !\n"
 
 
 def run(
@@ -249,6 +257,7 @@ def run(
     timeout: float = 120,
     ports: Iterable[int] = (0, 1, 2, 3),
     xtal_hz: int = XTAL_HZ,
+    inputs: Iterable[tuple[int, int, int]] = (),
 ) -> SimTrace:
     """Simulate `hex_text` from reset for at least `cycles` machine cycles.
 
@@ -257,6 +266,9 @@ def run(
     is killed and reaped), or stops before the limit (ucsim stops on a stack
     overflow), and
     `toolchain.ToolNotFound` when s51 is missing.
+
+    `inputs`: (cycle, port, level) changes of the outside levels of a port's pins (what the
+    firmware reads), at increasing cycles below `cycles`.
     """
     if not isinstance(cycles, int) or isinstance(cycles, bool) or cycles < 1:
         raise ValueError(f"cycles must be a positive int, got {cycles!r}")
@@ -270,8 +282,12 @@ def run(
     with tempfile.TemporaryDirectory(prefix="servoc-sim-") as tmp:
         tmpdir = Path(tmp)
         (tmpdir / "fw.ihx").write_text(hex_text, encoding="ascii")
-        (tmpdir / "limit.vcd").write_text(_limit_vcd(cycles, xtal_hz), encoding="ascii")
-        (tmpdir / "run.cmd").write_text(_script("fw.ihx", "limit.vcd", port_list), encoding="ascii")
+        changes = tuple(sorted(inputs))
+        if any(not 0 < at < cycles for at, _, _ in changes) or len({at for at, _, _ in changes}) < len(changes):
+            raise ValueError("input changes must come at distinct cycles inside the run")
+        (tmpdir / "limit.vcd").write_text(_limit_vcd(cycles, xtal_hz, tuple(at for at, _, _ in changes)),
+                                          encoding="ascii")
+        (tmpdir / "run.cmd").write_text(_script("fw.ihx", "limit.vcd", port_list, changes), encoding="ascii")
         argv = [s51, "-b", "-t", CPU_TYPE, "-X", str(xtal_hz), "-C", "run.cmd"]
         try:
             proc = subprocess.Popen(

@@ -16,7 +16,7 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass, field
 
-from .plan import Plan, expand
+from .plan import AfterBranch, Choice, Plan, SelectStep, expand
 from .sim import SimTrace
 from .costs import rise_offsets
 RESET_LOW_US = 20          # servo lines low this soon after reset
@@ -66,9 +66,9 @@ class VerifyReport:
 SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries a pulse
 
 
-def first_pulse_frame(plan: Plan) -> int | None:
+def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     """0-based index of the first golden frame with a pulse, or None if there is none."""
-    for i, fr in enumerate(itertools.islice(expand(plan), SEARCH_FRAMES)):
+    for i, fr in enumerate(itertools.islice(expand(plan, choices), SEARCH_FRAMES)):
         if any(n is not None for n in fr.n):
             return i
     return None
@@ -81,11 +81,12 @@ def cycles_needed(plan: Plan, frames: int) -> int:
     return (lead + frames + 2) * target.cycles(plan.period_us) + target.cycles(5000)
 
 
-def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
-    """Compare `frames` frames from the first pulse with what the simulation recorded."""
+def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = ()) -> VerifyReport:
+    """Compare `frames` frames from the first pulse with what the simulation recorded (at each
+    select, the branch `choices` give, in the order the selects are reached; see plan.expand)."""
     mismatches: list[Mismatch] = []
-    lead = first_pulse_frame(plan)
-    golden = [] if lead is None else list(itertools.islice(expand(plan), lead, lead + frames))
+    lead = first_pulse_frame(plan, choices)
+    golden = [] if lead is None else list(itertools.islice(expand(plan, choices), lead, lead + frames))
     target = plan.program.target
     port_offset = rise_offsets(plan.ports, target)
     reset_limit = int(RESET_LOW_US / target.cycle_us)
@@ -153,3 +154,77 @@ def verify(plan: Plan, trace: SimTrace, frames: int) -> VerifyReport:
     mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
     return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
                         max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit)
+
+
+# ---------------------------------------------------------------- runs with events
+
+def _first_bad(report: VerifyReport) -> int:
+    frames = [m.frame for m in report.mismatches if m.frame >= 1]
+    return min(frames) if frames else report.frames + 1
+
+
+def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200) -> tuple[tuple, VerifyReport]:
+    """The branch the firmware took at each select, found from the trace: select by select, in
+    the order reached, the choice (branch, frames waited) whose golden frames match the trace the
+    furthest. Returns the choices and the report for them."""
+    choices: tuple = ()
+    report = verify(plan, trace, frames, choices)
+    for _ in range(limit):
+        if report.ok:
+            break
+        bad = _first_bad(report)
+        reached: list = []
+        lead = first_pulse_frame(plan, choices) or 0
+        for _ in itertools.islice(expand(plan, choices, reached), lead + frames):
+            if len(reached) > len(choices):
+                break
+        if len(reached) <= len(choices):
+            break                               # no select left to decide: a real mismatch
+        start, select = reached[len(choices)]
+        waited = max(0, lead + bad - 1 - start)
+        cands = [Choice(k, w) for k, br in enumerate(select.branches) if not isinstance(br, AfterBranch)
+                 for w in range(max(0, waited - 3), waited + 2)
+                 if select.after is None or w < select.after.frames]
+        if select.after is not None:
+            cands.append(Choice(len(select.branches) - 1, select.after.frames))
+        best = None
+        for cand in cands:
+            r = verify(plan, trace, frames, choices + (cand,))
+            key = (_first_bad(r), -abs(cand.frames - waited))
+            if best is None or key > best[0]:
+                best = (key, cand, r)
+        if best is None or best[0][0] < bad:
+            break
+        choices, report = choices + (best[1],), best[2]
+    return choices, report
+
+
+def check_event_delays(plan: Plan, choices: tuple, events: list, t1_us: float | None) -> list[str]:
+    """Each `on` branch taken must start within 2 P of its input becoming active, or of the select
+    beginning to wait if the input was active already (the spec's sampling rule): the problems
+    found, as text. `t1_us`: the first frame's rise, from reset."""
+    problems: list[str] = []
+    if t1_us is None:
+        return problems
+    reached: list = []
+    lead = first_pulse_frame(plan, choices) or 0
+    total = sum(c.frames for c in choices) + lead + 10_000
+    for _ in itertools.islice(expand(plan, choices, reached), total):
+        if len(reached) > len(choices):
+            break
+    period = plan.period_us
+    for (start, select), choice in zip(reached, choices):
+        branch = select.branches[choice.branch]
+        if isinstance(branch, AfterBranch):
+            continue
+        first = start + choice.frames                   # index of the branch's first frame
+        begins = t1_us + (first - lead) * period        # its first rise, from reset
+        waits = t1_us + (start - lead) * period         # the select began to wait (an input already
+        name = branch.event.input                       # active then counts from there)
+        active = [e.time_us for e in events if e.input == name and e.active and e.time_us <= begins]
+        if not active:
+            problems.append(f"`on {branch.event.text}` taken at {begins / 1000:.3f} ms with no event before it")
+        elif begins - max(float(active[-1]), waits) > 2 * period:
+            problems.append(f"`on {branch.event.text}` started {(begins - max(float(active[-1]), waits)) / 1000:.3f} "
+                            f"ms after its event, more than 2 P")
+    return problems

@@ -144,14 +144,14 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
 def _deepest(acc: int, st: Any, inner: Any) -> int:
     if inner is None:
         return acc
-    if kind(st) == "select":
-        return max(acc, max(inner, default=0))
+    if kind(st) == "select":    # a select with `after` counts its frames on the stack while it waits
+        return max(acc, max(inner, default=0), 1 if getattr(st, "after", None) is not None else 0)
     return max(acc, inner + (kind(st) != "loop"))
 
 
 def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:
-    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` and a `select`
-    cost nothing)."""
+    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` costs nothing, a
+    `select` one level while it waits if it has an `after`)."""
     return fold(body, body_of, 0, _deepest, memo)
 
 

@@ -301,8 +301,8 @@ def test_compile_refuses_and_plan_works(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "wait button" in out and 'send "k"' in out
     path.write_text("servo arm = P1.0\npose a { arm: 100 }\ninput b = P3.2\nmain {\n  move a\n  wait b\n}\n")
-    assert cli.main(["compile", str(path)]) == 1
-    assert f"{path}:3:1: error" in capsys.readouterr().err
+    assert cli.main(["compile", str(path)]) == 0        # inputs and selects are built; serial is not
+    assert "error" not in capsys.readouterr().err
 
 
 # ---- hypothesis: the speed lint flags exactly the moves too fast from some reachable state --------
