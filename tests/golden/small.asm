@@ -477,7 +477,7 @@ fs2:
         LCALL   distinct1
         INC     SRT
 fi_done:
-        RET
+        RET                             ; looks at next (a select's inputs) is at most P old
 
 engine_start:                           ; the first frame: its first rise comes 64 cycles from here
         MOV     0x0D, #<win_p1     ; bank 1 R5/R4: the first port's window

@@ -1,0 +1,163 @@
+"""Inputs and selects in the firmware, run in ucsim with timed input levels.
+
+Each scenario drives the program's inputs (`servoc verify --events`): the branch
+the firmware takes at each select is read from the trace, every pulse must
+then match the plan of that run exactly, and each `on` branch must start
+within 2 P of its input becoming active (or of the select beginning to wait,
+if the input was active already).
+"""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from conftest import build_text
+from servoc import api, cli, events, verify
+from servoc.plan import AfterBranch
+
+pytestmark = pytest.mark.toolchain
+
+ROOT = Path(__file__).resolve().parent.parent
+
+TWO = """\
+input left = P3.2
+input right = P3.3 high
+servo arm = P1.0
+servo leg = P2.4
+pose home { arm: 20, leg: 20 }
+pose l { arm: 230, leg: 40 }
+pose r { arm: 100, leg: 200 }
+main {
+  move home
+  loop {
+    select {
+      on left { move l in 600ms; move home in 600ms }
+      on right { move r in 600ms; hold 100ms; move home in 600ms }
+      after 700ms { move r in 900ms; move home in 900ms }
+    }
+    wait left
+    move l in 600ms
+    move home in 600ms
+  }
+}
+"""
+
+
+def run(text: str, scenario: str, frames: int):
+    built = build_text(text)
+    plan = built.plan
+    evs = events.parse(scenario, plan.program.inputs)
+    changes = tuple(events.pin_changes(evs, plan.program.inputs, plan.program.target))
+    cycles = max(api.cycles_needed(plan, frames), changes[-1][0] + 1)
+    trace = api.simulate(built.firmware.hex_text, cycles, plan.program.target, changes)
+    return plan, trace, evs, api.check_events(plan, trace, frames, evs)
+
+
+def delays(plan, trace, frames, evs) -> list[float]:
+    """Event to the first rise of the branch it started, in ms, for every `on` taken."""
+    choices, _ = verify.infer_choices(plan, trace, frames)
+    offsets = verify.rise_offsets(plan.ports, plan.program.target)
+    t1 = min(ps[0][0] - offsets[c.port] for c in plan.channels if (ps := trace.pulses(c.port, c.bit)))
+    t1 *= float(plan.program.target.cycle_us)
+    reached: list = []
+    for _ in itertools.islice(verify.expand(plan, choices, reached), 20_000):
+        if len(reached) > len(choices):
+            break
+    out = []
+    for (start, select), choice in zip(reached, choices):
+        branch = select.branches[choice.branch]
+        if isinstance(branch, AfterBranch):
+            continue
+        begins = t1 + (start + choice.frames) * plan.period_us
+        waits = t1 + start * plan.period_us
+        active = [float(e.time_us) for e in evs if e.input == branch.event.input and e.active and e.time_us <= begins]
+        out.append((begins - max(active[-1], waits)) / 1000)
+    return out
+
+
+SCENARIOS = {
+    "nothing": "",
+    "left soon": "50ms left active\n200ms left inactive\n1.5s left active\n1.6s left inactive\n",
+    "right, then left held": "300ms right active\n450ms right inactive\n2.2s left active\n4s left inactive\n",
+    "both at once": "1s left active\n1s right active\n1.3s left inactive\n1.3s right inactive\n"
+                    "3.1s left active\n3.2s left inactive\n",
+    "short blips": "".join(f"{t}ms left active\n{t + 6}ms left inactive\n" for t in range(100, 3000, 137)),
+}
+
+
+@pytest.mark.parametrize("name", sorted(SCENARIOS))
+def test_scenarios_verify_exactly(name):
+    plan, trace, evs, report = run(TWO, SCENARIOS[name], 900)
+    assert report.ok and report.max_error_cycles == 0, (name, report.summary(), [str(m) for m in report.mismatches[:4]])
+    assert all(d <= 2 * plan.period_us / 1000 for d in delays(plan, trace, 900, evs))
+
+
+def test_both_inputs_at_once_take_the_first_branch_written():
+    plan, trace, evs, report = run(TWO, SCENARIOS["both at once"], 900)
+    choices, _ = verify.infer_choices(plan, trace, 900)
+    assert report.ok
+    taken = [c.branch for c in choices]
+    assert 0 in taken and 1 not in taken[:2]     # `on left` is written first
+
+
+def test_a_run_checked_against_other_events_fails():
+    """The trace of one scenario (`left` pressed while the first select waits), checked as if the
+    press had come 300 ms later: the firmware's branch starts before that event."""
+    plan, trace, evs, report = run(TWO, "300ms left active\n400ms left inactive\n", 900)
+    assert report.ok
+    late = events.parse("600ms left active\n700ms left inactive\n", plan.program.inputs)
+    problems = api.check_events(plan, trace, 900, late)
+    assert not problems.ok and any("with no event before it" in m.what for m in problems.mismatches)
+
+
+def test_inverted_input_is_caught():
+    """Firmware that reads `left` the wrong way round (JNB for JB) takes its branch while nobody
+    presses: verify with no events fails."""
+    built = build_text(TWO)
+    text = built.firmware.unit.text
+    assert "JB      P3.2," in text
+    from dataclasses import replace
+    unit = replace(built.firmware.unit, text=text.replace("JB      P3.2,", "JNB     P3.2,"))
+    firmware = api.assemble(unit, api.Reporter(built.source))
+    report = api.verify(built.plan, firmware, 400)
+    assert not report.ok
+
+
+def test_greeter_example_and_its_scenario(capsys):
+    rc = cli.main(["verify", str(ROOT / "examples" / "greeter.servo"),
+                   "--events", str(ROOT / "examples" / "events" / "greeter.events")])
+    out = capsys.readouterr().out
+    assert rc == 0 and ": OK: " in out
+
+
+def test_events_file_errors(tmp_path, capsys):
+    prog = tmp_path / "p.servo"
+    prog.write_text(TWO)
+    for text, message in [("1s door active\n", "`door` is not an input of the program (inputs: left, right)"),
+                          ("1s left pressed\n", "say `active` or `inactive`"),
+                          ('1s "w"\n', "serial bytes need `serial`"),
+                          ("soon left active\n", "is not `TIME NAME active|inactive`")]:
+        ev = tmp_path / "e.events"
+        ev.write_text(text)
+        assert cli.main(["verify", str(prog), "--events", str(ev)]) == 2
+        err = capsys.readouterr().err
+        assert f"{ev}: line 1: " in err and message in err, err
+
+
+@settings(max_examples=5, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(st.lists(st.tuples(st.integers(20, 4000), st.integers(3, 400), st.sampled_from(["left", "right"])),
+                max_size=6))
+def test_random_presses_verify_exactly(presses):
+    lines = []
+    for start, length, name in presses:
+        lines += [(start, f"{start}ms {name} active"), (start + length, f"{start + length}ms {name} inactive")]
+    scenario = "\n".join(text for _, text in sorted(lines)) + "\n"
+    try:
+        plan, trace, evs, report = run(TWO, scenario, 1000)
+    except ValueError:          # two changes in one cycle: not a scenario the format can hold
+        return
+    assert report.ok, (scenario, report.summary(), [str(m) for m in report.mismatches[:4]])
