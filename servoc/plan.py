@@ -308,14 +308,19 @@ def budget(p: Plan) -> Plan:
 
 
 def firmware_stand_in(p: Plan) -> Plan:
-    """The plan, or for a program with selects and sends (which the firmware generator does not
-    build yet) a stand-in to size its frame budget on: each select becomes `repeat 1` of its branches
-    one after another, each send a hold of no frame. Programs without them are returned as they are."""
-    if not any(isinstance(st, (SelectStep, SendStep)) for st in steps(p)):
+    """The plan, or for a program with the serial line (which the firmware generator does not build
+    yet) a stand-in to size its frame budget on: a select that waits for a byte becomes `repeat 1`
+    of its branches one after another, each send a hold of no frame. Selects on inputs stay: the
+    firmware builds them."""
+    def on_byte(st: Step) -> bool:
+        return isinstance(st, SelectStep) and any(
+            not isinstance(b, AfterBranch) and b.event.input is None for b in st.branches)
+
+    if not any(isinstance(st, SendStep) or on_byte(st) for st in steps(p)):
         return p
 
     def swap(st: Step) -> Step:
-        if isinstance(st, SelectStep):
+        if on_byte(st):
             return RepeatStep(1, tuple(x for b in st.branches for x in b.body), st.span)
         if isinstance(st, SendStep):
             return HoldStep(0, Fraction(0), st.span)

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import build_text
-from servoc import api, cli, events, verify
+from servoc import api, cli, codegen, events, verify
 from servoc.plan import AfterBranch
 
 pytestmark = pytest.mark.toolchain
@@ -161,3 +161,17 @@ def test_random_presses_verify_exactly(presses):
     except ValueError:          # two changes in one cycle: not a scenario the format can hold
         return
     assert report.ok, (scenario, report.summary(), [str(m) for m in report.mismatches[:4]])
+
+
+def test_selects_verify_at_their_own_shortest_period():
+    """The shortest period is read from the firmware with its selects (their checks are work
+    between frames), and a run with presses holds it exactly."""
+    fast = TWO.replace("servo arm = P1.0", "servo arm = P1.0 speed 0.0001s/60deg").replace(
+        "servo leg = P2.4", "servo leg = P2.4 speed 0.0001s/60deg")
+    built = build_text(fast)
+    period = built.plan.min_period_us
+    assert period == codegen.generate(built.plan).min_period_us
+    at_min = f"frame {period}us\n" + fast
+    plan, trace, evs, report = run(at_min, SCENARIOS["right, then left held"], 1500)
+    assert plan.period_us == plan.min_period_us == period
+    assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:4]])
