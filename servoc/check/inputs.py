@@ -3,16 +3,15 @@
 
 from __future__ import annotations
 
-import re
 
 from .. import model, nodes
 from ..diagnostics import Label
 from ..printer import format_quantity
 from ..source import Span
 from ..target import BAUD_TOLERANCE, crystal_for, fmt_hz, timer1_baud, working_bauds
+from . import servos
 from .context import Context
 
-_PIN_RE = re.compile(r"([Pp])([0-9]+)\.([0-9]+)\Z")
 SERIAL_PINS = {(3, 0): "RXD", (3, 1): "TXD"}
 NEAREST = 2         # working rates an unmakeable rate's error names
 
@@ -61,21 +60,12 @@ def level(decl: nodes.InputDecl, ctx: Context) -> bool:
     return False
 
 
+INPUT_PINS = (3, "inputs are on P0.0 to P3.7", "a pin of the 8051",
+              "inputs are on P0.0 to P3.7 (ports 0 to 3, bits 0 to 7); P3.2 to P3.7 are the usual choice")
+
+
 def pin(p: nodes.Pin, ctx: Context) -> tuple[int | None, int | None]:
-    m = _PIN_RE.match(p.text)
-    if m is None:
-        ctx.r.error("bad-pin", f"`{p.text}` is not a pin", p.span, help="inputs are on P0.0 to P3.7")
-        return None, None
-    port, bit = int(m.group(2)), int(m.group(3))
-    if m.group(1) == "p":
-        ctx.r.error("bad-pin", f"pins are written with a capital `P`: `P{m.group(2)}.{m.group(3)}`, "
-                    f"not `{p.text}`", p.span)
-        return None, None
-    if not (0 <= port <= 3 and 0 <= bit <= 7):
-        ctx.r.error("bad-pin", f"`{p.text}` is not a pin of the 8051", p.span,
-                    help="inputs are on P0.0 to P3.7 (ports 0 to 3, bits 0 to 7); P3.2 to P3.7 are the usual choice")
-        return None, None
-    return port, bit
+    return servos.pin(p, ctx, INPUT_PINS)
 
 
 def serial(tree: nodes.Program, ctx: Context) -> None:

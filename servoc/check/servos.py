@@ -37,19 +37,25 @@ def servos(tree: nodes.Program, ctx: Context) -> None:
         ctx.servos[name] = options(decl, port or 0, bit or 0, ctx)
 
 
-def pin(p: nodes.Pin, ctx: Context) -> tuple[int | None, int | None]:
+SERVO_PINS = (2, "pins are P0.0 to P2.7", "a servo pin",
+              "the 24 servo channels are P0.0 to P2.7 (ports 0 to 2, bits 0 to 7)")
+
+
+def pin(p: nodes.Pin, ctx: Context, kind: tuple[int, str, str, str] = SERVO_PINS) -> tuple[int | None, int | None]:
+    """The port and bit of a pin; `kind`: the last port allowed, the help for text that is no pin,
+    what a pin out of range is not, and the help for it."""
+    last_port, not_pin_help, what, range_help = kind
     m = _PIN_RE.match(p.text)
     if m is None:
-        ctx.r.error("bad-pin", f"`{p.text}` is not a pin", p.span, help="pins are P0.0 to P2.7")
+        ctx.r.error("bad-pin", f"`{p.text}` is not a pin", p.span, help=not_pin_help)
         return None, None
     port, bit = int(m.group(2)), int(m.group(3))
     if m.group(1) == "p":
         ctx.r.error("bad-pin", f"pins are written with a capital `P`: `P{m.group(2)}.{m.group(3)}`, "
                     f"not `{p.text}`", p.span)
         return None, None
-    if not (0 <= port <= 2 and 0 <= bit <= 7):
-        ctx.r.error("bad-pin", f"`{p.text}` is not a servo pin", p.span,
-                    help="the 24 servo channels are P0.0 to P2.7 (ports 0 to 2, bits 0 to 7)")
+    if not (0 <= port <= last_port and 0 <= bit <= 7):
+        ctx.r.error("bad-pin", f"`{p.text}` is not {what}", p.span, help=range_help)
         return None, None
     return port, bit
 
