@@ -328,6 +328,10 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]))
+    if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
+        raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
+            f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
+            f"machine cycles, longer than the {target.width_cycles(0)} before the earliest fall")
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),

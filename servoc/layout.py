@@ -103,6 +103,12 @@ class SlowServo(LayoutError):
     help = "give the move a duration, or a `speed` the frames-needed table can hold (F < 65536)"
 
 
+class HandlerTooSlow(LayoutError):
+    """The edge handler's run at a port's rise would not end before the earliest fall (N = 0)."""
+    code = "bad-clock"
+    help = "use a faster crystal (or 6T mode), or fewer lines on the port"
+
+
 class PeriodTooLong(LayoutError):
     code = "period-too-long"
     help = "use a shorter `frame`: Timer0 counts at most 65535 machine cycles from edge to edge"

@@ -165,3 +165,12 @@ def test_generated_programs_verify_at_their_reported_minimum(template):
     built = build_text(at_period(template, period))
     report = built.verify(100)
     assert report.ok and report.max_error_cycles == 0, (period, report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
+def test_the_rise_entry_ends_before_the_earliest_fall():
+    """At a port's rise the handler writes the port's edge list; it must return before the first
+    fall (N = 0: C(0) cycles later), at the lowest clock too (10.5 MHz: 438 cycles)."""
+    for line in ("", "target stc89c52rc clock 10.5MHz\n"):
+        built = build_text(line + servos(8) + all_at("a", 8, lambda i: 15 * i) + "main { move a }\n")
+        t = built.plan.program.target
+        assert max(built.firmware.unit.budget.rises) <= t.width_cycles(0)
