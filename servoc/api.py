@@ -200,12 +200,8 @@ def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: l
     """Compare a run driven by `events` with the plan: the branch taken at each select is read from
     the trace (`verify.infer_choices`), then each `on` must start within 2 P of its event."""
     import dataclasses
-    choices, report = _verify.infer_choices(plan_, trace, frames)
-    target = plan_.program.target
-    offsets = _verify.rise_offsets(plan_.ports, target)
-    firsts = [ps[0][0] - offsets[c.port] for c in plan_.channels if (ps := trace.pulses(c.port, c.bit))]
-    t1 = None if not firsts else float(min(firsts) * target.cycle_us)
-    late = _verify.check_event_delays(plan_, choices, events, t1)
+    choices, report = _verify.infer_choices(plan_, trace, frames, events=events)
+    late = _verify.check_event_delays(plan_, choices, events, _verify.first_rise_us(plan_, trace))
     if not late:
         return report
     extra = tuple(_verify.Mismatch(0, "-", "-", None, None, text) for text in late)

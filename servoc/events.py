@@ -65,7 +65,8 @@ def parse(text: str, inputs: tuple[model.Input, ...]) -> list[InputEvent]:
 
 def pin_changes(events: list[InputEvent], inputs: tuple[model.Input, ...], target: Target) -> list[tuple[int, int, int]]:
     """(cycle, port, outside level of the port's pins) for ucsim: every input inactive from cycle 1
-    (an active-high input's pin low), then each event at its machine cycle."""
+    (an active-high input's pin low), then each event at its machine cycle (changes less than
+    MIN_SPACING cycles apart move that much later)."""
     by_name = {i.name: i for i in inputs}
     levels = {p: 0xFF for p in range(4)}
 
@@ -85,5 +86,12 @@ def pin_changes(events: list[InputEvent], inputs: tuple[model.Input, ...], targe
     out: list[tuple[int, int, int]] = []
     for at in sorted(changes):
         for port, level in sorted(changes[at].items()):
-            out.append((at + len([1 for c in out if c[0] >= at]), port, level))   # distinct cycles
+            if out and at < out[-1][0] + MIN_SPACING:
+                at = out[-1][0] + MIN_SPACING
+            out.append((at, port, level))
     return out
+
+
+# ucsim stops once for each change (the run goes on at the next); changes closer than its longest
+# instruction could fall in one, so they are kept this many machine cycles apart.
+MIN_SPACING = 8

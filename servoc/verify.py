@@ -163,10 +163,29 @@ def _first_bad(report: VerifyReport) -> int:
     return min(frames) if frames else report.frames + 1
 
 
-def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200) -> tuple[tuple, VerifyReport]:
+def first_rise_us(plan: Plan, trace: SimTrace) -> float | None:
+    """The first frame's rise of the first port, from reset, in µs (None: no pulse)."""
+    target = plan.program.target
+    offsets = rise_offsets(plan.ports, target)
+    firsts = [ps[0][0] - offsets[c.port] for c in plan.channels if (ps := trace.pulses(c.port, c.bit))]
+    return None if not firsts else float(min(firsts) * target.cycle_us)
+
+
+def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
+                  events: list | None = None) -> tuple[tuple, VerifyReport]:
     """The branch the firmware took at each select, found from the trace: select by select, in
     the order reached, the choice (branch, frames waited) whose golden frames match the trace the
-    furthest. Returns the choices and the report for them."""
+    furthest; between choices that match as far (two branches can make the same pulses), one
+    whose input was active by then. Returns the choices and the report for them."""
+    t1 = first_rise_us(plan, trace) if events else None
+
+    def plausible(select, cand, start, lead) -> bool:
+        branch = select.branches[cand.branch]
+        if t1 is None or isinstance(branch, AfterBranch):
+            return True
+        begins = t1 + (start + cand.frames - lead) * plan.period_us
+        return any(e.input == branch.event.input and e.active and e.time_us <= begins for e in events)
+
     choices: tuple = ()
     report = verify(plan, trace, frames, choices)
     for _ in range(limit):
@@ -190,9 +209,28 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200) ->
         best = None
         for cand in cands:
             r = verify(plan, trace, frames, choices + (cand,))
-            key = (_first_bad(r), -abs(cand.frames - waited))
+            key = (_first_bad(r), plausible(select, cand, start, lead), -abs(cand.frames - waited))
             if best is None or key > best[0]:
                 best = (key, cand, r)
+        if best is not None and not best[0][1]:
+            # The best fit has no event behind it: a branch whose first frames change nothing can
+            # look like waiting longer. Look further back for one that has.
+            for k, br in enumerate(select.branches):
+                if isinstance(br, AfterBranch) or t1 is None:
+                    continue
+                near: set[int] = set()          # a frame or three after each time its input went active
+                for e in events:
+                    if e.input == br.event.input and e.active:
+                        first = int((float(e.time_us) - t1) / plan.period_us) + lead - start
+                        near.update(w for w in range(first - 1, first + 4) if 0 <= w < max(0, waited - 3))
+                for w in sorted(near):
+                    cand = Choice(k, w)
+                    if not plausible(select, cand, start, lead):
+                        continue
+                    r = verify(plan, trace, frames, choices + (cand,))
+                    key = (_first_bad(r), True, -abs(w - waited))
+                    if key[0] >= best[0][0] and key > best[0]:
+                        best = (key, cand, r)
         if best is None or best[0][0] < bad:
             break
         choices, report = choices + (best[1],), best[2]

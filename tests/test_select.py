@@ -175,3 +175,4 @@ def test_selects_verify_at_their_own_shortest_period():
     plan, trace, evs, report = run(at_min, SCENARIOS["right, then left held"], 1500)
     assert plan.period_us == plan.min_period_us == period
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:4]])
+
