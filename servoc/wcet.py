@@ -6,11 +6,12 @@ assembles), gives every instruction its machine cycles (the 8051's own table,
 checked against the assembler's listing in the tests), and finds the longest
 path between two frames.
 
-A frame starts where the program calls `frame_io` (it waits for the Timer2
-tick, then pulses every port in a routine of fixed length). After a frame the
-firmware resumes right behind one of those calls; the longest path from any
-resume point to the next `LCALL frame_io` is the work that must fit between
-two ticks. The analysis is interprocedural: a called routine is followed to
+A frame starts where the program calls `frame_io` (it hands the frame's N,
+port by port, to the Timer0 edge handler). After a frame the firmware resumes
+right behind one of those calls; the longest path from any resume point to
+the next `LCALL frame_io` is the work that must fit in a frame (`costs.py`
+adds each port's sort and the handler's load; `Code.longest` reads those
+paths between labels). The analysis is interprocedural: a called routine is followed to
 its RET and back; a RET of the routine the path started in goes on behind
 every call of that routine. Conditional branches count both ways (so a move
 record is charged as if it named every servo and every pin carried). Code
