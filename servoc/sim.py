@@ -105,6 +105,8 @@ PORT_SFR: dict[int, int] = {0: 0x80, 1: 0x90, 2: 0xA0, 3: 0xB0}
 
 _MARK_BASE = 3141500  # marker printed before each event: _MARK_BASE + port
 _MARK_END = _MARK_BASE + 99  # marker printed before the final tick count
+_MARK_INPUT = _MARK_BASE + 50  # marker printed after the run stopped for an input change
+
 _TICKS_WRAP = 1 << 32  # sim_ticks is a 32-bit unsigned value
 _STATE_CLKS_RE = re.compile(r"^Total time since last reset=.*\((\d+) clks\)")
 
@@ -115,6 +117,10 @@ class SimError(Exception):
     def __init__(self, message: str, output: str = ""):
         super().__init__(message)
         self.output = output
+
+class MissedInput(SimError):
+    """ucsim stopped for an input change later than asked (a port-write breakpoint in the same
+    instruction went on with the run): the changes came at the wrong times."""
 
 
 @dataclass(frozen=True)
@@ -221,7 +227,7 @@ def _script(hex_name: str, limit_name: str, ports: Iterable[int],
     ]
     # Each input change is an event of the VCD unit: the run stops there, the pins change, it goes on.
     for _, port, level in inputs:
-        lines += ["run", f"set hardware port[{port}] {level:#04x}"]
+        lines += ["run", f"expr {_MARK_INPUT} /u sim_ticks", f"set hardware port[{port}] {level:#04x}"]
     lines += [
         "run",
         f"expr {_MARK_END} /u sim_ticks",
@@ -247,7 +253,11 @@ def _limit_vcd(cycles: int, xtal_hz: int = XTAL_HZ, stops: tuple[int, ...] = ())
     )
     for k, at in enumerate(stops):
         text += f"#{round((at - 0.5) * cycle_ps)}\nb{(k + 1) % 256:08b} \"\n"
-    return text + f"#{round((cycles - 0.5) * cycle_ps)}\nb00000001 !\n"
+    text += f"#{round((cycles - 0.5) * cycle_ps)}\nb00000001 !\n"
+    # If ucsim ran past a stop, the script's remaining runs end on these instead of running on.
+    for k in range(len(stops)):
+        text += f"#{round((cycles + 20 + 8 * k) * cycle_ps)}\nb{(len(stops) + k + 1) % 256:08b} \"\n"
+    return text
 
 
 def run(
@@ -316,7 +326,19 @@ def run(
             raise
     out = out_b.decode("utf-8", "replace")
     err = err_b.decode("utf-8", "replace")
-    return _parse(out, err, proc.returncode, cycles, n_bytes)
+    trace = _parse(out, err, proc.returncode, cycles, n_bytes)
+    lines = out.splitlines()
+    stopped = [int(lines[i + 1]) for i, ln in enumerate(lines) if ln == str(_MARK_INPUT) and i + 1 < len(lines)]
+    for (at, _, _), ticks in zip(changes, stopped):
+        if not at <= _to_cycles_floor(ticks) <= at + 8:
+            raise MissedInput(f"the input change for cycle {at} came at cycle {_to_cycles_floor(ticks)}")
+    if len(stopped) != len(changes):
+        raise MissedInput(f"{len(stopped)} of {len(changes)} input changes made")
+    return trace
+
+
+def _to_cycles_floor(ticks: int) -> int:
+    return ticks // CLOCKS_PER_CYCLE
 
 
 def _tail(text: str, n: int = 40) -> str:

@@ -178,6 +178,10 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
     furthest; between choices that match as far (two branches can make the same pulses), one
     whose input was active by then. Returns the choices and the report for them."""
     t1 = first_rise_us(plan, trace) if events else None
+    if t1 is not None:
+        modelled = model_choices(plan, trace, frames, events, t1)
+        if modelled is not None:
+            return modelled
 
     def plausible(select, cand, start, lead) -> bool:
         branch = select.branches[cand.branch]
@@ -235,6 +239,57 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
             break
         choices, report = choices + (best[1],), best[2]
     return choices, report
+
+
+PHASES = 64     # where in the frame the firmware may look at its inputs: tried at P/64 apart
+
+
+def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: float) -> tuple | None:
+    """The choices the firmware makes if it looks at its inputs once a frame at a fixed phase:
+    a waiting select checks right after each frame_io returns, which happens at the same point
+    of every frame. The phase is not known here, so each of PHASES phases is tried; the first
+    whose run matches the trace exactly is returned (None: none does)."""
+    period = plan.period_us
+    by_input: dict[str, list] = {}
+    for e in events:
+        by_input.setdefault(e.input, []).append(e)
+
+    def active(name: str, t: float) -> bool:
+        state = False
+        for e in by_input.get(name, ()):
+            if float(e.time_us) > t:
+                break
+            state = e.active
+        return state
+
+    for step in range(PHASES):
+        phase = period * step / PHASES
+        choices: tuple = ()
+        while True:
+            reached: list = []
+            lead = first_pulse_frame(plan, choices) or 0
+            for _ in itertools.islice(expand(plan, choices, reached), lead + frames):
+                if len(reached) > len(choices):
+                    break
+            if len(reached) <= len(choices):
+                break
+            start, select = reached[len(choices)]
+            pick = None
+            for j in range(lead + frames - start + 1):
+                at = t1 + (start - 1 + j - lead) * period + phase
+                pick = next((Choice(k, j) for k, br in enumerate(select.branches)
+                             if not isinstance(br, AfterBranch) and active(br.event.input, at)), None)
+                if pick is None and select.after is not None and j == select.after.frames:
+                    pick = Choice(len(select.branches) - 1, j)
+                if pick is not None:
+                    break
+            if pick is None:
+                break                           # it waits past the frames checked
+            choices += (pick,)
+        report = verify(plan, trace, frames, choices)
+        if report.ok:
+            return choices, report
+    return None
 
 
 def check_event_delays(plan: Plan, choices: tuple, events: list, t1_us: float | None) -> list[str]:
