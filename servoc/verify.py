@@ -171,6 +171,17 @@ def first_rise_us(plan: Plan, trace: SimTrace) -> float | None:
     return None if not firsts else float(min(firsts) * target.cycle_us)
 
 
+def selects_reached(plan: Plan, choices: tuple, frames: int) -> tuple[int, list]:
+    """(the first pulse's frame, the selects reached as (frames before it, select)) of the run
+    `choices` make, up to one select past them or `frames` frames from the first pulse."""
+    reached: list = []
+    lead = first_pulse_frame(plan, choices) or 0
+    for _ in itertools.islice(expand(plan, choices, reached), lead + frames):
+        if len(reached) > len(choices):
+            break
+    return lead, reached
+
+
 def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
                   events: list | None = None) -> tuple[tuple, VerifyReport]:
     """The branch the firmware took at each select, found from the trace: select by select, in
@@ -196,11 +207,7 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
         if report.ok:
             break
         bad = _first_bad(report)
-        reached: list = []
-        lead = first_pulse_frame(plan, choices) or 0
-        for _ in itertools.islice(expand(plan, choices, reached), lead + frames):
-            if len(reached) > len(choices):
-                break
+        lead, reached = selects_reached(plan, choices, frames)
         if len(reached) <= len(choices):
             break                               # no select left to decide: a real mismatch
         start, select = reached[len(choices)]
@@ -266,11 +273,7 @@ def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: fl
         phase = period * step / PHASES
         choices: tuple = ()
         while True:
-            reached: list = []
-            lead = first_pulse_frame(plan, choices) or 0
-            for _ in itertools.islice(expand(plan, choices, reached), lead + frames):
-                if len(reached) > len(choices):
-                    break
+            lead, reached = selects_reached(plan, choices, frames)
             if len(reached) <= len(choices):
                 break
             start, select = reached[len(choices)]
@@ -292,32 +295,35 @@ def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: fl
     return None
 
 
-def check_event_delays(plan: Plan, choices: tuple, events: list, t1_us: float | None) -> list[str]:
-    """Each `on` branch taken must start within 2 P of its input becoming active, or of the select
-    beginning to wait if the input was active already (the spec's sampling rule): the problems
-    found, as text. `t1_us`: the first frame's rise, from reset."""
-    problems: list[str] = []
-    if t1_us is None:
-        return problems
-    reached: list = []
-    lead = first_pulse_frame(plan, choices) or 0
-    total = sum(c.frames for c in choices) + lead + 10_000
-    for _ in itertools.islice(expand(plan, choices, reached), total):
-        if len(reached) > len(choices):
-            break
+def event_delays(plan: Plan, choices: tuple, events: list, t1_us: float) -> list[tuple[str, float, float | None]]:
+    """For each `on` branch taken: (its event as written, its first rise from reset in µs, the µs
+    from its input becoming active, or from the select beginning to wait if the input was active
+    already, to that rise; None when no event came before it). `t1_us`: the first frame's rise."""
+    out = []
+    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 10_000)
     period = plan.period_us
     for (start, select), choice in zip(reached, choices):
         branch = select.branches[choice.branch]
         if isinstance(branch, AfterBranch):
             continue
-        first = start + choice.frames                   # index of the branch's first frame
-        begins = t1_us + (first - lead) * period        # its first rise, from reset
-        waits = t1_us + (start - lead) * period         # the select began to wait (an input already
-        name = branch.event.input                       # active then counts from there)
-        active = [e.time_us for e in events if e.input == name and e.active and e.time_us <= begins]
-        if not active:
-            problems.append(f"`on {branch.event.text}` taken at {begins / 1000:.3f} ms with no event before it")
-        elif begins - max(float(active[-1]), waits) > 2 * period:
-            problems.append(f"`on {branch.event.text}` started {(begins - max(float(active[-1]), waits)) / 1000:.3f} "
-                            f"ms after its event, more than 2 P")
+        begins = t1_us + (start + choice.frames - lead) * period     # the branch's first rise
+        waits = t1_us + (start - lead) * period                      # the select began to wait
+        active = [float(e.time_us) for e in events
+                  if e.input == branch.event.input and e.active and e.time_us <= begins]
+        out.append((branch.event.text, begins, begins - max(active[-1], waits) if active else None))
+    return out
+
+
+def check_event_delays(plan: Plan, choices: tuple, events: list, t1_us: float | None) -> list[str]:
+    """Each `on` branch taken must start within 2 P of its input becoming active, or of the select
+    beginning to wait if the input was active already (the spec's sampling rule): the problems
+    found, as text. `t1_us`: the first frame's rise, from reset."""
+    if t1_us is None:
+        return []
+    problems: list[str] = []
+    for text, begins, delay in event_delays(plan, choices, events, t1_us):
+        if delay is None:
+            problems.append(f"`on {text}` taken at {begins / 1000:.3f} ms with no event before it")
+        elif delay > 2 * plan.period_us:
+            problems.append(f"`on {text}` started {delay / 1000:.3f} ms after its event, more than 2 P")
     return problems

@@ -9,7 +9,6 @@ if the input was active already).
 
 from __future__ import annotations
 
-import itertools
 from pathlib import Path
 
 import pytest
@@ -17,7 +16,6 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import build_text
 from servoc import api, cli, codegen, events, verify
-from servoc.plan import AfterBranch
 
 pytestmark = pytest.mark.toolchain
 
@@ -59,24 +57,10 @@ def run(text: str, scenario: str, frames: int):
 
 def delays(plan, trace, frames, evs) -> list[float]:
     """Event to the first rise of the branch it started, in ms, for every `on` taken."""
-    choices, _ = verify.infer_choices(plan, trace, frames)
-    offsets = verify.rise_offsets(plan.ports, plan.program.target)
-    t1 = min(ps[0][0] - offsets[c.port] for c in plan.channels if (ps := trace.pulses(c.port, c.bit)))
-    t1 *= float(plan.program.target.cycle_us)
-    reached: list = []
-    for _ in itertools.islice(verify.expand(plan, choices, reached), 20_000):
-        if len(reached) > len(choices):
-            break
-    out = []
-    for (start, select), choice in zip(reached, choices):
-        branch = select.branches[choice.branch]
-        if isinstance(branch, AfterBranch):
-            continue
-        begins = t1 + (start + choice.frames) * plan.period_us
-        waits = t1 + start * plan.period_us
-        active = [float(e.time_us) for e in evs if e.input == branch.event.input and e.active and e.time_us <= begins]
-        out.append((begins - max(active[-1], waits)) / 1000)
-    return out
+    choices, _ = verify.infer_choices(plan, trace, frames, events=evs)
+    found = verify.event_delays(plan, choices, evs, verify.first_rise_us(plan, trace))
+    assert all(delay is not None for _, _, delay in found)
+    return [delay / 1000 for _, _, delay in found]
 
 
 SCENARIOS = {
