@@ -43,7 +43,8 @@ STEP = 7            # the shortest step between two edges of one entry
 # Overflow to the first edge of an entry: the vector (PUSH PSW, PUSH ACC, LJMP: 6),
 # MOV A,TL0 (1), the cascade (2 a bit, and 31 - v NOPs for v = TL0 read), MOV PSW (2),
 # PUSH DPL/DPH (4), MOV DPL/DPH (4), MOV A,R6 (1), JMP (2), and the edge's 3; with
-# v = latency + 7 this is 57 whatever the latency (measured in ucsim).
+# v = latency + 7 this is 57 whatever the latency (`tests/test_costs.py` reads TL0 at each
+# such edge in ucsim).
 ENTRY = 57
 # The last edge of an entry to the end of its RETI on the longest exit: the step's
 # read and jump (4), LJMP (2), exit_far (28), MOV R6 (1), the add to SETB (8), POPs (8),

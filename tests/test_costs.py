@@ -174,3 +174,24 @@ def test_the_rise_entry_ends_before_the_earliest_fall():
         built = build_text(line + servos(8) + all_at("a", 8, lambda i: 15 * i) + "main { move a }\n")
         t = built.plan.program.target
         assert max(built.firmware.unit.budget.rises) <= t.width_cycles(0)
+
+
+def test_each_entry_edge_comes_entry_cycles_after_the_overflow(tmp_path):
+    """ENTRY measured in ucsim: at every port write that starts a handler entry (a rise, or the first
+    fall of a cluster: here every edge, the lines are far apart), TH0:TL0 reads exactly ENTRY, the
+    cycles since Timer0 overflowed, whatever the entry latency was."""
+    import subprocess
+    from servoc import toolchain
+    built = build_text("frame 3ms\n" + servos(3) + all_at("a", 3, lambda i: 20 + 90 * i) + "main { move a }\n")
+    (tmp_path / "fw.ihx").write_text(built.firmware.hex_text)
+    (tmp_path / "lim.vcd").write_text("$timescale 1ns $end\n$scope module l $end\n$var wire 8 ! variables[0xf0] $end\n"
+                                      "$upscope $end\n$enddefinitions $end\n#40000000\nb00000001 !\n")
+    (tmp_path / "run.cmd").write_text(
+        'file "fw.ihx"\nbreak sfr w 0x80\ncommands expr 7717 /u sfr[0x8c] /u sfr[0x8a];run\n'
+        'set hardware vcd[0] input "lim.vcd"\nset hardware vcd[0] break\nset hardware vcd[0] start\nrun\nkill\n')
+    out = subprocess.run([toolchain.find_tool("s51"), "-b", "-t", "C52", "-X", "12M", "-C", "run.cmd"], cwd=tmp_path,
+                         stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120).stdout.splitlines()
+    timers = [(int(out[i + 1]), int(out[i + 2])) for i, line in enumerate(out) if line == "7717"]
+    edges = timers[1:]                          # the first write is the reset's
+    assert len(edges) >= 40                     # a rise and three falls a frame, 12 frames and more
+    assert set(edges) == {(0, costs.ENTRY)}
