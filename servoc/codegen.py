@@ -367,6 +367,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
                       "rnext": (period_cycles if last else rise[nxt]) - rise[port]})
         ports[-1]["s"] = len(ports[-1]["pins"])
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
+        ports[-1]["rest_add"] = (costs.STOP - ports[-1]["rnext"]) % 0x10000   # no fall: straight to the next rise
     most = max((p["s"] for p in ports), default=1)
     ram.alloc("ITEMS", 1 + 3 * (most - 1) + 3, "the handler's items for the port being pulsed")
     ram.alloc("RISEM", 1, "the lines of the next port to rise that have a target")
@@ -388,7 +389,10 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
                  "MOVC    A, @A+DPTR", "XCH     A, R7", "INC     DPH", "MOVC    A, @A+DPTR", "XCH     A, R7"]
     sizes = sorted({p["s"] for p in ports})
     return {
-        "window_bits": costs.WINDOW_BITS, "stop": costs.STOP, "entry": costs.ENTRY, "split": costs.SPLIT,
+        "window": 2 ** costs.WINDOW_BITS, "cascade": [(k, 2 ** k) for k in range(costs.WINDOW_BITS)],
+        "stop": costs.STOP, "add": costs.STOP + 1,        # ~interval + STOP + 1 = 65536 - interval + STOP
+        "entry": costs.ENTRY, "split": costs.SPLIT, "sled_add": costs.SLED + 8,   # ~gap + SLED + 8 = SLED + 7 - gap
+        "later": list(range(1, most)), "dm_before": 8 - 1,    # DM of the distinct N before: R0 + 8 - 1
         "sled": costs.SLED, "fall_off": costs.SLED, "exit_off": costs.SLED + 7,
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn,

@@ -598,7 +598,7 @@ di2_1:
 ; Every edge of a frame comes from the Timer0 handler. The handler reads TL0
 ; (the cycles since the overflow, entry latency included) and pads itself to a
 ; fixed point, so the latency (3 to 9 cycles on an 8051, more while the
-; background holds interrupts off, within the 32-cycle window) never
+; background holds interrupts off, within the 32 values its pad reads) never
 ; moves an edge. Edges less than 111 cycles apart run in one entry, each a
 ; step into its port's NOP sled: 7 cycles + the sled. Between entries an exit
 ; stops Timer0 for exactly 7 cycles and adds (65536 - interval + 7) to it:
