@@ -221,8 +221,9 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
         ops: list[dict] = []
         _ops(ctx, br.body, ops)
         if isinstance(br, AfterBranch):
-            if br.frames >= 0xFFFF:
-                raise layout.SlowServo("an `after` of 65535 frames or more")
+            if br.frames > layout.MAX_AFTER_FRAMES:      # lint's `too-long` reports this first
+                raise layout.AfterTooLong(f"this `after` waits {br.frames} frames; the firmware counts at most "
+                                          f"{layout.MAX_AFTER_FRAMES}")
             after = {"frames": br.frames + 1, "ops": ops, "where": ctx.where(br.span)}
             continue
         pin = inputs[br.event.input]

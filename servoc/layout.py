@@ -109,6 +109,15 @@ class HandlerTooSlow(LayoutError):
     help = "use a faster crystal (or 6T mode), or fewer lines on the port"
 
 
+# A select's `after` F is counted as F + 1 checks in 16 bits (the last check takes it).
+MAX_AFTER_FRAMES = 0xFFFE
+
+
+class AfterTooLong(LayoutError):
+    code = "too-long"
+    help = "wait in several steps: an inner `select` in the `after` branch"
+
+
 class PeriodTooLong(LayoutError):
     code = "period-too-long"
     help = "use a shorter `frame`: Timer0 counts at most 65535 machine cycles from edge to edge"

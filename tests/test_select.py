@@ -160,3 +160,19 @@ def test_selects_verify_at_their_own_shortest_period():
     assert plan.period_us == plan.min_period_us == period
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:4]])
 
+
+
+def test_the_longest_after_the_firmware_counts():
+    """An `after` of MAX_AFTER_FRAMES frames compiles (F + 1 checks fit 16 bits); one frame more is
+    `too-long` in lint, before any firmware."""
+    from conftest import front_end_text
+    from servoc import layout
+    base = ("frame 3ms\ninput b = P3.2\nservo a = P1.0\npose p {{ a: 10 }}\n"
+            "main {{ move p; select {{ on b {{ move p }}; after {ms}ms {{ move p }} }} }}\n")
+    most = base.format(ms=3 * layout.MAX_AFTER_FRAMES)
+    built = build_text(most)
+    assert built.firmware is not None
+    select = next(st for st in built.plan.main if hasattr(st, "branches"))
+    assert select.after.frames == layout.MAX_AFTER_FRAMES
+    _, diags = front_end_text(base.format(ms=3 * (layout.MAX_AFTER_FRAMES + 1)))
+    assert [d.code for d in diags if d.is_error] == ["too-long"]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
+from ...layout import MAX_AFTER_FRAMES
 from ...plan import MoveStep, Plan, RepeatStep, SelectStep, steps
 from .. import Report, rule
 
@@ -19,8 +20,8 @@ def too_long(plan: Plan, report: Report) -> None:
                    st.span, help="split it into several statements (e.g. a repeat around a shorter one)")
     for st in steps(plan):
         after = st.after if isinstance(st, SelectStep) else None
-        if after is not None and after.frames > MAX_FRAMES:
-            report(f"this `after` waits {after.frames} frames; the firmware counts at most {MAX_FRAMES}",
+        if after is not None and after.frames > MAX_AFTER_FRAMES:
+            report(f"this `after` waits {after.frames} frames; the firmware counts at most {MAX_AFTER_FRAMES}",
                    after.span, help="wait in several steps: an inner `select` in the `after` branch")
     for inst in plan.moves:
         if isinstance(inst.step, MoveStep) and inst.step.frames is None and inst.frames > MAX_FRAMES:
