@@ -424,7 +424,7 @@ def test_period_rules_name_the_minimum():
     assert "period-too-short" not in codes(at_min)
     below = at_min.replace(f"{plan.min_period_us}us", f"{plan.min_period_us - 1}us")
     assert "period-too-short" in codes(below)
-    # 65535 us is the longest Timer2 period
+    # 65535 us is the longest period Timer0 counts at 12 MHz
     assert "period-too-long" not in codes(at_min.replace(f"{plan.min_period_us}us", "65535us"))
     assert "period-too-long" in codes(at_min.replace(f"{plan.min_period_us}us", "65536us"))
 
