@@ -16,7 +16,7 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass, field
 
-from .plan import AfterBranch, Choice, Plan, SelectStep, expand
+from .plan import AfterBranch, Choice, Plan, expand
 from .sim import SimTrace
 from .costs import rise_offsets
 RESET_LOW_US = 20          # servo lines low this soon after reset
