@@ -15,13 +15,13 @@ import os
 from dataclasses import dataclass
 
 from . import check as _check
-from . import codegen, layout, lint as _lint, nodes, syntax, toolchain, walk
+from . import codegen, layout, lint as _lint, syntax, toolchain
 from . import plan as _plan
 from . import sim as _sim
 from . import verify as _verify
 from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
-from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target
+from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
 
 ToolNotFound = toolchain.ToolNotFound
 write_atomic = toolchain.write_atomic
@@ -149,32 +149,10 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
     return Firmware(unit, image, toolchain.rom_used(image.hex_text), room.runtime, room.program, room.data)
 
 
-NOT_IN_FIRMWARE = (nodes.SerialDecl, nodes.SendStmt)
-
-
-def not_in_firmware(tree) -> object | None:
-    """The first declaration or statement, in source order, that the firmware generator does not
-    build yet (`serial`, `send`); None when there is none."""
-    found = [item for item in tree.items if isinstance(item, NOT_IN_FIRMWARE)]
-    bodies = [item.body for item in tree.items if isinstance(item, (nodes.SequenceDecl, nodes.MainDecl))]
-    found += [st for st in walk.statements(bodies) if isinstance(st, NOT_IN_FIRMWARE)]
-    return min(found, key=lambda n: n.span.start, default=None)
-
-
 def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | None]:
-    """The whole compile: front end, then code generation and assembly if there were no errors.
-    A program with the serial line is refused (`not-in-firmware`): `lint` and `plan` check it
-    fully, but the firmware for `serial` and `send` is not built yet."""
+    """The whole compile: front end, then code generation and assembly if there were no errors."""
     fe = front_end(source, reporter)
     if fe.plan is None or reporter.has_errors:
-        return fe, None
-    first = not_in_firmware(fe.tree)
-    if first is not None:
-        word = {nodes.SerialDecl: "serial", nodes.SendStmt: "send"}[type(first)]
-        reporter.error("not-in-firmware", f"the firmware generator does not support `{word}` yet",
-                       Span(first.span.start, first.span.start + len(word)),
-                       help="`servoc lint` and `servoc plan` check this program fully (every branch is "
-                            "speed-checked), but firmware with `serial` and `send` cannot be built yet")
         return fe, None
     unit = generate(fe.plan, source, reporter)
     if unit is None:
@@ -182,27 +160,46 @@ def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | 
     return fe, assemble(unit, reporter)
 
 
+@dataclass(frozen=True)
+class Stimulus:
+    """What ucsim drives: the pins the firmware reads and, with `serial`, the bytes the host sends."""
+    pins: tuple = ()                 # (cycle, port, outside level of its pins)
+    uart: tuple | None = None        # (cycle, on) of the UART's "check input" flag; None: no serial line
+    rx: bytes = b""                  # the bytes it releases, in order
+
+    def last(self) -> int:
+        return max([at for at, *_ in self.pins] + [at for at, _ in self.uart or ()], default=0)
+
+
+def stimulus(plan_: _plan.Plan, events: list = ()) -> Stimulus:
+    """The run `events` (of servoc.events) describe: every input inactive from the first cycle (an
+    active-high input's pin held low), then each change; each line of bytes sent to the UART."""
+    from . import events as _events
+    target = plan_.program.target
+    pins = _events.pin_changes(list(events), plan_.program.inputs, target)
+    if plan_.program.serial is None:
+        return Stimulus(tuple(pins))
+    rx, windows = _events.uart_windows(list(events), byte_cycles(plan_.program.serial.th1, plan_.program.serial.smod), target)
+    pins, windows = _events.spaced(pins, windows)
+    return Stimulus(tuple(pins), tuple(windows), rx)
+
+
 def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
-             inputs: tuple = ()) -> _sim.SimTrace:
+             stim: Stimulus = Stimulus()) -> _sim.SimTrace:
     """Run an Intel HEX image in ucsim for `cycles` machine cycles of `target`, recording every port
-    write (a 6T chip runs as ucsim's 12-clock core at twice its crystal: the same machine cycle).
-    `inputs`: (cycle, port, level) changes of the pins the firmware reads. Should ucsim make one
-    late (it can, when a port write falls in the same instruction), the run is made again with
-    the changes a cycle or two later, which the firmware reads no differently."""
+    write and every byte sent (a 6T chip runs as ucsim's 12-clock core at twice its crystal: the
+    same machine cycle). Should ucsim make a change of `stim` late (it can, when a port write falls
+    in the same instruction), the run is made again with the changes a cycle or two later, which
+    the firmware reads no differently."""
     for shift in range(4):
-        moved = tuple((at + shift * (at > 1), port, level) for at, port, level in inputs)
+        pins = tuple((at + shift * (at > 1), port, level) for at, port, level in stim.pins)
+        uart = None if stim.uart is None else tuple((at + shift, on) for at, on in stim.uart)
         try:
-            return _sim.run(hex_text, cycles + 4, xtal_hz=target.sim_hz, inputs=moved)
+            return _sim.run(hex_text, cycles + 4, xtal_hz=target.sim_hz, inputs=pins, uart=uart, rx=stim.rx)
         except _sim.MissedInput:
             if shift == 3:
                 raise
     raise AssertionError("unreachable")
-
-
-def resting_inputs(plan_: _plan.Plan) -> tuple:
-    """Every input inactive from the first cycle (an active-high input's pin held low)."""
-    from . import events as _events
-    return tuple(_events.pin_changes([], plan_.program.inputs, plan_.program.target))
 
 
 def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list) -> _verify.VerifyReport:
@@ -234,5 +231,5 @@ def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.Verify
 
 def verify_hex(plan_: _plan.Plan, hex_text: str, frames: int) -> _verify.VerifyReport:
     """Simulate a HEX image (built from this plan, or given) and compare `frames` frames with the plan."""
-    trace = simulate(hex_text, cycles_needed(plan_, frames), plan_.program.target, resting_inputs(plan_))
+    trace = simulate(hex_text, cycles_needed(plan_, frames), plan_.program.target, stimulus(plan_))
     return check_trace(plan_, trace, frames)

@@ -305,12 +305,13 @@ def _main(argv: list[str], run: _Run) -> int:
     if hex_text is None:
         hex_text = firmware.hex_text
     events = None
-    changes = api.resting_inputs(plan)
+    stim = api.stimulus(plan)
     if getattr(args, "events", None):
         from . import events as _events
         try:
             with open(args.events, encoding="utf-8") as fh:
-                events = _events.parse(fh.read(), plan.program.inputs)
+                events = _events.parse(fh.read(), plan.program.inputs, plan.program.serial is not None)
+            stim = api.stimulus(plan, events)
         except OSError as exc:
             raise _Stop(f"cannot read {args.events}: {exc.strerror or exc}") from None
         except UnicodeDecodeError:
@@ -320,15 +321,14 @@ def _main(argv: list[str], run: _Run) -> int:
         if events and not args.frames:     # the run goes on 2 s past the last event
             last = max(e.time_us for e in events)
             frames = max(frames, int((last + 2_000_000) / plan.period_us) + 1)
-        changes = tuple(_events.pin_changes(events, plan.program.inputs, plan.program.target))
     progress = _color(sys.stderr) and not run.json
     try:
         if progress:
             sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
         cycles = api.cycles_needed(plan, frames)
-        if changes and changes[-1][0] >= cycles:
-            cycles = changes[-1][0] + 1
-        trace = api.simulate(hex_text, cycles, plan.program.target, changes)
+        if stim.last() >= cycles:
+            cycles = stim.last() + 1
+        trace = api.simulate(hex_text, cycles, plan.program.target, stim)
         if progress:
             sys.stderr.write(" " * 60 + "\r")
     except api.ToolNotFound as exc:

@@ -29,8 +29,8 @@ from . import costs
 from . import wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .plan import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, Step, steps,
-                   takes_frames)
+from .plan import (UNBOUNDED, AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
+                   send_gap, send_run, sends, steps, takes_frames)
 from .source import SourceFile
 from .units import N_MAX
 
@@ -108,6 +108,7 @@ class _Ctx:
     labels: int = 0
     owner: str = "main"              # whose statements are being laid out, for the ROM breakdown
     frames_memo: dict = field(default_factory=dict)   # plan.takes_frames of each sequence
+    sends_memo: dict = field(default_factory=dict)    # plan.sends of each sequence
 
     def label(self, prefix: str) -> str:
         self.labels += 1
@@ -185,9 +186,19 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             flush()
             out.append(_select_op(ctx, st))
             continue
-        if not takes_frames((st,), ctx.plan, ctx.frames_memo):
-            continue            # takes no frame: no code, so nothing it does can delay a frame
+        if isinstance(st, SendStep):
+            flush()
+            out.append({"op": "send", "byte": st.byte, "text": st.text, "where": ctx.where(st.span)})
+            continue
+        framed = takes_frames((st,), ctx.plan, ctx.frames_memo)
+        if not framed and not sends((st,), ctx.plan, ctx.sends_memo):
+            continue            # takes no frame and sends nothing: no code, so it cannot delay a frame
         where = ctx.where(st.span)
+        if not framed and isinstance(st, RepeatStep):
+            flush()             # sends only (at most QUEUE bytes in all, checked first): written out
+            for _ in range(st.count):
+                _ops(ctx, st.body, out)
+            continue
         if isinstance(st, MoveStep):
             run.append(_move_record(ctx, st, known))
             continue
@@ -211,9 +222,10 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
 
 
 def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
-    """A select: each frame it looks at its inputs in the order written and runs the first
-    branch whose input is active; with `after`, once F frames passed with none, the after branch.
-    While it waits, frame_io repeats the current targets."""
+    """A select: after each frame it looks at its events in the order written and runs the first
+    branch whose input is active or whose byte is the oldest received; a byte no `on` takes is
+    dropped. With `after`, once F frames passed with none, the after branch. While it waits,
+    frame_io repeats the current targets."""
     inputs = {i.name: i for i in ctx.plan.program.inputs}
     lab = ctx.label("sel")
     ons, after = [], None
@@ -224,12 +236,15 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
             if br.frames > layout.MAX_AFTER_FRAMES:      # lint's `too-long` reports this first
                 raise layout.AfterTooLong(f"this `after` waits {br.frames} frames; the firmware counts at most "
                                           f"{layout.MAX_AFTER_FRAMES}")
-            after = {"frames": br.frames + 1, "ops": ops, "where": ctx.where(br.span)}
+            after = {"frames": max(1, br.frames), "ops": ops, "where": ctx.where(br.span)}
             continue
-        pin = inputs[br.event.input]
-        ons.append({"k": k, "ops": ops, "port": pin.port, "bit": pin.bit, "active_high": pin.active_high,
-                    "text": br.event.text, "where": ctx.where(br.span)})
-    return {"op": "select", "label": lab, "ons": ons, "after": after, "where": ctx.where(st.span)}
+        on = {"k": k, "ops": ops, "byte": br.event.byte, "text": br.event.text, "where": ctx.where(br.span)}
+        if br.event.input is not None:
+            pin = inputs[br.event.input]
+            on.update(port=pin.port, bit=pin.bit, active_high=pin.active_high)
+        ons.append(on)
+    return {"op": "select", "label": lab, "ons": ons, "after": after, "where": ctx.where(st.span),
+            "serial": ctx.plan.program.serial is not None, "queue": costs.QUEUE}
 
 
 def _seq_label(plan: Plan, name: str) -> str:
@@ -250,12 +265,17 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         _ops(ctx, seq.body, ops)
         sequences.append({"label": _seq_label(plan, seq.name), "name": seq.name, "ops": ops,
                           "where": ctx.where(seq.span)})
-    stack_bytes = costs.stack_bytes(plan.nesting)
-    if stack_bytes > costs.STACK_BYTES:     # lint's `too-deep` reports this first
+    serial = plan.program.serial
+    stack_bytes = costs.stack_bytes(plan.nesting, serial is not None)
+    room = costs.stack_room(serial is not None)
+    if stack_bytes > room:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
-                                  f"the firmware has {costs.STACK_BYTES}")
+                                  f"the firmware has {room}")
+    if serial is not None and send_run(plan) > costs.QUEUE:
+        raise layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
+                                 f"the transmit queue holds {costs.QUEUE}")
 
-    ram = layout.RamAllocator()
+    ram = layout.RamAllocator(layout.DIRECT_END + (costs.SERIAL_RAM if serial is not None else 0))
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     ram.next = layout.WORK_BASE
@@ -270,6 +290,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     e = _engine(plan, ram, period_cycles)
+    s = None if serial is None else _serial(serial, ram)
+    stack_base = ram.next if serial is not None else layout.STACK_BASE
     chans = []
     for c in plan.channels:
         pin = 8 * c.port + c.bit
@@ -308,7 +330,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   ram=ram.symbols, flag_bits=layout.flag_equates(),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
-                  state_base=layout.STATE_BASE, stack_base=layout.STACK_BASE,
+                  state_base=layout.STATE_BASE, stack_base=stack_base, s=s,
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
                   period_cycles=period_cycles,
@@ -328,11 +350,14 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         breakdown["eased curve tables"] = sum(len(t["values"]) for t in ease_tables)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
-    budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]))
+    budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
+                                     0 if s is None else s["byte_cycles"])
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
             f"machine cycles, longer than the {target.width_cycles(0)} before the earliest fall")
+    if budget is not None and s is not None:
+        _check_serial(plan, budget, period_cycles)
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
@@ -402,9 +427,11 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
     }
 
 
-def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...]) -> tuple[costs.Budget | None, str]:
+def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],
+                 byte_cycles: int = 0) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
-    between frames starts (or why it cannot be bounded)."""
+    between frames starts (or why it cannot be bounded). `byte_cycles`: a byte's time on the
+    serial line (0: the program has none)."""
     try:
         code = wcet.Code(text)
         work, at = code.between_frames()
@@ -412,6 +439,58 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...]) -> t
         exits = {f"exit_p{p}" for p in ports} | {"exit_fall"}
         rises = tuple(costs.ENTRY + 2 + code.longest(f"emit_p{p}", exits) + code.longest_exit(exits)
                       for p in ports)
+        serial = {}
+        if byte_cycles:     # from the vector: its LCALL (2) and LJMP (2)
+            serial = {"serial_run": 4 + code.longest("uart_isr", set()),
+                      "serial_head": 4 + code.longest("uart_isr", {"ui_got"}) + 1,
+                      "byte_cycles": byte_cycles}
     except wcet.WcetError as exc:
         return None, str(exc)
-    return costs.Budget(work, sorts, rises, lines), code.label_at(at)
+    return costs.Budget(work, sorts, rises, lines, **serial), code.label_at(at)
+
+
+def _serial(serial, ram: layout.RamAllocator) -> dict:
+    """The serial line's numbers (serial.asm.j2) and its RAM, taken from the stack."""
+    q = costs.QUEUE
+    ram.alloc("RXQ", q, "the receive queue")
+    ram.alloc("TXQ", q, "the transmit queue")
+    ram.alloc("RXW", 1, "bytes received and queued (counts on)")
+    ram.alloc("RXR", 1, "bytes the program took from the receive queue (counts on)")
+    ram.alloc("TXW", 1, "bytes the program queued to send (counts on)")
+    ram.alloc("TXR", 1, "bytes the serial handler sent from the queue (counts on)")
+    ram.alloc("RXB", 1, "the byte just received")
+    ram.alloc("TXON", 1, "1 while a byte is on the line")
+    return {"baud": serial.baud, "th1": serial.th1, "smod": serial.smod, "rate": f"{float(serial.actual):.1f}",
+            "byte_cycles": target_mod.byte_cycles(serial.th1, serial.smod), "queue": q, "full_bit": q.bit_length() - 1}
+
+
+def _bytes(n: int) -> str:
+    return "any number of bytes" if n >= UNBOUNDED else f"{n} byte{'s' if n != 1 else ''}"
+
+
+def _check_serial(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
+    """No byte received is lost, and the bytes sent never outrun the line (costs.py)."""
+    target = plan.program.target
+    serial = plan.program.serial
+    late = costs.serial_latency(target, budget)
+    if late > budget.byte_cycles:
+        works = [b for b in target_mod.working_bauds(target)
+                 if target_mod.byte_cycles(*target_mod.timer1_baud(target, b)[:2]) >= late]
+        raise layout.SerialTooFast(
+            f"at {serial.baud} baud a byte comes every {budget.byte_cycles} machine cycles, but the edge handler can "
+            f"keep the serial line waiting {late} cycles (its longest run: a port's lines and the next port's rise)",
+            help=(f"use `serial {works[-1]}`" if works else "use a slower rate") +
+                 ", or fewer servo lines on one port, or a faster crystal")
+    run = send_run(plan)
+    if run:
+        # A run of sends leaves the line free for the next if its bytes are out before it comes:
+        # the next run comes `gap` frames later, less the work that can come before it.
+        need = run * budget.byte_cycles + late
+        cap = -(-(need + budget.work) // period_cycles) + 1
+        gap = send_gap(plan, cap)
+        if need > gap * period_cycles - budget.work:
+            raise layout.SendOverrun(
+                f"the program can send {_bytes(run)} {gap} frame{'s' if gap != 1 else ''} after sending before; at "
+                f"{serial.baud} baud that takes {need} machine cycles, more than the "
+                f"{gap * period_cycles - budget.work} there are",
+                help="put more frames between the sends (a `hold`), or use a faster rate")

@@ -33,7 +33,7 @@ ucsim at their own minimum.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from .units import DEFAULT_PERIOD_FLOOR_US
 
@@ -78,10 +78,26 @@ class Budget:
     sorts: tuple[int, ...]      # each port's sort in frame_io, in port order
     rises: tuple[int, ...]      # each port's rise entry of the handler, overflow to RETI
     lines: tuple[int, ...]      # servo lines on each port
+    serial_run: int = 0         # the serial handler's longest run, its vector's LCALL to RETI (0: no serial line)
+    serial_head: int = 0        # its vector's LCALL to the end of `CLR RI`: a received byte taken
+    byte_cycles: int = 0        # one byte on the serial line (10 bits)
 
 
 def frame_cycles(target, budget: Budget) -> int:
-    """The shortest frame period in machine cycles this code holds."""
+    """The shortest frame period in machine cycles this code holds. The serial handler's runs
+    come on top of the background's work: as many as bytes can come and go in a frame."""
+    period = _frame_cycles(target, budget)
+    while budget.byte_cycles:
+        load = serial_load(budget, period)
+        more = _frame_cycles(target, replace(budget, work=budget.work + load,
+                                             sorts=tuple(s + load for s in budget.sorts)))
+        if more <= period:
+            break
+        period = more
+    return period
+
+
+def _frame_cycles(target, budget: Budget) -> int:
     m = len(budget.lines)
     if m == 0:
         return budget.work
@@ -95,6 +111,47 @@ def frame_cycles(target, budget: Budget) -> int:
         if budget.sorts[j] + load[j - 1] > span:
             raise AssertionError(f"port {j}: its sort does not fit between two rises")
     return max(need)
+
+
+# ---------------------------------------------------------------- the serial line (serial.asm.j2)
+QUEUE = 4                       # bytes each of the receive and the transmit queue holds
+SERIAL_RAM = 2 * QUEUE + 6      # the queues, their four counters, RXB and TXON: taken from the stack
+SERIAL_STACK = 5                # the serial handler: its LCALL, PSW, ACC, R0 (the edge handler may come on top)
+# Before a pending serial interrupt is taken: the instruction under way (at most 4 cycles,
+# MUL or DIV; or the one that always follows a RETI). Its vector's LCALL is in serial_head.
+SERIAL_WAIT = 4
+
+
+def busy_stretch(target, budget: Budget) -> int:
+    """The longest time the edge handler (of high priority) can keep the CPU from the serial
+    handler: one port's lines, each an entry of at most SPLIT cycles (or a step shorter than it),
+    ending just before the next port's rise, and that rise's entry; when the gap the rise leaves
+    before the earliest fall is too short for the serial handler to take a byte, that port's lines
+    as well."""
+    m = len(budget.lines)
+    c0 = target.width_cycles(0)
+    worst = 0
+    for k in range(m):
+        nxt = (k + 1) % m
+        stretch = SPLIT * budget.lines[k] + budget.rises[nxt]
+        if c0 - budget.rises[nxt] < SERIAL_WAIT + budget.serial_head:
+            stretch += c0 - budget.rises[nxt] + SPLIT * budget.lines[nxt]
+        worst = max(worst, stretch)
+    return worst
+
+
+def serial_latency(target, budget: Budget) -> int:
+    """The longest from a byte's RI to the serial handler's `CLR RI`: the edge handler's longest
+    stretch, the instruction under way, a run of the serial handler for TI under way, then its head.
+    No byte is lost while this is within one byte time (the next byte can complete no sooner)."""
+    return busy_stretch(target, budget) + SERIAL_WAIT + budget.serial_run + budget.serial_head
+
+
+def serial_load(budget: Budget, period: int) -> int:
+    """The serial handler's cycles in one frame of `period` cycles at the most: a run for each byte
+    that can come in and each that can go out, and the instruction each run waits for."""
+    runs = 2 * (-(-period // budget.byte_cycles) + 1)
+    return runs * (budget.serial_run + SERIAL_WAIT)
 
 
 def default_period_us(min_period: int) -> int:
@@ -113,10 +170,15 @@ HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL
 ENGINE_STACK = RUNTIME_STACK + HANDLER_STACK
 
 
-def stack_bytes(nesting: int) -> int:
+def stack_room(serial: bool = False) -> int:
+    """Bytes of stack: the serial line's queues and counters take SERIAL_RAM of them."""
+    return STACK_BYTES - (SERIAL_RAM if serial else 0)
+
+
+def stack_bytes(nesting: int, serial: bool = False) -> int:
     """Stack bytes a program with `nesting` levels of repeat/play needs."""
-    return 2 * nesting + ENGINE_STACK
+    return 2 * nesting + ENGINE_STACK + (SERIAL_STACK if serial else 0)
 
 
-def max_nesting() -> int:
-    return (STACK_BYTES - ENGINE_STACK) // 2
+def max_nesting(serial: bool = False) -> int:
+    return (stack_room(serial) - ENGINE_STACK - (SERIAL_STACK if serial else 0)) // 2

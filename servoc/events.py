@@ -6,10 +6,17 @@ One change per line, times from reset, `#` starts a comment:
     500ms   button  active
     800ms   button  inactive
 
+    # the host sends "w" at 1.2 s, then 119 and "s" back to back at 2 s
+    1.2s    "w"
+    2s      119 "s"
+
 TIME is a number with `us`, `ms` or `s`; NAME an `input` of the program;
 then `active` or `inactive` (what the input means, whatever its `low` or
-`high`). Every input starts inactive. Serial bytes (`TIME "w"`) are part of
-the format, but the firmware does not build `serial` yet, so they are refused.
+`high`). Every input starts inactive. A line of bytes (one-character strings
+or integers 0..255, one or more) is what the host sends on the serial line:
+the first byte's start bit begins at TIME, the others follow back to back;
+a byte arrives (its stop bit ends) one byte time (10 bits) after it starts.
+A line of bytes must not begin before the bytes before it are through.
 """
 
 from __future__ import annotations
@@ -29,7 +36,7 @@ class EventsError(Exception):
     """A line of an events file that cannot be used: its line number and why."""
 
     def __init__(self, line: int, message: str):
-        super().__init__(f"line {line}: {message}")
+        super().__init__(f"line {line}: {message}" if line else message)
         self.line = line
 
 
@@ -40,20 +47,58 @@ class InputEvent:
     active: bool
 
 
-def parse(text: str, inputs: tuple[model.Input, ...]) -> list[InputEvent]:
-    """The events of a file, in time order (changes of one input at one time: the last one counts)."""
+@dataclass(frozen=True)
+class ByteEvent:
+    """Bytes the host sends back to back, the first starting at `time_us`."""
+    time_us: Fraction
+    data: bytes
+    input = None        # not an input's change
+
+
+_BYTE = re.compile(r'"(.)"|(\d+)')
+
+
+def _bytes(rest: str, number: int) -> bytes:
+    out = bytearray()
+    pos = 0
+    rest = rest.strip()
+    while pos < len(rest):
+        m = _BYTE.match(rest, pos)
+        if m is None or (m.group(2) is not None and int(m.group(2)) > 255):
+            raise EventsError(number, f"`{rest[pos:].split()[0]}` is not a byte: write a one-character string "
+                                      f"such as \"w\" or an integer 0..255")
+        out.append(ord(m.group(1)) if m.group(1) is not None else int(m.group(2)))
+        if m.group(1) is not None and ord(m.group(1)) > 255:
+            raise EventsError(number, f"`{m.group(0)}` is not one byte")
+        pos = m.end()
+        while pos < len(rest) and rest[pos] in " \t":
+            pos += 1
+    return bytes(out)
+
+
+_TIME = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*(us|ms|s)\s+(.*)$")
+
+
+def parse(text: str, inputs: tuple[model.Input, ...], serial: bool = False) -> list[InputEvent | ByteEvent]:
+    """The events of a file, in time order (changes of one input at one time: the last one counts).
+    `serial`: whether the program declares the serial line (lines of bytes need it)."""
     names = {i.name for i in inputs}
-    out: list[InputEvent] = []
+    out: list[InputEvent | ByteEvent] = []
     for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip()
+        line = raw.split("#", 1)[0].strip() if '"#"' not in raw else raw.strip()
         if not line:
+            continue
+        tm = _TIME.match(line)
+        if tm is not None and (tm.group(3).startswith('"') or tm.group(3)[:1].isdigit()):
+            if not serial:
+                raise EventsError(number, "bytes on the serial line, but the program declares no `serial`")
+            out.append(ByteEvent(Fraction(tm.group(1)) * _SCALE[tm.group(2)], _bytes(tm.group(3), number)))
             continue
         m = _LINE.match(line)
         if m is None:
-            raise EventsError(number, f"`{line}` is not `TIME NAME active|inactive` (e.g. `500ms button active`)")
+            raise EventsError(number, f"`{line}` is not `TIME NAME active|inactive` (e.g. `500ms button active`) "
+                                      f"nor `TIME BYTE...` (e.g. `1.2s \"w\"`)")
         value, unit, name, level = m.groups()
-        if name.startswith('"') or name.isdigit():
-            raise EventsError(number, "serial bytes need `serial`, which the firmware does not build yet")
         if name not in names:
             known = ", ".join(sorted(names)) or "none"
             raise EventsError(number, f"`{name}` is not an input of the program (inputs: {known})")
@@ -63,7 +108,54 @@ def parse(text: str, inputs: tuple[model.Input, ...]) -> list[InputEvent]:
     return sorted(out, key=lambda e: e.time_us)
 
 
-def pin_changes(events: list[InputEvent], inputs: tuple[model.Input, ...], target: Target) -> list[tuple[int, int, int]]:
+def byte_arrivals(events: list, byte_cycles: int, target: Target) -> list[tuple[float, int]]:
+    """(µs from reset at which its stop bit ends, byte) of every byte the host sends."""
+    out = []
+    for ev in events:
+        if isinstance(ev, ByteEvent):
+            for k, b in enumerate(ev.data):
+                out.append((float(ev.time_us) + (k + 1) * byte_cycles * target.cycle_us, b))
+    return out
+
+
+def uart_windows(events: list, byte_cycles: int, target: Target) -> tuple[bytes, list[tuple[int, bool]]]:
+    """The bytes for ucsim's UART input file, and the (cycle, on) changes of its "check input"
+    flag that release them: on as a line's first byte starts, off half a byte time after its
+    last byte started. Raises EventsError when a line starts before the one before is through."""
+    data = bytearray()
+    windows: list[tuple[int, bool]] = []
+    busy_until = 0
+    for ev in events:
+        if not isinstance(ev, ByteEvent):
+            continue
+        start = max(2, target.cycles(ev.time_us))
+        if start < busy_until:
+            raise EventsError(0, f"the bytes at {float(ev.time_us) / 1000:g} ms start before those before them are "
+                                 f"through (a byte takes {byte_cycles * float(target.cycle_us) / 1000:.3f} ms)")
+        data += ev.data
+        windows += [(start, True), (start + (len(ev.data) - 1) * byte_cycles + byte_cycles // 2, False)]
+        busy_until = start + len(ev.data) * byte_cycles
+    return bytes(data), windows
+
+
+def spaced(pins: list[tuple[int, int, int]], windows: list[tuple[int, bool]]) -> tuple[list, list]:
+    """Pin changes and UART flag changes kept MIN_SPACING cycles apart from each other (the later of
+    two that come closer moves later)."""
+    merged = sorted([(at, 0, k) for k, (at, _, _) in enumerate(pins)] + [(at, 1, k) for k, (at, _) in enumerate(windows)])
+    pins, windows = list(pins), list(windows)
+    last = None
+    for at, kind, k in merged:
+        if last is not None and at < last + MIN_SPACING:
+            at = last + MIN_SPACING
+        if kind == 0:
+            pins[k] = (at,) + pins[k][1:]
+        else:
+            windows[k] = (at, windows[k][1])
+        last = at
+    return pins, windows
+
+
+def pin_changes(events: list, inputs: tuple[model.Input, ...], target: Target) -> list[tuple[int, int, int]]:
     """(cycle, port, outside level of the port's pins) for ucsim: every input inactive from cycle 1
     (an active-high input's pin low), then each event at its machine cycle (changes less than
     MIN_SPACING cycles apart move that much later)."""
@@ -80,6 +172,8 @@ def pin_changes(events: list[InputEvent], inputs: tuple[model.Input, ...], targe
         apply(inp, False)
         changes.setdefault(1, {})[inp.port] = levels[inp.port]
     for ev in events:
+        if not isinstance(ev, InputEvent):
+            continue
         at = max(2, target.cycles(ev.time_us))
         apply(by_name[ev.input], ev.active)
         changes.setdefault(at, {})[by_name[ev.input].port] = levels[by_name[ev.input].port]

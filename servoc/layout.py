@@ -12,7 +12,8 @@ RAM (AT89C52, 256 bytes):
     0x2D-0x2F  F of the current move
     0x30-0x47  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
     0x48-0x71  direct variables and the handler's items (allocated in order)
-    0x72-0x9F  the stack (STACK_BYTES), growing up
+    0x72-0x9F  the stack (STACK_BYTES), growing up; with `serial`, its queues and
+               counters take the first SERIAL_RAM bytes of it
     0xA0-0xFF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
 
 A record list is a run of move and hold records in code memory; each record
@@ -109,8 +110,30 @@ class HandlerTooSlow(LayoutError):
     help = "use a faster crystal (or 6T mode), or fewer lines on the port"
 
 
-# A select's `after` F is counted as F + 1 checks in 16 bits (the last check takes it).
-MAX_AFTER_FRAMES = 0xFFFE
+class SerialTooFast(LayoutError):
+    """A byte could complete before the one before it was taken from the UART."""
+    code = "serial-too-fast"
+    help = "use a slower rate, fewer servo lines on one port, or a faster crystal"
+
+    def __init__(self, message: str, help: str | None = None):
+        super().__init__(message)
+        if help is not None:
+            self.help = help
+
+
+class SendOverrun(LayoutError):
+    """`send` could find the transmit queue full."""
+    code = "send-overrun"
+    help = f"put a frame (a move or a hold) between the sends: at most {costs.QUEUE} bytes between two frames"
+
+    def __init__(self, message: str, help: str | None = None):
+        super().__init__(message)
+        if help is not None:
+            self.help = help
+
+
+# A select's `after` F is counted in 16 bits (it looks after each frame; the F-th look takes it).
+MAX_AFTER_FRAMES = 0xFFFF
 
 
 class AfterTooLong(LayoutError):
@@ -126,15 +149,16 @@ class PeriodTooLong(LayoutError):
 class RamAllocator:
     """A bump allocator over direct RAM from WORK_BASE up to DIRECT_END."""
 
-    def __init__(self) -> None:
+    def __init__(self, end: int = DIRECT_END) -> None:
         self.next = WORK_BASE
+        self.end = end
         self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)
 
     def alloc(self, name: str, size: int, what: str) -> int:
         addr = self.next
         self.next += size
-        if self.next > DIRECT_END:
-            raise RamFull(f"direct RAM is full: {name} does not fit below the stack at 0x{DIRECT_END:02X}")
+        if self.next > self.end:
+            raise RamFull(f"direct RAM is full: {name} does not fit below the stack at 0x{self.end:02X}")
         self.symbols.append((name, addr, what))
         return addr
 

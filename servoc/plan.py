@@ -301,47 +301,163 @@ def budget(p: Plan) -> Plan:
     When no firmware can be generated (a resource limit, reported later), P itself."""
     from . import codegen, layout    # codegen builds on the plan types
     try:
-        unit = codegen.generate(firmware_stand_in(p))
+        unit = codegen.generate(p)
     except layout.LayoutError:
         return replace(p, min_period_us=p.period_us)
     return replace(p, min_period_us=unit.min_period_us or p.period_us)
 
 
-def firmware_stand_in(p: Plan) -> Plan:
-    """The plan, or for a program with the serial line (which the firmware generator does not build
-    yet) a stand-in to size its frame budget on: a select that waits for a byte becomes `repeat 1`
-    of its branches one after another, each send a hold of no frame. Selects on inputs stay: the
-    firmware builds them."""
-    def on_byte(st: Step) -> bool:
-        return isinstance(st, SelectStep) and any(
-            not isinstance(b, AfterBranch) and b.event.input is None for b in st.branches)
-
-    if not any(isinstance(st, SendStep) or on_byte(st) for st in steps(p)):
-        return p
-
-    def swap(st: Step) -> Step:
-        if on_byte(st):
-            return RepeatStep(1, tuple(x for b in st.branches for x in b.body), st.span)
-        if isinstance(st, SendStep):
-            return HoldStep(0, Fraction(0), st.span)
-        return st
-    return replace(p, main=walk.rebuild(p.main, swap),
-                   sequences=tuple(replace(q, body=walk.rebuild(q.body, swap)) for q in p.sequences))
-
-
 def _any_frame(acc: bool, st: Step, inner) -> bool:
     kind = walk.kind(st)
     if kind == "select":
-        return acc or (bool(inner) and all(inner))
+        return True
     return acc or kind == "move" or (kind == "hold" and st.frames > 0) or bool(inner)
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
     """Whether every pass of `body` takes at least one frame (a move always does; a hold when
-    it is at least half a frame; repeat, loop and play when their body does; a select when every
-    branch does, since its event may be there already; a send never). Pass one `memo`
+    it is at least half a frame; repeat, loop and play when their body does; a select always,
+    since it looks at its events after each frame; a send never). Pass one `memo`
     to calls on the same plan so each sequence is looked at once."""
     return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_frame, memo)
+
+
+def _any_send(acc: bool, st: Step, inner) -> bool:
+    return acc or walk.kind(st) == "send" or (any(inner) if isinstance(inner, tuple) else bool(inner))
+
+
+def sends(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
+    """Whether `body` has a `send` anywhere in it, or in a sequence it plays."""
+    return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_send, memo)
+
+
+@dataclass(frozen=True)
+class SendRun:
+    """The bytes `send` gives with no frame between them, for one pass of a body: before its
+    first frame (`lead`), after its last (`tail`), and the most anywhere (`most`). A body that
+    may take no frame has lead = tail = most = all its bytes."""
+    framed: bool
+    lead: int = 0
+    most: int = 0
+    tail: int = 0
+
+    def then(self, nxt: "SendRun") -> "SendRun":
+        if not self.framed and not nxt.framed:
+            t = self.lead + nxt.lead
+            return SendRun(False, t, t, t)
+        if not nxt.framed:
+            t = self.tail + nxt.lead
+            return SendRun(True, self.lead, max(self.most, t), t)
+        if not self.framed:
+            t = self.lead + nxt.lead
+            return SendRun(True, t, max(t, nxt.most), nxt.tail)
+        return SendRun(True, self.lead, max(self.most, nxt.most, self.tail + nxt.lead), nxt.tail)
+
+    def again(self, count: int | None) -> "SendRun":
+        """`count` passes one after another (None: forever)."""
+        if count == 0:
+            return SendRun(False)
+        if not self.framed:
+            t = UNBOUNDED if count is None and self.lead else self.lead * (count or 1)
+            return SendRun(False, t, t, t)
+        twice = self.tail + self.lead if count != 1 else 0
+        return SendRun(True, self.lead, max(self.most, twice), self.tail)
+
+
+UNBOUNDED = 1 << 30     # sends in a loop that takes no frame (lint's empty-loop refuses it)
+
+
+def _send_run(acc: SendRun, st: Step, inner) -> SendRun:
+    kind = walk.kind(st)
+    if kind == "send":
+        one = SendRun(False, 1, 1, 1)
+    elif kind == "move" or (kind == "hold" and st.frames > 0):
+        one = SendRun(True)
+    elif kind == "hold":
+        one = SendRun(False)
+    elif kind == "select":      # a frame, then a branch
+        runs = [SendRun(True).then(v) for v in inner] or [SendRun(True)]
+        one = SendRun(True, 0, max(r.most for r in runs), max(r.tail for r in runs))
+    elif kind == "repeat":
+        one = inner.again(st.count)
+    elif kind == "loop":
+        one = inner.again(None)
+    else:
+        one = inner
+    return acc.then(one)
+
+
+def send_run(plan: Plan) -> int:
+    """The most bytes the program can `send` with no frame between them."""
+    memo: dict = {}
+    return walk.fold(plan.main, lambda name: plan.sequence(name).body, SendRun(False), _send_run, memo).most
+
+
+@dataclass(frozen=True)
+class _Gaps:
+    """Frames around the sends of one pass of a body, each count clipped at `cap`: the frames of
+    passes that send nothing (`quiet`), before the first send and after the last of those that do
+    (`head`, `tail`), and the fewest frames (at least one) between two sends inside (`gap`)."""
+    cap: int
+    quiet: frozenset = frozenset({0})
+    head: frozenset = frozenset()
+    tail: frozenset = frozenset()
+    gap: int | None = None
+
+    def clip(self, values) -> frozenset:
+        return frozenset(min(v, self.cap) for v in values)
+
+    def then(self, nxt: "_Gaps") -> "_Gaps":
+        joins = [a + b for a in self.tail for b in nxt.head if a + b > 0]
+        gaps = [g for g in (self.gap, nxt.gap, min(joins, default=None)) if g is not None]
+        return _Gaps(self.cap, self.clip(a + b for a in self.quiet for b in nxt.quiet),
+                     self.head | self.clip(a + b for a in self.quiet for b in nxt.head),
+                     nxt.tail | self.clip(a + b for a in self.tail for b in nxt.quiet),
+                     min(gaps, default=None))
+
+    def either(self, other: "_Gaps") -> "_Gaps":
+        gaps = [g for g in (self.gap, other.gap) if g is not None]
+        return _Gaps(self.cap, self.quiet | other.quiet, self.head | other.head, self.tail | other.tail,
+                     min(gaps, default=None))
+
+    def frames(self, n: int) -> "_Gaps":
+        return _Gaps(self.cap, frozenset({min(n, self.cap)}))
+
+    def again(self, count: int | None) -> "_Gaps":
+        out = _Gaps(self.cap)
+        for _ in range(self.cap + 2 if count is None else min(count, self.cap + 2)):
+            out = out.then(self)
+        return _Gaps(self.cap, frozenset(), out.head, frozenset(), out.gap) if count is None else out
+
+
+def send_gap(plan: Plan, cap: int) -> int:
+    """The fewest frames between two sends that are not in one run (`cap` if never fewer)."""
+    def step(acc: _Gaps, st: Step, inner) -> _Gaps:
+        kind = walk.kind(st)
+        blank = _Gaps(cap)
+        if kind == "send":
+            one = _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}))
+        elif kind == "move":
+            one = blank.frames(st.frames or 1)
+        elif kind == "hold":
+            one = blank.frames(st.frames)
+        elif kind == "select":
+            one = None
+            for br, v in zip(st.branches, inner):
+                wait = max(1, br.frames) if isinstance(br, AfterBranch) else 1
+                way = blank.frames(wait).then(v)
+                one = way if one is None else one.either(way)
+            one = one or blank.frames(1)
+        elif kind == "repeat":
+            one = inner.again(st.count)
+        elif kind == "loop":
+            one = inner.again(None)
+        else:
+            one = inner
+        return acc.then(one)
+
+    found = walk.fold(plan.main, lambda name: plan.sequence(name).body, _Gaps(cap), step, {}).gap
+    return cap if found is None else min(found, cap)
 
 
 def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], period: int,
@@ -625,11 +741,12 @@ def firmware_value(n0: int, n1: int, k: int, frames: int, ease: str, table: tupl
 @dataclass(frozen=True)
 class Choice:
     """What happens at one select `expand` reaches: it waits `frames` frames (the current targets
-    repeating), then runs branch `branch` (an index into `SelectStep.branches`). For an `after`
-    branch the wait is always its own F; an `on` branch of a select with an `after` must be taken
-    before that F runs out (`frames` < F)."""
+    repeating; at least one, since a select looks at its events after each frame), then runs
+    branch `branch` (an index into `SelectStep.branches`). For an `after` branch the wait is
+    always its own F (at least 1); an `on` branch of a select with an `after` is taken at the
+    latest at the F-th look, where its events come before `after` (`frames` <= F)."""
     branch: int
-    frames: int = 0
+    frames: int = 1
 
 
 def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = None) -> Iterator[GoldenFrame]:
@@ -649,6 +766,7 @@ def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = No
     picks = iter(choices)
 
     memo: dict = {}
+    send_memo: dict = {}
 
     made = 0
 
@@ -681,14 +799,16 @@ def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = No
                 after = st.after
                 wait = pick.frames
                 if isinstance(branch, AfterBranch):
-                    wait = branch.frames
-                elif after is not None and wait >= after.frames:
+                    wait = max(1, branch.frames)
+                elif wait < 1:
+                    raise ValueError(f"choice {pick}: a select looks at its events after a frame")
+                elif after is not None and wait > max(1, after.frames):
                     raise ValueError(f"choice {pick}: its `after` is taken after {after.frames} frames")
                 for _ in range(wait):
                     yield frame(st.span)
                 yield from run(branch.body)
                 continue
-            if not takes_frames((st,), plan, memo):
+            if not takes_frames((st,), plan, memo) and not sends((st,), plan, send_memo):
                 continue        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through
             if isinstance(st, MoveStep):
                 f = move_frames_at(st, tuple(state), plan.speed_tables, classes)

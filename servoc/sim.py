@@ -106,6 +106,8 @@ PORT_SFR: dict[int, int] = {0: 0x80, 1: 0x90, 2: 0xA0, 3: 0xB0}
 _MARK_BASE = 3141500  # marker printed before each event: _MARK_BASE + port
 _MARK_END = _MARK_BASE + 99  # marker printed before the final tick count
 _MARK_INPUT = _MARK_BASE + 50  # marker printed after the run stopped for an input change
+_MARK_TX = _MARK_BASE + 60     # marker printed before the tick count of each write to SBUF
+SBUF = 0x99
 
 _TICKS_WRAP = 1 << 32  # sim_ticks is a 32-bit unsigned value
 _STATE_CLKS_RE = re.compile(r"^Total time since last reset=.*\((\d+) clks\)")
@@ -143,6 +145,8 @@ class SimTrace:
 
     writes: tuple[PortWrite, ...]
     cycles: int
+    sent: tuple[tuple[int, int], ...] = ()   # (cycle, byte) of each byte the UART sent: the end of
+                                             # the instruction that wrote SBUF
 
     def port_writes(self, port: int) -> list[PortWrite]:
         """The writes to one port, in order."""
@@ -212,7 +216,7 @@ def _check_pin(port: int, bit: int) -> None:
 
 
 def _script(hex_name: str, limit_name: str, ports: Iterable[int],
-            inputs: tuple[tuple[int, int, int], ...] = ()) -> str:
+            actions: tuple[tuple[int, str], ...] = (), uart: bool = False) -> str:
     lines = [f'file "{hex_name}"']
     for port in ports:
         sfr = PORT_SFR[port]
@@ -220,14 +224,17 @@ def _script(hex_name: str, limit_name: str, ports: Iterable[int],
         lines += [f"break sfr w {sfr}", report]
         for bit in range(8):
             lines += [f"break bits w {sfr + bit}", report]
+    if uart:
+        lines += [f"break sfr w {SBUF:#04x}", f"commands expr {_MARK_TX} /u sim_ticks;run"]
     lines += [
         f'set hardware vcd[0] input "{limit_name}"',
         "set hardware vcd[0] break",
         "set hardware vcd[0] start",
     ]
-    # Each input change is an event of the VCD unit: the run stops there, the pins change, it goes on.
-    for _, port, level in inputs:
-        lines += ["run", f"expr {_MARK_INPUT} /u sim_ticks", f"set hardware port[{port}] {level:#04x}"]
+    # Each input change is an event of the VCD unit: the run stops there, the pins change (or the
+    # UART starts or stops taking bytes from its input file), it goes on.
+    for _, command in actions:
+        lines += ["run", f"expr {_MARK_INPUT} /u sim_ticks", command]
     lines += [
         "run",
         f"expr {_MARK_END} /u sim_ticks",
@@ -268,6 +275,8 @@ def run(
     ports: Iterable[int] = (0, 1, 2, 3),
     xtal_hz: int = XTAL_HZ,
     inputs: Iterable[tuple[int, int, int]] = (),
+    uart: Iterable[tuple[int, bool]] | None = None,
+    rx: bytes = b"",
 ) -> SimTrace:
     """Simulate `hex_text` from reset for at least `cycles` machine cycles.
 
@@ -279,6 +288,12 @@ def run(
 
     `inputs`: (cycle, port, level) changes of the outside levels of a port's pins (what the
     firmware reads), at increasing cycles below `cycles`.
+
+    `uart`: None for firmware without the serial line; else the UART is connected to files:
+    it receives the bytes of `rx` in order, taking them from its file only between an (cycle,
+    True) and the next (cycle, False) of `uart` (ucsim's "check input at every cycle" flag):
+    one byte starts at the first, and one more each byte time until the second. Every byte
+    the UART sends is in `SimTrace.sent`. All changes come at least 8 cycles apart.
     """
     if not isinstance(cycles, int) or isinstance(cycles, bool) or cycles < 1:
         raise ValueError(f"cycles must be a positive int, got {cycles!r}")
@@ -292,14 +307,20 @@ def run(
     with tempfile.TemporaryDirectory(prefix="servoc-sim-") as tmp:
         tmpdir = Path(tmp)
         (tmpdir / "fw.ihx").write_text(hex_text, encoding="ascii")
-        changes = tuple(sorted(inputs))
-        if any(not 0 < at < cycles for at, _, _ in changes) or any(
+        changes = tuple(sorted([(at, f"set hardware port[{port}] {level:#04x}") for at, port, level in inputs]
+                               + [(at, f"expr uart_0_cfg[1]={int(on)}") for at, on in (uart or ())]))
+        if any(not 0 < at < cycles for at, _ in changes) or any(
                 b[0] - a[0] < 8 for a, b in zip(changes, changes[1:])):
             raise ValueError("input changes must come at least 8 cycles apart, inside the run")
-        (tmpdir / "limit.vcd").write_text(_limit_vcd(cycles, xtal_hz, tuple(at for at, _, _ in changes)),
+        (tmpdir / "limit.vcd").write_text(_limit_vcd(cycles, xtal_hz, tuple(at for at, _ in changes)),
                                           encoding="ascii")
-        (tmpdir / "run.cmd").write_text(_script("fw.ihx", "limit.vcd", port_list, changes), encoding="ascii")
+        (tmpdir / "run.cmd").write_text(_script("fw.ihx", "limit.vcd", port_list, changes, uart is not None),
+                                        encoding="ascii")
         argv = [s51, "-b", "-t", CPU_TYPE, "-X", str(xtal_hz), "-C", "run.cmd"]
+        if uart is not None:
+            (tmpdir / "rx.bin").write_bytes(rx)
+            (tmpdir / "tx.bin").write_bytes(b"")
+            argv[1:1] = ["-S", "in=rx.bin,out=tx.bin"]
         try:
             proc = subprocess.Popen(
                 argv,
@@ -324,16 +345,21 @@ def run(
             proc.kill()
             proc.wait()
             raise
+        tx = (tmpdir / "tx.bin").read_bytes() if uart is not None else b""
     out = out_b.decode("utf-8", "replace")
     err = err_b.decode("utf-8", "replace")
     trace = _parse(out, err, proc.returncode, cycles, n_bytes)
     lines = out.splitlines()
     stopped = [int(lines[i + 1]) for i, ln in enumerate(lines) if ln == str(_MARK_INPUT) and i + 1 < len(lines)]
-    for (at, _, _), ticks in zip(changes, stopped):
+    for (at, _), ticks in zip(changes, stopped):
         if not at <= _to_cycles_floor(ticks) <= at + 8:
             raise MissedInput(f"the input change for cycle {at} came at cycle {_to_cycles_floor(ticks)}")
     if len(stopped) != len(changes):
         raise MissedInput(f"{len(stopped)} of {len(changes)} input changes made")
+    if uart is not None:
+        ticks = [int(lines[i + 1]) for i, ln in enumerate(lines) if ln == str(_MARK_TX) and i + 1 < len(lines)]
+        # the UART writes the byte out as its stop bit ends: the last write may still be on the line
+        trace = SimTrace(trace.writes, trace.cycles, tuple(zip((_to_cycles(t) for t in ticks), tx)))
     return trace
 
 

@@ -172,6 +172,12 @@ def timer1_baud(target: Target, baud: int) -> tuple[int, int, Fraction]:
     return th1, smod, rate
 
 
+def byte_cycles(th1: int, smod: int) -> int:
+    """Machine cycles of one byte on the line (start, 8 data, stop: 10 bits): a bit is 16 Timer1
+    overflows with SMOD = 1, else 32, each 256 - TH1 machine cycles."""
+    return 10 * (32 >> smod) * (256 - th1)
+
+
 def baud_error(target: Target, baud: int) -> Fraction:
     """|actual - baud| / baud for the nearest rate Timer1 makes."""
     return abs(timer1_baud(target, baud)[2] - baud) / baud

@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 
 from .plan import AfterBranch, Choice, Plan, expand
 from .sim import SimTrace
-from .costs import rise_offsets
+from .costs import QUEUE, rise_offsets
+from .target import byte_cycles
 RESET_LOW_US = 20          # servo lines low this soon after reset
 MAX_JITTER_US = 2          # a rise may stand this far from its frame slot
 
@@ -148,12 +149,55 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = ()) -> Ver
                 mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width,
                                            f"rise {slot_err:+d} cycles from its frame slot"))
             rises_by_channel.setdefault(ch.index, []).append(rise)
+    mismatches += _check_sent(plan, trace, choices, lead, len(golden), t1)
     diffs = [b - a for rises in rises_by_channel.values() for a, b in zip(rises, rises[1:])
              if round((b - a) / period) == 1]
     spans = [(r[-1] - r[0], len(r) - 1) for r in rises_by_channel.values() if len(r) > 1]
     mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
     return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
                         max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit)
+
+
+def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: int, t1: int) -> list[Mismatch]:
+    """The bytes sent must be the plan's, in order, each starting within 2 P of the first rise of
+    the frame that follows the statements before its `send`. Bytes due in the last 2 P of the
+    run may still be queued when it ends."""
+    if plan.program.serial is None:
+        return []
+    period = plan.program.target.cycles(plan.period_us)
+    due = [(t1 + (i - lead) * period, b) for i, fr in
+           enumerate(itertools.islice(expand(plan, choices), lead + frames)) for b in fr.sent]
+    end = t1 + (frames - 1) * period
+    out: list[Mismatch] = []
+    for k, (at, b) in enumerate(due):
+        frame = round((at - t1) / period) + 1
+        if k >= len(trace.sent):
+            if at + 2 * period <= end:
+                out.append(Mismatch(frame, "send", "TXD", None, None, f"byte {_show(b)} was not sent"))
+            continue
+        when, got = trace.sent[k]
+        if got != b:
+            out.append(Mismatch(frame, "send", "TXD", None, None, f"sent {_show(got)} where {_show(b)} was due"))
+        elif abs(when - at) > 2 * period:
+            out.append(Mismatch(frame, "send", "TXD", None, None,
+                                f"byte {_show(b)} started {when - at:+d} cycles from its frame's rise, more than 2 P"))
+    for when, got in trace.sent[len(due):]:
+        if when + 2 * period <= end:
+            out.append(Mismatch(round((when - t1) / period) + 1, "send", "TXD", None, None,
+                                f"sent {_show(got)}, which the plan does not send"))
+    return out
+
+
+def _show(b: int) -> str:
+    return f'"{chr(b)}"' if 32 < b < 127 and chr(b) not in "\\\"" else str(b)
+
+
+def sent_checked(plan: Plan, report: VerifyReport, choices: tuple = ()) -> int:
+    """How many bytes the plan sends in the frames `report` checked."""
+    if plan.program.serial is None or not report.frames:
+        return 0
+    lead = first_pulse_frame(plan, choices) or 0
+    return sum(len(fr.sent) for fr in itertools.islice(expand(plan, choices), lead + report.frames))
 
 
 # ---------------------------------------------------------------- runs with events
@@ -189,6 +233,7 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
     furthest; between choices that match as far (two branches can make the same pulses), one
     whose input was active by then. Returns the choices and the report for them."""
     t1 = first_rise_us(plan, trace) if events else None
+    arrivals = _arrivals(plan, events or [])
     if t1 is not None:
         modelled = model_choices(plan, trace, frames, events, t1)
         if modelled is not None:
@@ -199,7 +244,7 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
         if t1 is None or isinstance(branch, AfterBranch):
             return True
         begins = t1 + (start + cand.frames - lead) * plan.period_us
-        return any(e.input == branch.event.input and e.active and e.time_us <= begins for e in events)
+        return any(at <= begins for at in _event_times(branch, events, arrivals))
 
     choices: tuple = ()
     report = verify(plan, trace, frames, choices)
@@ -213,10 +258,10 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
         start, select = reached[len(choices)]
         waited = max(0, lead + bad - 1 - start)
         cands = [Choice(k, w) for k, br in enumerate(select.branches) if not isinstance(br, AfterBranch)
-                 for w in range(max(0, waited - 3), waited + 2)
-                 if select.after is None or w < select.after.frames]
+                 for w in range(max(1, waited - 3), waited + 2)
+                 if select.after is None or w <= max(1, select.after.frames)]
         if select.after is not None:
-            cands.append(Choice(len(select.branches) - 1, select.after.frames))
+            cands.append(Choice(len(select.branches) - 1, max(1, select.after.frames)))
         best = None
         for cand in cands:
             r = verify(plan, trace, frames, choices + (cand,))
@@ -229,11 +274,10 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
             for k, br in enumerate(select.branches):
                 if isinstance(br, AfterBranch) or t1 is None:
                     continue
-                near: set[int] = set()          # a frame or three after each time its input went active
-                for e in events:
-                    if e.input == br.event.input and e.active:
-                        first = int((float(e.time_us) - t1) / plan.period_us) + lead - start
-                        near.update(w for w in range(first - 1, first + 4) if 0 <= w < max(0, waited - 3))
+                near: set[int] = set()          # a frame or three after each time its event came
+                for at in _event_times(br, events, arrivals):
+                    first = int((at - t1) / plan.period_us) + lead - start
+                    near.update(w for w in range(first - 1, first + 4) if 1 <= w < max(1, waited - 3))
                 for w in sorted(near):
                     cand = Choice(k, w)
                     if not plausible(select, cand, start, lead):
@@ -251,15 +295,28 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
 PHASES = 64     # where in the frame the firmware may look at its inputs: tried at P/64 apart
 
 
+def _arrivals(plan: Plan, events: list) -> list[tuple[float, int]]:
+    """(µs from reset its stop bit ends, byte) of each byte the host sends, in order."""
+    from .events import byte_arrivals
+    serial = plan.program.serial
+    if serial is None:
+        return []
+    return byte_arrivals(events, byte_cycles(serial.th1, serial.smod), plan.program.target)
+
+
 def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: float) -> tuple | None:
-    """The choices the firmware makes if it looks at its inputs once a frame at a fixed phase:
-    a waiting select checks right after each frame_io returns, which happens at the same point
-    of every frame. The phase is not known here, so each of PHASES phases is tried; the first
-    whose run matches the trace exactly is returned (None: none does)."""
+    """The choices the firmware makes if it looks at its events once a frame at a fixed phase:
+    a waiting select looks right after each frame_io returns, which happens at the same point
+    of every frame; it drops the oldest bytes received while no `on` waits for them, then takes
+    an active input, or the oldest byte if an `on` waits for it, in the order written. Received bytes queue up (QUEUE at
+    the most) whether a select waits or not. The phase is not known here, so each of PHASES
+    phases is tried; the first whose run matches the trace exactly is returned (None: none does)."""
     period = plan.period_us
     by_input: dict[str, list] = {}
     for e in events:
-        by_input.setdefault(e.input, []).append(e)
+        if e.input is not None:
+            by_input.setdefault(e.input, []).append(e)
+    arrivals = _arrivals(plan, events)
 
     def active(name: str, t: float) -> bool:
         state = False
@@ -272,17 +329,34 @@ def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: fl
     for step in range(PHASES):
         phase = period * step / PHASES
         choices: tuple = ()
+        queue: list[int] = []
+        came = 0
         while True:
             lead, reached = selects_reached(plan, choices, frames)
             if len(reached) <= len(choices):
                 break
             start, select = reached[len(choices)]
+            wanted = {br.event.byte for br in select.branches if not isinstance(br, AfterBranch)}
             pick = None
-            for j in range(lead + frames - start + 1):
+            for j in range(1, lead + frames - start + 2):
                 at = t1 + (start - 1 + j - lead) * period + phase
-                pick = next((Choice(k, j) for k, br in enumerate(select.branches)
-                             if not isinstance(br, AfterBranch) and active(br.event.input, at)), None)
-                if pick is None and select.after is not None and j == select.after.frames:
+                while came < len(arrivals) and arrivals[came][0] <= at:
+                    if len(queue) < QUEUE:
+                        queue.append(arrivals[came][1])
+                    came += 1
+                while queue and queue[0] not in wanted:
+                    queue.pop(0)                # no `on` waits for it: dropped
+                for k, br in enumerate(select.branches):
+                    if isinstance(br, AfterBranch):
+                        continue
+                    if br.event.input is not None and active(br.event.input, at):
+                        pick = Choice(k, j)
+                        break
+                    if br.event.input is None and queue and queue[0] == br.event.byte:
+                        queue.pop(0)
+                        pick = Choice(k, j)
+                        break
+                if pick is None and select.after is not None and j == max(1, select.after.frames):
                     pick = Choice(len(select.branches) - 1, j)
                 if pick is not None:
                     break
@@ -295,21 +369,29 @@ def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: fl
     return None
 
 
+def _event_times(branch, events: list, arrivals: list) -> list[float]:
+    """When the event of an `on` branch happened: its input becoming active, or its byte arriving."""
+    if branch.event.input is not None:
+        return [float(e.time_us) for e in events if e.input == branch.event.input and e.active]
+    return [at for at, b in arrivals if b == branch.event.byte]
+
+
 def event_delays(plan: Plan, choices: tuple, events: list, t1_us: float) -> list[tuple[str, float, float | None]]:
     """For each `on` branch taken: (its event as written, its first rise from reset in µs, the µs
-    from its input becoming active, or from the select beginning to wait if the input was active
-    already, to that rise; None when no event came before it). `t1_us`: the first frame's rise."""
+    from its event (its input becoming active, its byte's stop bit), or from the select beginning
+    to wait if the event came before, to that rise; None when no event came before it).
+    `t1_us`: the first frame's rise."""
     out = []
     lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 10_000)
     period = plan.period_us
+    arrivals = _arrivals(plan, events)
     for (start, select), choice in zip(reached, choices):
         branch = select.branches[choice.branch]
         if isinstance(branch, AfterBranch):
             continue
         begins = t1_us + (start + choice.frames - lead) * period     # the branch's first rise
         waits = t1_us + (start - lead) * period                      # the select began to wait
-        active = [float(e.time_us) for e in events
-                  if e.input == branch.event.input and e.active and e.time_us <= begins]
+        active = [at for at in _event_times(branch, events, arrivals) if at <= begins]
         out.append((branch.event.text, begins, begins - max(active[-1], waits) if active else None))
     return out
 

@@ -21,9 +21,9 @@ def _fewest(acc: int, st: Step, inner) -> int:
     if isinstance(st, SendStep):
         return acc
     if isinstance(st, SelectStep):
-        # an event may be there already: an `on` branch can start at once, `after` after its F
-        return acc + min((v + (b.frames if isinstance(b, AfterBranch) else 0)
-                          for b, v in zip(st.branches, inner)), default=0)
+        # it looks at its events after each frame: an `on` branch after one, `after` after its F
+        return acc + min((v + (max(b.frames, 1) if isinstance(b, AfterBranch) else 1)
+                          for b, v in zip(st.branches, inner)), default=1)
     if isinstance(st, MoveStep):
         return acc + (st.frames or 1)
     if isinstance(st, HoldStep):
@@ -32,6 +32,6 @@ def _fewest(acc: int, st: Step, inner) -> int:
 
 
 def fewest_frames(plan: Plan, body: tuple[Step, ...]) -> int:
-    """The fewest frames one pass of `body` can take (a move takes at least one; a select none when
-    the event of a branch that takes none is there already)."""
+    """The fewest frames one pass of `body` can take (a move takes at least one, and so does a
+    select: it looks at its events after each frame)."""
     return walk.fold(body, body_of(plan), 0, _fewest)

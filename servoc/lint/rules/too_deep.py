@@ -16,8 +16,9 @@ from ..common import body_of
 @rule("too-deep", Severity.ERROR)
 def too_deep(plan: Plan, report: Report) -> None:
     """Nested repeats and plays keep their counters and return addresses on a 32-byte stack."""
-    if plan.nesting > costs.max_nesting():
-        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span)
+    serial = plan.program.serial is not None
+    if plan.nesting > costs.max_nesting(serial):
+        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial)
 
 
 def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
@@ -25,12 +26,13 @@ def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.B
     _report(Report(reporter, "too-deep", RULES["too-deep"][0]), depth, main, body_of, main_span)
 
 
-def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
+def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span,
+            serial: bool = False) -> None:
     """At the first repeat or play past the limit."""
-    limit = costs.max_nesting()
+    limit = costs.max_nesting(serial)
     st = walk.first_too_deep(main, body_of, limit)
     word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
-    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.STACK_BYTES}-byte "
+    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial)}-byte "
            f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
            st.span if st is not None else main_span, label=f"level {limit + 1}",
            help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
