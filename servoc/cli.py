@@ -549,7 +549,7 @@ def verify_data(report, source, plan: Plan) -> dict:
     return {"file": source.path, "ok": report.ok, "frames": report.frames, "pulses": report.pulses,
             "max_error_cycles": report.max_error_cycles, "planned_period_us": plan.period_us,
             "period_us": {"min": report.period_min, "max": report.period_max, "mean": report.period_mean},
-            "reset_low_us": report.reset_low_cycles,
+            "reset_low_us": report.reset_low_cycles, "bytes_sent": report.bytes_sent,
             "mismatches": [{"frame": m.frame, "servo": m.servo, "pin": m.pin, "expected_us": m.expected_us,
                             "measured_us": m.measured_us, "what": m.what} for m in report.mismatches]}
 

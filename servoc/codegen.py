@@ -358,11 +358,15 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"machine cycles, longer than the {target.width_cycles(0)} before the earliest fall")
     if budget is not None and s is not None:
         _check_serial(plan, budget, period_cycles)
+    try:
+        shortest = None if budget is None else target.us_at_least(costs.frame_cycles(target, budget))
+    except costs.TooSlow as exc:
+        raise layout.SerialTooFast(f"at {serial.baud} baud {exc}") if s is not None else layout.HandlerTooSlow(str(exc))
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
                    budget, work_from,
-                   None if budget is None else target.us_at_least(costs.frame_cycles(target, budget)),
+                   shortest,
                    target)
 
 

@@ -87,14 +87,15 @@ def frame_cycles(target, budget: Budget) -> int:
     """The shortest frame period in machine cycles this code holds. The serial handler's runs
     come on top of the background's work: as many as bytes can come and go in a frame."""
     period = _frame_cycles(target, budget)
-    while budget.byte_cycles:
-        load = serial_load(budget, period)
-        more = _frame_cycles(target, replace(budget, work=budget.work + load,
-                                             sorts=tuple(s + load for s in budget.sorts)))
+    if not budget.byte_cycles:
+        return period
+    near = serial_load(budget, port_span(target))      # what can come while a port is sorted
+    while True:
+        more = _frame_cycles(target, replace(budget, work=budget.work + serial_load(budget, period),
+                                             sorts=tuple(s + near for s in budget.sorts)))
         if more <= period:
-            break
+            return period
         period = more
-    return period
 
 
 def _frame_cycles(target, budget: Budget) -> int:
@@ -109,8 +110,13 @@ def _frame_cycles(target, budget: Budget) -> int:
         need.append((m - 2) * span + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1])
     for j in range(1, m):       # each later port's sort fits between the rise before and its own
         if budget.sorts[j] + load[j - 1] > span:
-            raise AssertionError(f"port {j}: its sort does not fit between two rises")
+            raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, with the serial "
+                          f"handler's) does not fit between the rise before it and its own")
     return max(need)
+
+
+class TooSlow(Exception):
+    """The code cannot hold the engine's timing at any frame period."""
 
 
 # ---------------------------------------------------------------- the serial line (serial.asm.j2)
@@ -147,10 +153,10 @@ def serial_latency(target, budget: Budget) -> int:
     return busy_stretch(target, budget) + SERIAL_WAIT + budget.serial_run + budget.serial_head
 
 
-def serial_load(budget: Budget, period: int) -> int:
-    """The serial handler's cycles in one frame of `period` cycles at the most: a run for each byte
-    that can come in and each that can go out, and the instruction each run waits for."""
-    runs = 2 * (-(-period // budget.byte_cycles) + 1)
+def serial_load(budget: Budget, cycles: int) -> int:
+    """The serial handler's cycles within `cycles` at the most: a run for each byte that can come
+    in and each that can go out, and the instruction each run waits for."""
+    runs = 2 * (-(-cycles // budget.byte_cycles) + 1)
     return runs * (budget.serial_run + SERIAL_WAIT)
 
 

@@ -50,6 +50,7 @@ class VerifyReport:
     reset_low_cycles: int | None        # latest first-low of a servo line after reset
     mismatches: tuple[Mismatch, ...] = field(default=())
     unit: str = "us"                    # what a machine cycle is called in the summary ("us" at 1 µs)
+    bytes_sent: int | None = None       # bytes sent checked (None: the program has no serial line)
 
     @property
     def ok(self) -> bool:
@@ -58,7 +59,8 @@ class VerifyReport:
     def summary(self) -> str:
         period = "n/a" if self.period_min is None else (
             f"{self.period_min}..{self.period_max} {self.unit} (mean {self.period_mean:.3f})")
-        return (f"{'OK' if self.ok else 'FAILED'}: {self.frames} frames, {self.pulses} pulses checked, "
+        sent = "" if self.bytes_sent is None else f", {self.bytes_sent} byte{'s' if self.bytes_sent != 1 else ''} sent checked"
+        return (f"{'OK' if self.ok else 'FAILED'}: {self.frames} frames, {self.pulses} pulses checked{sent}, "
                 f"max error {self.max_error_cycles} cycles, period {period}, "
                 + ("no servo lines" if self.reset_low_cycles is None
                    else f"servo lines low {self.reset_low_cycles} {self.unit} after reset"))
@@ -149,32 +151,37 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = ()) -> Ver
                 mismatches.append(Mismatch(j, ch.name, ch.servo.pin, exp_us, width,
                                            f"rise {slot_err:+d} cycles from its frame slot"))
             rises_by_channel.setdefault(ch.index, []).append(rise)
-    mismatches += _check_sent(plan, trace, choices, lead, len(golden), t1)
+    sent_bad, sent = _check_sent(plan, trace, choices, lead, len(golden), t1)
+    mismatches += sent_bad
     diffs = [b - a for rises in rises_by_channel.values() for a, b in zip(rises, rises[1:])
              if round((b - a) / period) == 1]
     spans = [(r[-1] - r[0], len(r) - 1) for r in rises_by_channel.values() if len(r) > 1]
     mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
     return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
-                        max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit)
+                        max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit, sent)
 
 
-def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: int, t1: int) -> list[Mismatch]:
+def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: int,
+                t1: int) -> tuple[list[Mismatch], int | None]:
     """The bytes sent must be the plan's, in order, each starting within 2 P of the first rise of
     the frame that follows the statements before its `send`. Bytes due in the last 2 P of the
     run may still be queued when it ends."""
     if plan.program.serial is None:
-        return []
+        return [], None
     period = plan.program.target.cycles(plan.period_us)
     due = [(t1 + (i - lead) * period, b) for i, fr in
            enumerate(itertools.islice(expand(plan, choices), lead + frames)) for b in fr.sent]
     end = t1 + (frames - 1) * period
     out: list[Mismatch] = []
+    checked = 0
     for k, (at, b) in enumerate(due):
         frame = round((at - t1) / period) + 1
         if k >= len(trace.sent):
             if at + 2 * period <= end:
+                checked += 1
                 out.append(Mismatch(frame, "send", "TXD", None, None, f"byte {_show(b)} was not sent"))
             continue
+        checked += 1
         when, got = trace.sent[k]
         if got != b:
             out.append(Mismatch(frame, "send", "TXD", None, None, f"sent {_show(got)} where {_show(b)} was due"))
@@ -185,19 +192,11 @@ def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: 
         if when + 2 * period <= end:
             out.append(Mismatch(round((when - t1) / period) + 1, "send", "TXD", None, None,
                                 f"sent {_show(got)}, which the plan does not send"))
-    return out
+    return out, checked
 
 
 def _show(b: int) -> str:
     return f'"{chr(b)}"' if 32 < b < 127 and chr(b) not in "\\\"" else str(b)
-
-
-def sent_checked(plan: Plan, report: VerifyReport, choices: tuple = ()) -> int:
-    """How many bytes the plan sends in the frames `report` checked."""
-    if plan.program.serial is None or not report.frames:
-        return 0
-    lead = first_pulse_frame(plan, choices) or 0
-    return sum(len(fr.sent) for fr in itertools.islice(expand(plan, choices), lead + report.frames))
 
 
 # ---------------------------------------------------------------- runs with events

@@ -267,8 +267,11 @@ def test_expand_follows_choices_and_waits_forever():
     assert [f.sent for f in got][:7] == [(), (), (), (), (), (), (ord("k"),)]
     after = [f.n[0] for f in itertools.islice(expand(p, [Choice(1)]), 8)]
     assert after == [100] * 8           # 1 + 5 frames of waiting, then `move a` (already there: 1 frame)
-    with pytest.raises(ValueError):
-        list(itertools.islice(expand(p, [Choice(0, 5)]), 10))
+    at_last = [f.n[0] for f in itertools.islice(expand(p, [Choice(0, 5)]), 8)]
+    assert at_last == [100] * 6 + [103, 107]   # the F-th look: its events come before `after`
+    for late in (Choice(0, 6), Choice(0, 0)):   # past F; and before the first frame
+        with pytest.raises(ValueError):
+            list(itertools.islice(expand(p, [late]), 10))
 
 
 # ---- lint -----------------------------------------------------------------------------------
@@ -284,17 +287,18 @@ def test_lint_rules():
     assert ("unreachable", 11, 3) in found(never)
     left = never.replace("after 1s { loop { move b in 1s; move a in 1s } }", "after 1s { }")
     assert not [f for f in found(left) if f[0] == "unreachable"]
-    assert ("empty-loop", 7, 3) in found(HEAD + "main {\n  loop { wait button }\n}\n")
+    assert ("empty-loop", 7, 3) in found(HEAD + "main {\n  loop { send \"k\" }\n}\n")
+    assert not [f for f in found(HEAD + "main {\n  loop { wait button; send \"k\" }\n}\n") if f[0] == "empty-loop"]
 
 
-def test_compile_refuses_and_plan_works(tmp_path, capsys):
+def test_serial_programs_compile_verify_lint_and_plan(tmp_path, capsys):
     path = tmp_path / "p.servo"
     path.write_text(HEAD + "main {\n  move a\n  wait button\n  move b in 1s\n  send \"k\"\n}\n", encoding="utf-8")
     for command in ("compile", "verify"):
         rc = cli.main([command, str(path)])
-        err = capsys.readouterr().err
-        assert rc == 1 and f"{path}:1:1: error: the firmware generator does not support `serial` yet" in err
-        assert "[not-in-firmware]" in err and "Traceback" not in err
+        out, err = capsys.readouterr()
+        assert rc == 0 and err == "" and "Traceback" not in out
+    assert "OK:" in out and "0 bytes sent checked" in out     # the button never comes: nothing is sent
     assert cli.main(["lint", str(path)]) == 0
     assert "runs as its events come" in capsys.readouterr().out
     assert cli.main(["plan", str(path)]) == 0

@@ -49,9 +49,9 @@ def run(text: str, scenario: str, frames: int):
     built = build_text(text)
     plan = built.plan
     evs = events.parse(scenario, plan.program.inputs)
-    changes = tuple(events.pin_changes(evs, plan.program.inputs, plan.program.target))
-    cycles = max(api.cycles_needed(plan, frames), changes[-1][0] + 1)
-    trace = api.simulate(built.firmware.hex_text, cycles, plan.program.target, changes)
+    stim = api.stimulus(plan, evs)
+    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
+    trace = api.simulate(built.firmware.hex_text, cycles, plan.program.target, stim)
     return plan, trace, evs, api.check_events(plan, trace, frames, evs)
 
 
@@ -123,7 +123,7 @@ def test_events_file_errors(tmp_path, capsys):
     prog.write_text(TWO)
     for text, message in [("1s door active\n", "`door` is not an input of the program (inputs: left, right)"),
                           ("1s left pressed\n", "say `active` or `inactive`"),
-                          ('1s "w"\n', "serial bytes need `serial`"),
+                          ('1s "w"\n', "the program declares no `serial`"),
                           ("soon left active\n", "is not `TIME NAME active|inactive`")]:
         ev = tmp_path / "e.events"
         ev.write_text(text)
