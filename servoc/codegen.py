@@ -446,7 +446,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],
         serial = {}
         if byte_cycles:     # from the vector: its LCALL (2) and LJMP (2)
             serial = {"serial_run": 4 + code.longest("uart_isr", set()),
-                      "serial_head": 4 + code.longest("uart_isr", {"ui_got"}) + 1,
+                      "serial_head": 4 + code.straight("uart_isr", "ui_got") + 1,
                       "byte_cycles": byte_cycles}
     except wcet.WcetError as exc:
         return None, str(exc)

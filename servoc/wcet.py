@@ -242,6 +242,14 @@ class Code:
 
         return go(self.labels[start])
 
+    def straight(self, start: str, end: str) -> int:
+        """Cycles of the instructions from label `start` up to label `end` in the order written (the
+        path that falls through every conditional branch between them)."""
+        a, b = self.labels[start], self.labels[end]
+        if any(ins.op in _JUMPS or ins.op in ("RET", "RETI", "JMP") for ins in self.instrs[a:b]):
+            raise WcetError(f"no straight path from {start} to {end}")
+        return sum(ins.cycles for ins in self.instrs[a:b])
+
     def longest_exit(self, labels: set[str]) -> int:
         """The longest of the paths from each label to its RETI."""
         return max(self.longest(name, set()) for name in labels)

@@ -94,10 +94,11 @@ def test_other_crystal_session_matches(tmp_path, monkeypatch, capsys):
         assert code == 0 and out == shown, (args, out, err)
 
 
-def test_events_session_matches(capsys):
-    """The README's `servoc verify --events` session on the greeter example."""
-    m = re.search(r"```text\n\$ servoc (verify [^\n]*--events[^\n]*)\n(.*?)```", README, re.S)
-    assert m, "the events session is missing"
-    args = [a if not a.startswith("examples/") else str(ROOT / a) for a in m.group(1).split()]
-    code, out, err = run_cli(args, capsys)
-    assert code == 0 and out.replace(str(ROOT) + "/", "") == m.group(2), (out, err)
+def test_events_sessions_match(capsys):
+    """The README's `servoc verify --events` sessions: the greeter (inputs) and the serial hexapod."""
+    sessions = re.findall(r"```text\n\$ servoc (verify [^\n]*--events[^\n]*)\n(.*?)```", README, re.S)
+    assert [s[0].split()[1] for s in sessions] == ["examples/greeter.servo", "examples/hexapod_serial.servo"]
+    for command, shown in sessions:
+        args = [a if not a.startswith("examples/") else str(ROOT / a) for a in command.split()]
+        code, out, err = run_cli(args, capsys)
+        assert code == 0 and out.replace(str(ROOT) + "/", "") == shown, (out, err)

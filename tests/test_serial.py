@@ -1,0 +1,216 @@
+"""The serial line in the firmware, run in ucsim with bytes from a host.
+
+Each scenario feeds ucsim's UART with bytes at chosen times (`servoc verify
+--events`): the branch each select takes is found by replaying the
+firmware's rule, every pulse must match the plan of that run exactly, each
+`on` must start within 2 P of its byte's stop bit, and every byte the
+firmware sends must be the plan's, in order, within 2 P of its frame.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from conftest import build_text, front_end_text
+from servoc import api, cli, codegen, costs, events, layout, verify
+from servoc.plan import send_gap, send_run
+from servoc.target import byte_cycles, timer1_baud, working_bauds
+
+pytestmark = pytest.mark.toolchain
+
+ROOT = Path(__file__).resolve().parent.parent
+
+ARM = """\
+serial 4800
+servo arm = P1.0 speed 0.05s/60deg
+servo leg = P1.1 speed 0.05s/60deg
+servo tail = P2.3 speed 0.05s/60deg
+pose home { arm: 20, leg: 20, tail: 20 }
+pose a { arm: 230, leg: 40, tail: 120 }
+pose b { arm: 100, leg: 200, tail: 60 }
+main {
+  move home
+  send "R"
+  loop {
+    select {
+      on "a" { move a in 300ms; send "A" }
+      on "b" { move b in 300ms; hold 50ms; send "B" }
+      after 1s { move home in 200ms; send "T" }
+    }
+  }
+}
+"""
+
+
+def run(text: str, scenario: str, frames: int):
+    built = build_text(text)
+    plan = built.plan
+    evs = events.parse(scenario, plan.program.inputs, True)
+    stim = api.stimulus(plan, evs)
+    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
+    trace = api.simulate(built.firmware.hex_text, cycles, plan.program.target, stim)
+    return plan, trace, evs, api.check_events(plan, trace, frames, evs)
+
+
+def sent(trace) -> str:
+    return "".join(chr(b) for _, b in trace.sent)
+
+
+P_US = 5300
+
+
+def at_frames(k: float) -> str:
+    return f"{round(k * P_US)}us"
+
+
+SCENARIOS = {
+    "nothing: the timeout, again and again": ("", "RTT"),
+    "one byte mid-frame": (f'{at_frames(40.5)} "a"\n', "RAT"),
+    "bytes at frame boundaries": (f'{at_frames(40)} "b"\n{at_frames(140)} "a"\n', "RBA"),
+    "four back to back, one unknown": (f'{at_frames(40.3)} "a" "z" "b" "a"\n', "RABA"),
+    "bytes while no select waits stay queued": (f'{at_frames(40.2)} "a"\n{at_frames(45.7)} "b"\n', "RAB"),
+    "unknown bytes only": (f'{at_frames(40)} "x"\n{at_frames(60)} 0 255\n', "RTT"),
+}
+
+
+@pytest.mark.parametrize("name", list(SCENARIOS))
+def test_scenarios_verify_exactly(name):
+    scenario, answers = SCENARIOS[name]
+    plan, trace, evs, report = run(ARM, scenario, 700)
+    assert report.ok, [str(m) for m in report.mismatches[:5]]
+    assert sent(trace).startswith(answers), sent(trace)
+    assert report.bytes_sent == len(sent(trace)) or report.bytes_sent == len(sent(trace)) - 1
+
+
+def test_each_branch_starts_within_two_frames_of_its_byte():
+    plan, trace, evs, report = run(ARM, SCENARIOS["bytes at frame boundaries"][0], 700)
+    choices, _ = verify.infer_choices(plan, trace, 700, events=evs)
+    delays = [d for _, _, d in verify.event_delays(plan, choices, evs, verify.first_rise_us(plan, trace))]
+    assert len(delays) == 2 and all(0 < d <= 2 * plan.period_us for d in delays), delays
+
+
+def test_a_run_checked_against_other_bytes_fails():
+    plan, trace, _, report = run(ARM, f'{at_frames(40)} "a"\n', 400)
+    assert report.ok
+    other = events.parse(f'{at_frames(40)} "b"\n', (), True)
+    assert not api.check_events(plan, trace, 400, other).ok
+
+
+def test_the_queue_model_matters(monkeypatch):
+    """Six bytes back to back while the robot moves: the queue keeps four, the rest are dropped.
+    The firmware's rule replayed with a longer queue no longer matches what it did."""
+    scenario = f'{at_frames(40.1)} "a"\n{at_frames(42)} "b" "a" "b" "a" "b" "a"\n'
+    plan, trace, evs, report = run(ARM, scenario, 700)
+    assert report.ok and sent(trace).startswith("RABABAT")     # a, then b a b a: the last b a dropped
+    t1 = verify.first_rise_us(plan, trace)
+    assert verify.model_choices(plan, trace, 700, evs, t1) is not None      # the firmware's rule, replayed
+    monkeypatch.setattr(verify, "QUEUE", 8)
+    assert verify.model_choices(plan, trace, 700, evs, t1) is None
+
+
+def test_a_wrong_byte_sent_is_caught():
+    good = build_text(ARM)
+    wrong = build_text(ARM.replace('send "A"', 'send "Z"'))
+    evs = events.parse(f'{at_frames(40)} "a"\n', (), True)
+    stim = api.stimulus(good.plan, evs)
+    trace = api.simulate(wrong.firmware.hex_text, api.cycles_needed(good.plan, 300), good.plan.program.target, stim)
+    report = api.check_events(good.plan, trace, 300, evs)
+    assert not report.ok and any('sent "Z" where "A" was due' in m.what for m in report.mismatches)
+    silent = build_text(ARM.replace('send "R"\n', ""))
+    trace = api.simulate(silent.firmware.hex_text, api.cycles_needed(good.plan, 300), good.plan.program.target,
+                         api.stimulus(good.plan))
+    assert any("was not sent" in m.what or "where" in m.what for m in api.check_trace(good.plan, trace, 300).mismatches)
+
+
+def test_hexapod_example_verifies_over_serial():
+    rc = cli.main(["verify", str(ROOT / "examples/hexapod_serial.servo"),
+                   "--events", str(ROOT / "examples/events/hexapod_serial.events")])
+    assert rc == 0
+
+
+FAST = """\
+target stc89c52 clock 11.0592MHz
+serial 9600
+""" + "".join(f"servo s{p}{b} = P{p}.{b} speed 0.05s/60deg\n" for p in range(3) for b in range(5)) + """\
+pose lo { """ + ", ".join(f"s{p}{b}: {20 + 14 * b}" for p in range(3) for b in range(5)) + """ }
+pose hi { """ + ", ".join(f"s{p}{b}: {250 - 14 * b}" for p in range(3) for b in range(5)) + """ }
+main {
+  move lo
+  loop {
+    select {
+      on "h" { move hi in 200ms; send "H" }
+      on "l" { move lo in 200ms; send "L" }
+    }
+  }
+}
+"""
+
+
+def test_9600_baud_at_11_0592_mhz_with_bursts():
+    """The fastest rate the check allows for 15 servos at 11.0592 MHz, with lines spread so
+    that they fall one entry of the edge handler each: bursts of four bytes at many phases."""
+    lines = []
+    for k in range(8):
+        t = 60 + 300 * k + 0.53 * k
+        lines.append(f'{t:.3f}ms "h" "l" "h" "l"')
+    plan, trace, evs, report = run(FAST, "\n".join(lines) + "\n", 400)
+    assert report.ok, [str(m) for m in report.mismatches[:5]]
+    assert sent(trace).startswith("HLHL")
+
+
+def test_rates_that_cannot_be_kept_are_refused(tmp_path, capsys):
+    eight = FAST.replace("range(5)", "range(8)")
+    text = "target stc89c52 clock 11.0592MHz\nserial 9600\n" + "".join(
+        f"servo s{b} = P1.{b}\n" for b in range(8)) + "pose p { " + ", ".join(f"s{b}: 100" for b in range(8)) + \
+        " }\nmain { move p; wait \"a\"; move p }\n"
+    path = tmp_path / "fast.servo"
+    path.write_text(text)
+    assert cli.main(["compile", str(path)]) == 1
+    err = capsys.readouterr().err
+    assert "[serial-too-fast]" in err and "use `serial 4800`" in err
+    path.write_text(text.replace("serial 9600", "serial 4800"))
+    assert cli.main(["compile", str(path), "-o", str(tmp_path / "f.hex")]) == 0
+    assert eight
+
+
+def test_sends_that_outrun_the_line_are_refused(tmp_path, capsys):
+    base = "serial 1200\nservo arm = P1.0\npose p { arm: 100 }\npose q { arm: 120 }\n"
+    path = tmp_path / "s.servo"
+    path.write_text(base + 'main { move p; send "a"; send "b"; send "c"; send "d"; send "e" }\n')
+    assert cli.main(["compile", str(path)]) == 1
+    assert "[send-overrun]" in capsys.readouterr().err
+    path.write_text(base + 'main { loop { move p; send "a"; move q; send "b" } }\n')   # 1200 baud: 8.3 ms a byte
+    assert cli.main(["compile", str(path)]) == 1
+    assert "[send-overrun]" in capsys.readouterr().err
+    path.write_text(base + 'main { loop { move p in 100ms; send "a"; move q in 100ms; send "b" } }\n')
+    assert cli.main(["compile", str(path), "-o", str(tmp_path / "s.hex")]) == 0
+
+
+def test_send_runs_and_gaps_are_counted():
+    fe, _ = front_end_text('serial 4800\nservo arm = P1.0\npose p { arm: 100 }\n'
+                           'main { send "a"; repeat 2 { send "b" }; move p; send "c"; hold 30ms; '
+                           'loop { wait "x"; send "d"; send "e" } }\n')
+    assert send_run(fe.plan) == 3               # a, b, b before the first frame
+    assert send_gap(fe.plan, 100) == 1          # d e, one frame (the wait), d e again
+    fe, _ = front_end_text('serial 4800\nservo arm = P1.0\npose p { arm: 100 }\n'
+                           'main { move p; send "c"; hold 30ms; send "d"; select { on "x" { send "e" }; after 1s { } } }\n')
+    assert send_run(fe.plan) == 1
+    assert send_gap(fe.plan, 100) == 1          # d, a frame of the select, e
+    assert send_gap(fe.plan, 3) == 1
+
+
+def test_the_serial_handler_is_in_the_budget():
+    """The same program with and without the serial line: the shortest period grows by the serial
+    handler's runs, read from the code, and the handler's head is short."""
+    with_serial = build_text(ARM.replace("main {", "frame 20ms\nmain {"))
+    budget = with_serial.firmware.unit.budget
+    assert budget.serial_head == 2 + 2 + 2 + 2 + 1      # LCALL, LJMP, JNB RI, MOV RXB,SBUF, CLR RI
+    assert budget.serial_run > budget.serial_head
+    assert budget.byte_cycles == byte_cycles(*timer1_baud(with_serial.plan.program.target, 4800)[:2]) == 2080
+    late = costs.serial_latency(with_serial.plan.program.target, budget)
+    assert late < budget.byte_cycles
+    assert 4800 in working_bauds(with_serial.plan.program.target)
+    assert costs.max_nesting(True) == 5 and costs.max_nesting() == 15
+    assert layout.SerialTooFast.code == "serial-too-fast" and codegen.frame_budget
