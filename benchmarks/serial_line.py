@@ -1,6 +1,6 @@
 """The serial line, measured in ucsim: receive rates that hold, event latency, added cycles.
 
-    .venv/bin/python benchmarks/serial.py
+    .venv/bin/python benchmarks/serial_line.py
 
 1. Rates. For 12 MHz and 11.0592 MHz and a few sizes (servos on each of three
    ports, lines spread so that each falls in an edge-handler entry of its own),
