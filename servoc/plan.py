@@ -353,6 +353,13 @@ class SendRun:
             return SendRun(True, t, max(t, nxt.most), nxt.tail)
         return SendRun(True, self.lead, max(self.most, nxt.most, self.tail + nxt.lead), nxt.tail)
 
+    def either(self, other: "SendRun") -> "SendRun":
+        return SendRun(self.framed and other.framed, max(self.lead, other.lead), max(self.most, other.most),
+                       max(self.tail, other.tail))
+
+    def frames(self, n: int) -> "SendRun":
+        return SendRun(n > 0)
+
     def again(self, count: int | None) -> "SendRun":
         """`count` passes one after another (None: forever)."""
         if count == 0:
@@ -367,30 +374,38 @@ class SendRun:
 UNBOUNDED = 1 << 30     # sends in a loop that takes no frame (lint's empty-loop refuses it)
 
 
-def _send_run(acc: SendRun, st: Step, inner) -> SendRun:
-    kind = walk.kind(st)
-    if kind == "send":
-        one = SendRun(False, 1, 1, 1)
-    elif kind == "move" or (kind == "hold" and st.frames > 0):
-        one = SendRun(True)
-    elif kind == "hold":
-        one = SendRun(False)
-    elif kind == "select":      # a frame, then a branch
-        runs = [SendRun(True).then(v) for v in inner] or [SendRun(True)]
-        one = SendRun(True, 0, max(r.most for r in runs), max(r.tail for r in runs))
-    elif kind == "repeat":
-        one = inner.again(st.count)
-    elif kind == "loop":
-        one = inner.again(None)
-    else:
-        one = inner
-    return acc.then(one)
+def _fold_sends(plan: Plan, blank, send):
+    """The program folded into a summary of its sends: `blank` stands for nothing, `send` for one
+    byte, `blank.frames(n)` for n frames; summaries combine with `then` (one after the other),
+    `either` (one or the other) and `again` (repeated; None: forever). A select takes a frame,
+    or its `after`'s F, before its branch."""
+    def step(acc, st: Step, inner):
+        kind = walk.kind(st)
+        if kind == "send":
+            one = send
+        elif kind == "move":
+            one = blank.frames(st.frames or 1)
+        elif kind == "hold":
+            one = blank.frames(st.frames)
+        elif kind == "select":
+            one = None
+            for br, v in zip(st.branches, inner):
+                way = blank.frames(max(1, br.frames) if isinstance(br, AfterBranch) else 1).then(v)
+                one = way if one is None else one.either(way)
+            one = one or blank.frames(1)
+        elif kind == "repeat":
+            one = inner.again(st.count)
+        elif kind == "loop":
+            one = inner.again(None)
+        else:
+            one = inner
+        return acc.then(one)
+    return walk.fold(plan.main, lambda name: plan.sequence(name).body, blank, step, {})
 
 
 def send_run(plan: Plan) -> int:
     """The most bytes the program can `send` with no frame between them."""
-    memo: dict = {}
-    return walk.fold(plan.main, lambda name: plan.sequence(name).body, SendRun(False), _send_run, memo).most
+    return _fold_sends(plan, SendRun(False), SendRun(False, 1, 1, 1)).most
 
 
 @dataclass(frozen=True)
@@ -432,31 +447,7 @@ class _Gaps:
 
 def send_gap(plan: Plan, cap: int) -> int:
     """The fewest frames between two sends that are not in one run (`cap` if never fewer)."""
-    def step(acc: _Gaps, st: Step, inner) -> _Gaps:
-        kind = walk.kind(st)
-        blank = _Gaps(cap)
-        if kind == "send":
-            one = _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}))
-        elif kind == "move":
-            one = blank.frames(st.frames or 1)
-        elif kind == "hold":
-            one = blank.frames(st.frames)
-        elif kind == "select":
-            one = None
-            for br, v in zip(st.branches, inner):
-                wait = max(1, br.frames) if isinstance(br, AfterBranch) else 1
-                way = blank.frames(wait).then(v)
-                one = way if one is None else one.either(way)
-            one = one or blank.frames(1)
-        elif kind == "repeat":
-            one = inner.again(st.count)
-        elif kind == "loop":
-            one = inner.again(None)
-        else:
-            one = inner
-        return acc.then(one)
-
-    found = walk.fold(plan.main, lambda name: plan.sequence(name).body, _Gaps(cap), step, {}).gap
+    found = _fold_sends(plan, _Gaps(cap), _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}))).gap
     return cap if found is None else min(found, cap)
 
 
