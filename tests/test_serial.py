@@ -124,6 +124,24 @@ def test_a_wrong_byte_sent_is_caught():
     assert any("was not sent" in m.what or "where" in m.what for m in api.check_trace(good.plan, trace, 300).mismatches)
 
 
+HEXAPOD = (ROOT / "examples/hexapod_serial.servo").read_text(encoding="utf-8")
+HEXAPOD_P_US = 10589
+HEXAPOD_SCENARIOS = {
+    "at a frame boundary": (f'{200 * HEXAPOD_P_US}us "l"\n', "RL"),
+    "mid-frame, unknown bytes around": ('2.3s "q"\n2.3053s "s" "?" "w"\n', "RSW"),
+    "while it walks": ('2.2s "w"\n2.9s "s"\n3.1s "l"\n', "RWS"),
+}
+
+
+@pytest.mark.parametrize("name", list(HEXAPOD_SCENARIOS))
+def test_hexapod_scenarios(name):
+    scenario, answers = HEXAPOD_SCENARIOS[name]
+    plan, trace, _, report = run(HEXAPOD, scenario, 500)
+    assert plan.period_us == HEXAPOD_P_US
+    assert report.ok, [str(m) for m in report.mismatches[:5]]
+    assert sent(trace).startswith(answers), sent(trace)
+
+
 def test_hexapod_example_verifies_over_serial():
     rc = cli.main(["verify", str(ROOT / "examples/hexapod_serial.servo"),
                    "--events", str(ROOT / "examples/events/hexapod_serial.events")])
