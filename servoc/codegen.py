@@ -465,7 +465,8 @@ def _serial(serial, ram: layout.RamAllocator) -> dict:
     ram.alloc("RXB", 1, "the byte just received")
     ram.alloc("TXON", 1, "1 while a byte is on the line")
     return {"baud": serial.baud, "th1": serial.th1, "smod": serial.smod, "rate": f"{float(serial.actual):.1f}",
-            "byte_cycles": target_mod.byte_cycles(serial.th1, serial.smod), "queue": q, "full_bit": q.bit_length() - 1}
+            "byte_cycles": target_mod.byte_cycles(serial.th1, serial.smod), "queue": q, "mask": q - 1,
+            "full_bit": q.bit_length() - 1}
 
 
 def _bytes(n: int) -> str:

@@ -84,9 +84,15 @@ def flag_equates() -> list[tuple[str, int, str]]:
 # ----------------------------------------------------------------- errors
 
 class LayoutError(Exception):
-    """A valid program that does not fit the firmware's resources: a code and a help line."""
+    """A valid program that does not fit the firmware's resources: a code and a help line (the
+    class's, unless the message comes with a help of its own)."""
     code = "resources"
     help = "simplify the program"
+
+    def __init__(self, message: str, help: str | None = None):
+        super().__init__(message)
+        if help is not None:
+            self.help = help
 
 
 class RamFull(LayoutError):
@@ -115,21 +121,11 @@ class SerialTooFast(LayoutError):
     code = "serial-too-fast"
     help = "use a slower rate, fewer servo lines on one port, or a faster crystal"
 
-    def __init__(self, message: str, help: str | None = None):
-        super().__init__(message)
-        if help is not None:
-            self.help = help
-
 
 class SendOverrun(LayoutError):
     """`send` could find the transmit queue full."""
     code = "send-overrun"
     help = f"put a frame (a move or a hold) between the sends: at most {costs.QUEUE} bytes between two frames"
-
-    def __init__(self, message: str, help: str | None = None):
-        super().__init__(message)
-        if help is not None:
-            self.help = help
 
 
 # A select's `after` F is counted in 16 bits (it looks after each frame; the F-th look takes it).
