@@ -67,15 +67,16 @@ def _bytes(rest: str, number: int) -> bytes:
         if m is None or (m.group(2) is not None and int(m.group(2)) > 255):
             raise EventsError(number, f"`{rest[pos:].split()[0]}` is not a byte: write a one-character string "
                                       f"such as \"w\" or an integer 0..255")
+        if m.group(1) is not None and ord(m.group(1)) > 127:
+            raise EventsError(number, f"`{m.group(0)}` is not one ASCII character: write its byte as a number")
         out.append(ord(m.group(1)) if m.group(1) is not None else int(m.group(2)))
-        if m.group(1) is not None and ord(m.group(1)) > 255:
-            raise EventsError(number, f"`{m.group(0)}` is not one byte")
         pos = m.end()
         while pos < len(rest) and rest[pos] in " \t":
             pos += 1
     return bytes(out)
 
 
+_COMMENT = re.compile(r'("[^"]*")|#.*')     # a `#` starts a comment, except inside a byte's quotes
 _TIME = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*(us|ms|s)\s+(.*)$")
 
 
@@ -85,7 +86,7 @@ def parse(text: str, inputs: tuple[model.Input, ...], serial: bool = False) -> l
     names = {i.name for i in inputs}
     out: list[InputEvent | ByteEvent] = []
     for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("#", 1)[0].strip() if '"#"' not in raw else raw.strip()
+        line = _COMMENT.sub(lambda m: m.group(1) or "", raw).strip()
         if not line:
             continue
         tm = _TIME.match(line)

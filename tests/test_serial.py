@@ -205,6 +205,14 @@ def test_sends_that_outrun_the_line_are_refused(tmp_path, capsys):
     assert cli.main(["compile", str(path), "-o", str(tmp_path / "s.hex")]) == 0
 
 
+def test_events_file_bytes():
+    evs = events.parse('# the host\n1s "#" 35 # two hashes\n1.5ms 0 255 "w"\n', (), True)
+    assert [(e.time_us, e.data) for e in evs] == [(1500, bytes([0, 255, 119])), (1_000_000, b"##")]
+    for bad in ('1s 256\n', '1s "ab"\n', '1s "w" x\n', '1s "\u20ac"\n'):
+        with pytest.raises(events.EventsError):
+            events.parse(bad, (), True)
+
+
 def test_send_runs_and_gaps_are_counted():
     fe, _ = front_end_text('serial 4800\nservo arm = P1.0\npose p { arm: 100 }\n'
                            'main { send "a"; repeat 2 { send "b" }; move p; send "c"; hold 30ms; '
