@@ -149,12 +149,13 @@ def test_hexapod_example_verifies_over_serial():
     assert rc == 0
 
 
+SPREAD = 16     # N apart: 118 cycles at 11.0592 MHz, so each line falls in an edge-handler entry of its own
 FAST = """\
 target stc89c52 clock 11.0592MHz
 serial 9600
 """ + "".join(f"servo s{p}{b} = P{p}.{b} speed 0.05s/60deg\n" for p in range(3) for b in range(5)) + """\
-pose lo { """ + ", ".join(f"s{p}{b}: {20 + 14 * b}" for p in range(3) for b in range(5)) + """ }
-pose hi { """ + ", ".join(f"s{p}{b}: {250 - 14 * b}" for p in range(3) for b in range(5)) + """ }
+pose lo { """ + ", ".join(f"s{p}{b}: {SPREAD * b}" for p in range(3) for b in range(5)) + """ }
+pose hi { """ + ", ".join(f"s{p}{b}: {250 - SPREAD * b}" for p in range(3) for b in range(5)) + """ }
 main {
   move lo
   loop {
@@ -168,15 +169,19 @@ main {
 
 
 def test_9600_baud_at_11_0592_mhz_with_bursts():
-    """The fastest rate the check allows for 15 servos at 11.0592 MHz, with lines spread so
-    that they fall one entry of the edge handler each: bursts of four bytes at many phases."""
-    lines = []
-    for k in range(8):
-        t = 60 + 300 * k + 0.53 * k
-        lines.append(f'{t:.3f}ms "h" "l" "h" "l"')
-    plan, trace, evs, report = run(FAST, "\n".join(lines) + "\n", 400)
+    """The fastest rate the check allows for 15 servos at 11.0592 MHz, at the program's own
+    shortest period, its lines falling in entries of their own at the ends of each port's window
+    (the edge handler's longest hold on the CPU): bursts of four bytes at 16 phases of the frame,
+    each one sixteenth of a frame later than the one before. No byte may be lost."""
+    built = build_text(FAST)
+    unit, plan = built.firmware.unit, built.plan
+    assert plan.period_us == unit.min_period_us
+    late = costs.serial_latency(unit.target, unit.budget)
+    assert late <= unit.budget.byte_cycles < late + 60        # at the check's limit
+    lines = [f'{60_000 + 1_000_000 * k + k * plan.period_us // 16}us "h" "l" "h" "l"' for k in range(16)]
+    plan, trace, evs, report = run(FAST, "\n".join(lines) + "\n", int(16_500_000 / plan.period_us))
     assert report.ok, [str(m) for m in report.mismatches[:5]]
-    assert sent(trace).startswith("HLHL")
+    assert sent(trace) == "HLHL" * 16
 
 
 def test_rates_that_cannot_be_kept_are_refused(tmp_path, capsys):
