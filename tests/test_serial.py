@@ -250,3 +250,20 @@ def test_the_serial_handler_is_in_the_budget():
     assert slower > plain       # the hexapod's work binds: the serial handler's runs make it longer
     loaded = dataclasses.replace(quiet, work=quiet.work + costs.serial_load(budget, slower))
     assert slower >= costs.frame_cycles(target, loaded)
+
+
+def test_sends_at_the_limit_verify():
+    """Two bytes at 1200 baud (8.3 ms each) every 4 frames is the closest the send check allows
+    for this program (3 frames is refused); run in ucsim, every byte is sent, in order, in time."""
+    def text(ms: int) -> str:
+        return ("serial 1200\nservo arm = P1.0 speed 0.05s/60deg\npose p { arm: 100 }\npose q { arm: 110 }\n"
+                f'main {{ loop {{ move p in {ms}ms; send "a"; send "b"; move q in {ms}ms; send "c"; send "d" }} }}\n')
+    fe, diags = front_end_text(text(16))
+    assert fe.plan is not None and send_gap(fe.plan, 10) == 3
+    with pytest.raises(AssertionError, match="send-overrun"):
+        build_text(text(16))
+    built = build_text(text(21))
+    assert send_gap(built.plan, 10) == 4 and send_run(built.plan) == 2
+    report = api.verify(built.plan, built.firmware, 300)
+    assert report.ok, [str(m) for m in report.mismatches[:5]]
+    assert report.bytes_sent >= 140
