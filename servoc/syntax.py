@@ -20,8 +20,8 @@ from fractions import Fraction
 from functools import lru_cache
 from typing import Iterable, Iterator
 
-from lark import Lark, Token, Transformer_NonRecursive, Tree, v_args
-from lark.exceptions import UnexpectedInput, UnexpectedToken, VisitError
+from lark import Lark, Token
+from lark.exceptions import UnexpectedInput, UnexpectedToken
 from lark.lexer import PatternStr
 
 from . import nodes
@@ -29,14 +29,24 @@ from .diagnostics import Reporter
 from .resources import grammar_text
 from .source import SourceFile, Span
 
-# Deeper block nesting than this is refused (and keeps every later recursive
-# pass, such as dataclass equality, well inside Python's recursion limit).
-MAX_NESTING = 100
+# More `{` open at once than this is refused: a select's braces count with
+# its blocks', so 100 levels of blocks fit even with a select at each. This
+# keeps every later recursive pass, such as dataclass equality, well inside
+# Python's recursion limit.
+MAX_NESTING = 200
 # More digits than this in one number is refused before converting it.
 MAX_DIGITS = 60
 
 _NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _MICRO = ("\u00b5", "\u03bc")
+
+
+class _Problem(Exception):
+    """A syntax problem found while building nodes (e.g. a number too long)."""
+
+    def __init__(self, message: str, span: Span, help: str = "") -> None:
+        super().__init__(message)
+        self.message, self.span, self.help = message, span, help
 
 
 class _KeywordPostLex:
@@ -47,6 +57,9 @@ class _KeywordPostLex:
     every parser state (`always_accept`), so that `mainloop` is never split
     into `main` + `loop` where only keywords fit; so is PIN, so that a pin in
     the wrong place is reported as `P1.0`, not as `P1`.
+
+    It also refuses more than MAX_NESTING braces open at once, before the
+    parser builds anything that deep.
     """
 
     always_accept = ("NAME", "PIN")
@@ -55,17 +68,29 @@ class _KeywordPostLex:
         self.keywords: dict[str, str] = {}
 
     def process(self, stream: Iterable[Token]) -> Iterator[Token]:
+        keywords = self.keywords
+        depth = 0
         for tok in stream:
-            if tok.type == "NAME" and tok.value in self.keywords:
-                tok = Token.new_borrow_pos(self.keywords[tok.value], tok.value, tok)
+            kind = tok.type
+            if kind == "NAME":
+                if tok.value in keywords:
+                    tok = Token.new_borrow_pos(keywords[tok.value], tok.value, tok)
+            elif kind == "LBRACE":
+                depth += 1
+                if depth > MAX_NESTING:
+                    raise _Problem(f"blocks are nested too deeply: more than {MAX_NESTING} `{{` open at once",
+                                   Span(tok.start_pos, tok.end_pos),
+                                   help="split the program into sequences and `play` them")
+            elif kind == "RBRACE":
+                depth -= 1
             yield tok
 
 
 @lru_cache(maxsize=None)
 def _parser() -> Lark:
     postlex = _KeywordPostLex()
-    parser = Lark(grammar_text(), parser="lalr", lexer="contextual", propagate_positions=True,
-                  postlex=postlex, maybe_placeholders=False)
+    parser = Lark(grammar_text(), parser="lalr", lexer="contextual", postlex=postlex,
+                  transformer=_Builder(), maybe_placeholders=False)
     for term in parser.terminals:
         if isinstance(term.pattern, PatternStr) and _NAME_RE.match(term.pattern.value):
             postlex.keywords[term.pattern.value] = term.name
@@ -77,27 +102,17 @@ def keywords() -> frozenset[str]:
     return frozenset(_parser().options.postlex.keywords)
 
 
-class _Problem(Exception):
-    """A syntax problem found while building nodes (e.g. a number too long)."""
-
-    def __init__(self, message: str, span: Span, help: str = "") -> None:
-        super().__init__(message)
-        self.message, self.span, self.help = message, span, help
-
-
 # ---- parse ------------------------------------------------------------------
 
 def parse(source: SourceFile, reporter: Reporter) -> nodes.Program | None:
-    """Parse one file; on a syntax error report it once and return None."""
+    """Parse one file; on a syntax error report it once and return None.
+
+    The nodes are built as lark parses, so the first problem in the file is
+    the one reported, whether the grammar or a number finds it.
+    """
     text = source.text
     try:
-        tree = _parser().parse(text)
-        depth_error = _check_nesting(tree)
-        if depth_error is not None:
-            reporter.error("syntax-error", depth_error[0], depth_error[1],
-                           help="split the program into sequences and `play` them")
-            return None
-        return _Builder().transform(tree)
+        return _parser().parse(text)
     except UnexpectedInput as exc:
         try:
             message, span, help_ = _describe(exc, text)
@@ -106,12 +121,8 @@ def parse(source: SourceFile, reporter: Reporter) -> nodes.Program | None:
             message, span, help_ = "this text could not be read as .servo", Span(pos, pos + 1), ""
         reporter.error("syntax-error", message, span, help=help_)
         return None
-    except VisitError as exc:
-        orig = exc.orig_exc
-        if isinstance(orig, _Problem):
-            reporter.error("syntax-error", orig.message, orig.span, help=orig.help)
-        else:
-            reporter.error("syntax-error", "this program could not be read", Span(0, 0))
+    except _Problem as exc:
+        reporter.error("syntax-error", exc.message, exc.span, help=exc.help)
         return None
     except RecursionError:
         reporter.error("syntax-error", "the program is nested too deeply to read", Span(0, 0),
@@ -122,29 +133,7 @@ def parse(source: SourceFile, reporter: Reporter) -> nodes.Program | None:
         return None
 
 
-def _check_nesting(tree: Tree) -> tuple[str, Span] | None:
-    """Block nesting depth, walked without recursion."""
-    stack: list[tuple[Tree, int]] = [(tree, 0)]
-    while stack:
-        node, depth = stack.pop()
-        if node.data == "block":
-            depth += 1
-            if depth > MAX_NESTING:
-                start = node.meta.start_pos if not node.meta.empty else 0
-                return (f"blocks are nested more than {MAX_NESTING} deep", Span(start, start + 1))
-        for child in node.children:
-            if isinstance(child, Tree):
-                stack.append((child, depth))
-    return None
-
-
 # ---- tree -> nodes ----------------------------------------------------------
-
-def _span(meta) -> Span:
-    if getattr(meta, "empty", True):
-        return Span(0, 0)
-    return Span(meta.start_pos, meta.end_pos)
-
 
 def _tspan(tok: Token) -> Span:
     return Span(tok.start_pos, tok.end_pos)
@@ -157,154 +146,187 @@ def _name(tok: Token) -> nodes.Name:
 _NUMBER_RE = re.compile(r"([0-9]+)(?:\.([0-9]+))?(.*)\Z", re.S)
 
 
-def _quantity(tok: Token, negative: bool = False, start: int | None = None) -> nodes.Quantity:
-    m = _NUMBER_RE.match(str(tok))
-    whole, frac, unit = m.group(1), m.group(2) or "", m.group(3)
-    span = Span(tok.start_pos if start is None else start, tok.end_pos)
+@lru_cache(maxsize=4096)
+def _number(text: str) -> tuple[Fraction, str] | None:
+    """A NUMBER token's value and unit (`µs` spelled `us`); None when it has too many digits."""
+    whole, frac, unit = _NUMBER_RE.match(text).groups(default="")
     if len(whole.lstrip("0")) + len(frac) > MAX_DIGITS:
-        shown = str(tok)[:12]
-        raise _Problem(f"the number `{shown}...` has too many digits", span,
-                       help=f"numbers may have at most {MAX_DIGITS} digits")
-    value = Fraction(int(whole + frac), 10 ** len(frac))
+        return None
     if unit[:1] in _MICRO:
         unit = "u" + unit[1:]
+    return Fraction(int(whole + frac), 10 ** len(frac)), unit
+
+
+def _quantity(tok: Token, negative: bool = False, start: int | None = None) -> nodes.Quantity:
+    span = Span(tok.start_pos if start is None else start, tok.end_pos)
+    number = _number(tok.value)
+    if number is None:
+        raise _Problem(f"the number `{tok.value[:12]}...` has too many digits", span,
+                       help=f"numbers may have at most {MAX_DIGITS} digits")
+    value, unit = number
     return nodes.Quantity(-value if negative else value, unit, span)
 
 
-@v_args(meta=True)
-class _Builder(Transformer_NonRecursive):
-    """lark tree -> `nodes`; each method's grammar rule is above it."""
+def _end(node) -> int:
+    """Where a child of a rule ends: a token, or a node with a span."""
+    return node.end_pos if isinstance(node, Token) else node.span.end
+
+
+def _rule_span(ch: list) -> Span:
+    """A rule's span: its first token (a kept keyword or `{`) to its last child."""
+    return Span(ch[0].start_pos, _end(ch[-1]))
+
+
+class _Builder:
+    """Builds `nodes` while lark parses (its inline transformer).
+
+    Each method's grammar rule is above it, with the children it is given: the
+    rules marked `!` keep their keywords and punctuation, which give the spans.
+    """
 
     # start: _sep* (_item _sep+)* _item?
-    def start(self, meta, items):
-        return nodes.Program(tuple(items), _span(meta))
+    def start(self, items):
+        span = Span(items[0].span.start, items[-1].span.end) if items else Span(0, 0)
+        return nodes.Program(tuple(items), span)
 
-    # frame_decl: "frame" NUMBER
-    def frame_decl(self, meta, ch):
-        return nodes.FrameDecl(_quantity(ch[0]), _span(meta))
+    # !frame_decl: "frame" NUMBER
+    def frame_decl(self, ch):
+        return nodes.FrameDecl(_quantity(ch[1]), _rule_span(ch))
 
-    # target_decl: "target" NAME ("clock" NUMBER)? (NAME NUMBER)?     the second NAME: `mode`
-    def target_decl(self, meta, ch):
-        chip, *rest = ch
-        clock = _quantity(rest.pop(0)) if rest and rest[0].type == "NUMBER" else None
+    # !target_decl: "target" NAME ("clock" NUMBER)? (NAME NUMBER)?     the second NAME: `mode`
+    def target_decl(self, ch):
+        _, chip, *rest = ch
+        clock = None
+        if rest and rest[0].type == "CLOCK":
+            clock = _quantity(rest[1])
+            rest = rest[2:]
         mode = (_name(rest[0]), _quantity(rest[1])) if rest else None
-        return nodes.TargetDecl(_name(chip), clock, _span(meta), mode)
+        return nodes.TargetDecl(_name(chip), clock, _rule_span(ch), mode)
 
-    # input_decl: "input" NAME "=" PIN NAME?      the second NAME: `low` or `high`
-    def input_decl(self, meta, ch):
-        name, pin, *level = ch
+    # !input_decl: "input" NAME "=" PIN NAME?      the second NAME: `low` or `high`
+    def input_decl(self, ch):
+        _, name, _, pin, *level = ch
         return nodes.InputDecl(_name(name), nodes.Pin(str(pin), _tspan(pin)),
-                               _name(level[0]) if level else None, _span(meta))
+                               _name(level[0]) if level else None, _rule_span(ch))
 
-    # serial_decl: "serial" NUMBER
-    def serial_decl(self, meta, ch):
-        return nodes.SerialDecl(_quantity(ch[0]), _span(meta))
+    # !serial_decl: "serial" NUMBER
+    def serial_decl(self, ch):
+        return nodes.SerialDecl(_quantity(ch[1]), _rule_span(ch))
 
-    # servo_decl: "servo" NAME "=" PIN _servo_option*
-    def servo_decl(self, meta, ch):
-        name, pin, *options = ch
-        return nodes.ServoDecl(_name(name), nodes.Pin(str(pin), _tspan(pin)), tuple(options), _span(meta))
+    # !servo_decl: "servo" NAME "=" PIN _servo_option*
+    def servo_decl(self, ch):
+        _, name, _, pin, *options = ch
+        return nodes.ServoDecl(_name(name), nodes.Pin(str(pin), _tspan(pin)), tuple(options), _rule_span(ch))
 
-    # speed_option: "speed" NUMBER "/" NUMBER
-    def speed_option(self, meta, ch):
-        return nodes.SpeedOption(_quantity(ch[0]), _quantity(ch[1]), _span(meta))
+    # !speed_option: "speed" NUMBER "/" NUMBER
+    def speed_option(self, ch):
+        return nodes.SpeedOption(_quantity(ch[1]), _quantity(ch[3]), _rule_span(ch))
 
-    # trim_option: "trim" SIGN? NUMBER
-    def trim_option(self, meta, ch):
-        if len(ch) == 2:
-            sign, num = ch
-            return nodes.TrimOption(_quantity(num, sign == "-", sign.start_pos), _span(meta))
-        return nodes.TrimOption(_quantity(ch[0]), _span(meta))
+    # !trim_option: "trim" SIGN? NUMBER
+    def trim_option(self, ch):
+        if len(ch) == 3:
+            sign, num = ch[1], ch[2]
+            return nodes.TrimOption(_quantity(num, sign == "-", sign.start_pos), _rule_span(ch))
+        return nodes.TrimOption(_quantity(ch[1]), _rule_span(ch))
 
-    # limit_option: "limit" NUMBER ".." NUMBER
-    def limit_option(self, meta, ch):
-        return nodes.LimitOption(_quantity(ch[0]), _quantity(ch[1]), _span(meta))
+    # !limit_option: "limit" NUMBER ".." NUMBER
+    def limit_option(self, ch):
+        return nodes.LimitOption(_quantity(ch[1]), _quantity(ch[3]), _rule_span(ch))
 
-    # reverse_option: "reverse"
-    def reverse_option(self, meta, ch):
-        return nodes.ReverseOption(_span(meta))
+    # !reverse_option: "reverse"
+    def reverse_option(self, ch):
+        return nodes.ReverseOption(_rule_span(ch))
 
-    # group_decl: "group" NAME "=" NAME ("," _NL* NAME)*
-    def group_decl(self, meta, ch):
-        return nodes.GroupDecl(_name(ch[0]), tuple(_name(t) for t in ch[1:]), _span(meta))
+    # !group_decl: "group" NAME "=" NAME ("," _NL* NAME)*
+    def group_decl(self, ch):
+        members = tuple(_name(t) for t in ch[3:] if t.type == "NAME")
+        return nodes.GroupDecl(_name(ch[1]), members, _rule_span(ch))
 
-    # pose_decl: "pose" NAME pose_body
-    def pose_decl(self, meta, ch):
-        return nodes.PoseDecl(_name(ch[0]), None, ch[1], _span(meta))
+    # !pose_decl: "pose" NAME pose_body
+    def pose_decl(self, ch):
+        entries, end = ch[2]
+        return nodes.PoseDecl(_name(ch[1]), None, entries, Span(ch[0].start_pos, end))
 
-    # pose_decl: "pose" NAME "=" NAME "with" pose_body  -> pose_with_decl
-    def pose_with_decl(self, meta, ch):
-        return nodes.PoseDecl(_name(ch[0]), _name(ch[1]), ch[2], _span(meta))
+    # "pose" NAME "=" NAME "with" pose_body  -> pose_with_decl
+    def pose_with_decl(self, ch):
+        entries, end = ch[5]
+        return nodes.PoseDecl(_name(ch[1]), _name(ch[3]), entries, Span(ch[0].start_pos, end))
 
-    # pose_body: "{" _NL* (entry _entry_sep+)* entry? "}"
-    def pose_body(self, meta, ch):
-        return tuple(ch)
+    # !pose_body: "{" _NL* (entry _entry_sep+)* entry? "}"       -> (entries, where `}` ends)
+    def pose_body(self, ch):
+        return tuple(e for e in ch if isinstance(e, nodes.Entry)), ch[-1].end_pos
 
     # entry: NAME ":" NUMBER
-    def entry(self, meta, ch):
-        return nodes.Entry(_name(ch[0]), _quantity(ch[1]), _span(meta))
+    def entry(self, ch):
+        name, _, number = ch
+        return nodes.Entry(_name(name), _quantity(number), Span(name.start_pos, number.end_pos))
 
-    # sequence_decl: "sequence" NAME block
-    def sequence_decl(self, meta, ch):
-        return nodes.SequenceDecl(_name(ch[0]), ch[1], _span(meta))
+    # !sequence_decl: "sequence" NAME block
+    def sequence_decl(self, ch):
+        body, end = ch[2]
+        return nodes.SequenceDecl(_name(ch[1]), body, Span(ch[0].start_pos, end))
 
-    # main_decl: "main" block
-    def main_decl(self, meta, ch):
-        span = _span(meta)
-        return nodes.MainDecl(ch[0], Span(span.start, span.start + len("main")), span)
+    # !main_decl: "main" block
+    def main_decl(self, ch):
+        kw, (body, end) = ch
+        return nodes.MainDecl(body, _tspan(kw), Span(kw.start_pos, end))
 
-    # block: "{" _stmt_sep* (_stmt _stmt_sep+)* _stmt? "}"
-    def block(self, meta, ch):
-        return tuple(ch)
+    # !block: "{" _stmt_sep* (_stmt _stmt_sep+)* _stmt? "}"      -> (statements, where `}` ends)
+    def block(self, ch):
+        return tuple(ch[1:-1]), ch[-1].end_pos
 
-    # move_stmt: "move" NAME ("in" NUMBER ease?)?
-    def move_stmt(self, meta, ch):
-        duration = _quantity(ch[1]) if len(ch) > 1 else None
-        ease = ch[2] if len(ch) > 2 else None
-        return nodes.MoveStmt(_name(ch[0]), duration, ease, _span(meta))
+    # !move_stmt: "move" NAME ("in" NUMBER ease?)?
+    def move_stmt(self, ch):
+        duration = _quantity(ch[3]) if len(ch) > 3 else None
+        ease = str(ch[4]) if len(ch) > 4 else None
+        return nodes.MoveStmt(_name(ch[1]), duration, ease, _rule_span(ch))
 
-    # ease: "ease" (LINEAR | IN | OUT | IN_OUT)
-    def ease(self, meta, ch):
-        return str(ch[0])
+    # !ease: "ease" (LINEAR | IN | OUT | IN_OUT)      -> the easing's token
+    def ease(self, ch):
+        return ch[1]
 
-    # hold_stmt: "hold" NUMBER
-    def hold_stmt(self, meta, ch):
-        return nodes.HoldStmt(_quantity(ch[0]), _span(meta))
+    # !hold_stmt: "hold" NUMBER
+    def hold_stmt(self, ch):
+        return nodes.HoldStmt(_quantity(ch[1]), _rule_span(ch))
 
-    # repeat_stmt: "repeat" NUMBER block
-    def repeat_stmt(self, meta, ch):
-        return nodes.RepeatStmt(_quantity(ch[0]), ch[1], _span(meta))
+    # !repeat_stmt: "repeat" NUMBER block
+    def repeat_stmt(self, ch):
+        body, end = ch[2]
+        return nodes.RepeatStmt(_quantity(ch[1]), body, Span(ch[0].start_pos, end))
 
-    # loop_stmt: "loop" block
-    def loop_stmt(self, meta, ch):
-        return nodes.LoopStmt(ch[0], _span(meta))
+    # !loop_stmt: "loop" block
+    def loop_stmt(self, ch):
+        body, end = ch[1]
+        return nodes.LoopStmt(body, Span(ch[0].start_pos, end))
 
-    # play_stmt: "play" NAME
-    def play_stmt(self, meta, ch):
-        return nodes.PlayStmt(_name(ch[0]), _span(meta))
+    # !play_stmt: "play" NAME
+    def play_stmt(self, ch):
+        return nodes.PlayStmt(_name(ch[1]), _rule_span(ch))
 
-    # select_stmt: "select" "{" _stmt_sep* (_branch _stmt_sep+)* _branch? "}"
-    def select_stmt(self, meta, ch):
-        return nodes.SelectStmt(tuple(ch), _span(meta))
+    # !select_stmt: "select" "{" _stmt_sep* (_branch _stmt_sep+)* _branch? "}"
+    def select_stmt(self, ch):
+        return nodes.SelectStmt(tuple(ch[2:-1]), _rule_span(ch))
 
-    # on_branch: "on" event block
-    def on_branch(self, meta, ch):
-        return nodes.OnBranch(ch[0], ch[1], _span(meta))
+    # !on_branch: "on" event block
+    def on_branch(self, ch):
+        body, end = ch[2]
+        return nodes.OnBranch(ch[1], body, Span(ch[0].start_pos, end))
 
-    # after_branch: "after" NUMBER block
-    def after_branch(self, meta, ch):
-        return nodes.AfterBranch(_quantity(ch[0]), ch[1], _span(meta))
+    # !after_branch: "after" NUMBER block
+    def after_branch(self, ch):
+        body, end = ch[2]
+        return nodes.AfterBranch(_quantity(ch[1]), body, Span(ch[0].start_pos, end))
 
-    # wait_stmt: "wait" event
-    def wait_stmt(self, meta, ch):
-        return nodes.WaitStmt(ch[0], _span(meta))
+    # !wait_stmt: "wait" event
+    def wait_stmt(self, ch):
+        return nodes.WaitStmt(ch[1], _rule_span(ch))
 
-    # send_stmt: "send" event
-    def send_stmt(self, meta, ch):
-        return nodes.SendStmt(ch[0], _span(meta))
+    # !send_stmt: "send" event
+    def send_stmt(self, ch):
+        return nodes.SendStmt(ch[1], _rule_span(ch))
 
     # event: NAME | STRING | NUMBER
-    def event(self, meta, ch):
+    def event(self, ch):
         tok = ch[0]
         if tok.type == "STRING":
             return nodes.StringLit(str(tok)[1:-1], _tspan(tok))

@@ -25,12 +25,19 @@ FREQ_UNITS_HZ = {"Hz": Fraction(1), "kHz": Fraction(1000), "MHz": Fraction(1_000
 
 
 def round_half_up(x: Fraction) -> int:
-    return math.floor(x + Fraction(1, 2))
+    """floor(x + 1/2) of a Fraction or int, exact in integers: (2p + q) // 2q for x = p/q."""
+    return (2 * x.numerator + x.denominator) // (2 * x.denominator)
 
 
 def deg_to_n(angle_deg: Fraction) -> int:
     """N for an angle: floor(A x 250/185 + 1/2), exact."""
-    return round_half_up(Fraction(angle_deg) * N_MAX / FULL_DEG)
+    p, q = angle_deg.numerator, angle_deg.denominator
+    return (2 * N_MAX * p + FULL_DEG * q) // (2 * FULL_DEG * q)
+
+
+def deg_on_grid(angle_deg: Fraction, n: int) -> bool:
+    """Whether an angle is exactly N steps of 0.74 deg (A = N x 185/250)."""
+    return angle_deg.numerator * N_MAX == n * FULL_DEG * angle_deg.denominator
 
 
 def width_to_n(width_us: Fraction) -> int:

@@ -182,26 +182,27 @@ class Resolve:
         """The N sent to servo `name` for `position`: limit checked, then reverse, then trim."""
         ctx = self.ctx
         servo = ctx.servos[name]
-        written = format_quantity(entry.position)
         n = position.n
         if servo.limit is not None:
             lo, hi = servo.limit
             if not lo <= n <= hi:
                 lim = ctx.servo_limits[name]
                 ctx.r.error("limit-violation",
-                            f"`{written}` (N {n}) is outside the limit of servo `{name}`: "
+                            f"`{format_quantity(entry.position)}` (N {n}) is outside the limit of servo `{name}`: "
                             f"{format_quantity(lim.low)}..{format_quantity(lim.high)} (N {lo}..{hi})",
                             entry.span, help=f"use a position within the limit, or widen the limit "
                                              f"(set at line {ctx.line(lim.span)})")
                 return None
-        steps = [f"`{written}` is N {n}"]
+        written = n
         if servo.reverse:
-            steps.append(f"reversed: 250 - {n} = {units.N_MAX - n}")
             n = units.N_MAX - n
-        if servo.trim:
-            steps.append(f"trim {servo.trim:+d}: {n + servo.trim}")
-            n += servo.trim
+        n += servo.trim
         if not 0 <= n <= units.N_MAX:
+            steps = [f"`{format_quantity(entry.position)}` is N {written}"]
+            if servo.reverse:
+                steps.append(f"reversed: 250 - {written} = {units.N_MAX - written}")
+            if servo.trim:
+                steps.append(f"trim {servo.trim:+d}: {n}")
             ctx.r.error("out-of-range", f"servo `{name}` would be sent N {n}, outside 0..250",
                         entry.span, help="; ".join(steps) + "; N must stay within 0..250 (500us..2500us)")
             return None

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ...diagnostics import Severity
 from ...plan import Plan
-from ...units import DAV_DEG, fmt_deg
+from ...units import DAV_DEG, deg_on_grid, fmt_deg
 from .. import Report, rule
 from ..common import num, positions
 
@@ -17,7 +17,7 @@ def inexact_angle(plan: Plan, report: Report) -> None:
     places = {}         # span -> target, each written position once (a derived pose shares its base's)
     for _pose, t in positions(plan):
         p = t.position
-        if p.unit == "deg" and p.value != p.n * DAV_DEG:
+        if p.unit == "deg" and not deg_on_grid(p.value, p.n):
             places.setdefault((t.span.start, t.span.end), t)
     if not places:
         return
