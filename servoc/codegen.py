@@ -109,6 +109,11 @@ class _Ctx:
     owner: str = "main"              # whose statements are being laid out, for the ROM breakdown
     frames_memo: dict = field(default_factory=dict)   # plan.takes_frames of each sequence
     sends_memo: dict = field(default_factory=dict)    # plan.sends of each sequence
+    port_channels: tuple = ()        # (port, its channels) for each port of the plan
+
+    def __post_init__(self) -> None:
+        self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
+                                   for port in self.plan.ports)
 
     def label(self, prefix: str) -> str:
         self.labels += 1
@@ -122,19 +127,12 @@ class _Ctx:
         return f"{self.source.path.rsplit('/', 1)[-1]}:{line}  {text}"
 
 
-def _static_frames(plan: Plan, step: MoveStep) -> int | None:
-    if step.frames is not None:
-        return step.frames
-    seen = {inst.frames for inst in plan.moves if inst.step is step}
-    return seen.pop() if len(seen) == 1 else None
-
-
 def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
     """The record of a move. `known` holds the targets set by the records before it in its list:
     a servo whose target is already the pose's is left out of the record (it does not move), and
     `known` takes the move's targets."""
     plan = ctx.plan
-    frames = _static_frames(plan, step)
+    frames = step.frames        # None: the plan found different F in different contexts
     notes: list[str] = [f"move {step.pose}", "F found at run time" if frames is None else f"F = {frames}"]
     label = None
     if step.ease != "linear":
@@ -150,11 +148,11 @@ def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
         notes.append("every servo")
     else:
         masks = []
-        for port in plan.ports:
-            chans = [c for c in plan.channels if c.port == port and c.index in targets]
+        for port, on_port in ctx.port_channels:
+            chans = [c for c in on_port if c.index in targets]
             masks.append(sum(1 << c.bit for c in chans))
             notes.append(f"P{port}: " + (", ".join(c.name for c in chans) or "none"))
-    notes += [f"{c.name} N {targets[c.index]}" for c in plan.channels if c.index in targets]
+    notes += [f"{plan.channels[ch].name} N {n}" for ch, n in sorted(targets.items())]
     if len(targets) < len(step.targets):
         notes.append(f"{len(step.targets) - len(targets)} already there")
     flags, data = layout.move_record(frames, label, targets, masks)

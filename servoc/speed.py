@@ -94,9 +94,17 @@ def too_fast(plan: Plan) -> dict[int, tuple[Fraction, MoveInstance, int]]:
     """Moves that ask a servo for |delta| x t_DAV > F x P, by id of their step:
     (the largest excess in us, the instance, the channel) of the worst context."""
     worst: dict[int, tuple[Fraction, MoveInstance, int]] = {}
+    # t_DAV = num / den per channel: the test in integers, the excess only for moves that fail it
+    rates = [(t.numerator, t.denominator) for t in (t_dav_of(plan, c) for c in range(len(plan.channels)))]
     for inst in plan.moves:
+        budget = inst.frames * plan.period_us
         for m in inst.motions:
+            if m.n0 is None:
+                continue
+            num, den = rates[m.channel]
+            if abs(m.n1 - m.n0) * num <= budget * den:
+                continue
             excess = excess_us(m.delta, inst.frames, t_dav_of(plan, m.channel), plan.period_us)
-            if excess > 0 and (id(inst.step) not in worst or excess > worst[id(inst.step)][0]):
+            if id(inst.step) not in worst or excess > worst[id(inst.step)][0]:
                 worst[id(inst.step)] = (excess, inst, m.channel)
     return worst

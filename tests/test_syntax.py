@@ -98,6 +98,83 @@ def test_spec_example_spans():
     assert snippet(text, main)[:6] == "main {" and snippet(text, main).endswith("}")
 
 
+ALL_FORMS = """\
+target stc89c52 clock 11.0592MHz mode 6
+frame 6ms
+serial 9600
+input go = P3.2 low
+servo a = P1.0 speed 0.2s/60deg trim +1 limit 10deg..170deg reverse
+servo b = P1.1
+group g = a,
+  b
+pose p { a: 10deg, b: 1500us }
+pose q = p with {
+  a: 20
+}
+sequence s { move q in 300ms ease in-out; hold 1s }
+main {
+  send "R"
+  select {
+    on go { play s }
+    on "w" { repeat 2 { move p } }
+    after 2s { loop { wait 119 } }
+  }
+}
+"""
+
+
+def _spanned(node):
+    """Every node under `node` that has a span, with its parent."""
+    stack = [(node, None)]
+    while stack:
+        n, parent = stack.pop()
+        if isinstance(n, tuple):
+            stack += [(c, parent) for c in n]
+            continue
+        if not hasattr(n, "__dataclass_fields__"):
+            continue
+        if hasattr(n, "span"):
+            yield n, parent
+            parent = n
+        stack += [(getattr(n, f), parent) for f in n.__dataclass_fields__ if f != "span"]
+
+
+def test_every_node_spans_its_own_text():
+    tree = parse_ok(ALL_FORMS)
+    seen = set()
+    for n, parent in _spanned(tree):
+        text = snippet(ALL_FORMS, n)
+        seen.add(type(n).__name__)
+        assert text and text == text.strip(), (n, text)
+        if parent is not None:
+            assert parent.span.start <= n.span.start <= n.span.end <= parent.span.end, (n, parent)
+    assert {"TargetDecl", "FrameDecl", "SerialDecl", "InputDecl", "ServoDecl", "SpeedOption", "TrimOption",
+            "LimitOption", "ReverseOption", "GroupDecl", "PoseDecl", "Entry", "SequenceDecl", "MainDecl",
+            "MoveStmt", "HoldStmt", "RepeatStmt", "LoopStmt", "PlayStmt", "SelectStmt", "OnBranch",
+            "AfterBranch", "WaitStmt", "SendStmt", "StringLit", "Name", "Quantity", "Pin"} <= seen
+    items = {type(i).__name__ + (i.name.text if hasattr(i, "name") else ""): i for i in tree.items}
+    assert snippet(ALL_FORMS, items["TargetDecl"]) == "target stc89c52 clock 11.0592MHz mode 6"
+    assert snippet(ALL_FORMS, items["ServoDecla"]).endswith("limit 10deg..170deg reverse")
+    assert snippet(ALL_FORMS, items["GroupDeclg"]) == "group g = a,\n  b"
+    assert snippet(ALL_FORMS, items["PoseDeclq"]) == "pose q = p with {\n  a: 20\n}"
+    seq = items["SequenceDecls"]
+    assert [snippet(ALL_FORMS, st) for st in seq.body] == ["move q in 300ms ease in-out", "hold 1s"]
+    select = items["MainDecl"].body[1]
+    assert snippet(ALL_FORMS, select).startswith("select {") and snippet(ALL_FORMS, select).endswith("}\n  }")
+    assert [snippet(ALL_FORMS, b)[:8] for b in select.branches] == ["on go { ", 'on "w" {', "after 2s"]
+    assert snippet(ALL_FORMS, select.branches[2].body[0]) == "loop { wait 119 }"
+
+
+def test_braces_open_at_once_are_limited():
+    ok = "main {" + "loop {" * (syntax.MAX_NESTING - 1) + "}" * syntax.MAX_NESTING
+    parse_ok(ok)
+    text = "main {" + "select { on x {" * (syntax.MAX_NESTING // 2) + "}}" * (syntax.MAX_NESTING // 2) + "}"
+    _, col, message, _ = syntax_error(text)
+    assert "nested too deeply" in message
+    braces = [i for i, c in enumerate(text) if c == "{"]
+    assert len(braces) > syntax.MAX_NESTING and col == braces[syntax.MAX_NESTING] + 1   # the first one too many
+
+
 # ---- lexical details --------------------------------------------------------
 
 def test_semicolons_blank_lines_and_comments():

@@ -16,10 +16,14 @@ def eased_overspeed(plan: Plan, report: Report) -> None:
     the rule the plot draws in red).
 
     Not said of a move that is infeasible anyway: its error says more."""
-    seen: set[int] = set(too_fast(plan))
+    seen: set[int] | None = None        # the infeasible moves, found at the first eased one
     for inst in plan.moves:
         step = inst.step
-        if step.ease == "linear" or id(step) in seen:
+        if step.ease == "linear":
+            continue
+        if seen is None:
+            seen = set(too_fast(plan))
+        if id(step) in seen:
             continue
         for m in inst.motions:
             if m.n0 is None:
