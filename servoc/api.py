@@ -99,7 +99,7 @@ def _no_cycle_collection():
 
     The front end builds a large acyclic tree (a 1 MB program makes a million
     objects): reference counting frees all of it, and the collector's full
-    passes over the growing heap would otherwise take a third of the time.
+    passes over the growing heap would otherwise take over a third of the time.
     """
     was = gc.isenabled()
     gc.disable()

@@ -179,6 +179,14 @@ def _json_requested(argv: list[str]) -> bool:
 
 
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _command(argv)
+    finally:
+        gc.unfreeze()       # the command froze its program's objects (see _main); a caller in the same
+                            # process gets them back to the collector
+
+
+def _command(argv: list[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     run = _Run(argv)
     try:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import gc
 import io
 import json
 import os
@@ -397,6 +398,41 @@ def test_json_internal_error(capsys, program, monkeypatch):
     assert rc == 3 and out == ""
     data = json_doc(err)
     assert data["error"]["kind"] == "internal" and "boom" in data["error"]["message"]
+
+
+def test_the_collector_is_paused_only_while_the_program_is_read(capsys, program, monkeypatch):
+    seen = []
+    real = cli.api.front_end
+
+    def watched(*args):
+        seen.append(gc.isenabled())
+        return real(*args)
+    monkeypatch.setattr(cli.api, "front_end", watched)
+    assert run(["lint", str(program)], capsys)[0] == 0
+    assert seen == [False] and gc.isenabled() and gc.get_freeze_count() == 0
+
+    def broken(*_):
+        raise RuntimeError("boom")
+    monkeypatch.setattr(cli.api, "front_end", broken)
+    assert run(["lint", str(program)], capsys)[0] == 3
+    assert gc.isenabled() and gc.get_freeze_count() == 0
+
+
+def test_the_api_front_end_restores_the_collector(program, monkeypatch):
+    seen = []
+    real = cli.api.parse
+
+    def watched(*args):
+        seen.append(gc.isenabled())
+        return real(*args)
+    monkeypatch.setattr(cli.api, "parse", watched)
+    source, reporter = cli.api.load_source(str(program))
+    for was in (True, False):
+        (gc.enable if was else gc.disable)()
+        assert cli.api.front_end(source, reporter).plan is not None
+        assert gc.isenabled() == was
+    gc.enable()
+    assert seen == [False, False]
 
 
 def test_json_without_a_file_goes_to_stderr(capsys):
