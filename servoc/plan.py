@@ -451,6 +451,35 @@ def send_gap(plan: Plan, cap: int) -> int:
     return cap if found is None else min(found, cap)
 
 
+def _model_steps(body: tuple, index: dict[str, int], period: int) -> tuple[Step, ...]:
+    """model statements -> plan steps at period P (`index`: channel of each servo by name)."""
+    out: list[Step] = []
+    for st in body:
+        if isinstance(st, model.Move):
+            targets = tuple(sorted((index[t.servo], t.n) for t in st.targets))
+            frames = None if st.duration_us is None else move_frames(st.duration_us, period)
+            table = ease_table(st.ease, frames) if frames is not None and frames <= MAX_TABLE_FRAMES else ()
+            out.append(MoveStep(st.pose, targets, frames, st.ease, table, st.duration_us, st.span))
+        elif isinstance(st, model.Hold):
+            out.append(HoldStep(frames_for(st.duration_us, period), st.duration_us, st.span))
+        elif isinstance(st, model.Repeat):
+            out.append(RepeatStep(st.count, _model_steps(st.body, index, period), st.span))
+        elif isinstance(st, model.Loop):
+            out.append(LoopStep(_model_steps(st.body, index, period), st.span))
+        elif isinstance(st, model.Select):
+            branches = tuple(
+                OnBranch(b.event, _model_steps(b.body, index, period), b.span) if isinstance(b, model.On)
+                else AfterBranch(frames_for(b.duration_us, period), b.duration_us,
+                                 _model_steps(b.body, index, period), b.span)
+                for b in st.branches)
+            out.append(SelectStep(branches, st.wait, st.span))
+        elif isinstance(st, model.Send):
+            out.append(SendStep(st.byte, st.text, st.span))
+        else:
+            out.append(PlayStep(st.sequence, st.span))
+    return tuple(out)
+
+
 def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], period: int,
              is_default: bool, depth: int) -> Plan:
     """The plan at one frame period P: every F, speed table and move instance uses this P."""
@@ -463,34 +492,10 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
     tables = tuple(tuple(frames_needed(d, t, period) for d in range(N_MAX + 1)) for t in classes)
     index = {c.servo.name: c.index for c in channels}
 
-    def steps(body: tuple) -> tuple[Step, ...]:
-        out: list[Step] = []
-        for st in body:
-            if isinstance(st, model.Move):
-                targets = tuple(sorted((index[t.servo], t.n) for t in st.targets))
-                frames = None if st.duration_us is None else move_frames(st.duration_us, period)
-                table = ease_table(st.ease, frames) if frames is not None and frames <= MAX_TABLE_FRAMES else ()
-                out.append(MoveStep(st.pose, targets, frames, st.ease, table, st.duration_us, st.span))
-            elif isinstance(st, model.Hold):
-                out.append(HoldStep(frames_for(st.duration_us, period), st.duration_us, st.span))
-            elif isinstance(st, model.Repeat):
-                out.append(RepeatStep(st.count, steps(st.body), st.span))
-            elif isinstance(st, model.Loop):
-                out.append(LoopStep(steps(st.body), st.span))
-            elif isinstance(st, model.Select):
-                branches = tuple(OnBranch(b.event, steps(b.body), b.span) if isinstance(b, model.On) else
-                                 AfterBranch(frames_for(b.duration_us, period), b.duration_us, steps(b.body), b.span)
-                                 for b in st.branches)
-                out.append(SelectStep(branches, st.wait, st.span))
-            elif isinstance(st, model.Send):
-                out.append(SendStep(st.byte, st.text, st.span))
-            else:
-                out.append(PlayStep(st.sequence, st.span))
-        return tuple(out)
-
     speed_classes = tuple(c.speed_class for c in channels)
-    main = steps(program.main)
-    seq_bodies = {s.name: SequencePlan(s.name, steps(s.body), s.span) for s in program.sequences}
+    main = _model_steps(program.main, index, period)
+    seq_bodies = {s.name: SequencePlan(s.name, _model_steps(s.body, index, period), s.span)
+                  for s in program.sequences}
     walker = _Walker(seq_bodies, tables, speed_classes)
     walker.start(main, len(channels))
     # A move without duration whose F is the same in every context gets that F fixed;

@@ -240,7 +240,10 @@ class Code:
             memo[i] = out
             return out
 
-        return go(self.labels[start])
+        try:
+            return go(self.labels[start])
+        finally:
+            del go      # it calls itself through its closure: no cycle is left for the collector
 
     def straight(self, start: str, end: str) -> int:
         """Cycles of the instructions from label `start` up to label `end` in the order written (the

@@ -435,6 +435,24 @@ def test_the_api_front_end_restores_the_collector(program, monkeypatch):
     assert seen == [False, False]
 
 
+def test_the_front_end_leaves_no_cycles(program):
+    # what the collector is spared must be freed without it: no servoc object in a reference cycle
+    gc.collect()
+    gc.set_debug(gc.DEBUG_SAVEALL)
+    try:
+        for path in (program, Path(__file__).resolve().parent.parent / "examples" / "hexapod_serial.servo"):
+            source, reporter = cli.api.load_source(str(path))
+            assert cli.api.front_end(source, reporter).plan is not None
+        del source, reporter
+        gc.collect()
+        left = [o for o in gc.garbage if type(o).__module__.startswith("servoc")
+                or getattr(o, "__module__", None) and str(getattr(o, "__module__")).startswith("servoc")]
+    finally:
+        gc.set_debug(0)
+        gc.garbage.clear()
+    assert left == []
+
+
 def test_json_without_a_file_goes_to_stderr(capsys):
     rc, out, err = run(["--format", "json"], capsys)
     assert rc == 2 and out == "" and json_doc(err)["error"]["kind"] == "usage"

@@ -39,9 +39,12 @@ def run(gen: Build) -> Any:
 
 
 class Resolver:
-    """Resolves the declarations of one kind by name, each once, cycles reported once."""
+    """Resolves the declarations of one kind by name, each once, cycles reported once.
 
-    def __init__(self, ctx: Context, done: dict[str, Any], build: Callable[[str, Any], Build],
+    `build` is a function of the `Resolve` that owns the resolver, which is passed in at each
+    call rather than kept: the two are no reference cycle, so reference counting frees them."""
+
+    def __init__(self, ctx: Context, done: dict[str, Any], build: Callable[["Resolve", str, Any], Build],
                  cycle: str, cycle_help: str) -> None:
         self.ctx = ctx
         self.done = done            # name -> resolved, or None after an error
@@ -50,10 +53,10 @@ class Resolver:
         self.cycle_help = cycle_help
         self.visiting: list[str] = []
 
-    def get(self, name: str, ref: nodes.Name | None = None) -> Any:
-        return run(self.visit(name, ref))
+    def get(self, res: "Resolve", name: str, ref: nodes.Name | None = None) -> Any:
+        return run(self.visit(res, name, ref))
 
-    def visit(self, name: str, ref: nodes.Name | None) -> Build:
+    def visit(self, res: "Resolve", name: str, ref: nodes.Name | None) -> Build:
         if name in self.done:
             return self.done[name]
         if name in self.visiting:
@@ -66,7 +69,7 @@ class Resolver:
                 self.done[n] = None
             return None
         self.visiting.append(name)
-        result = yield from self.build(name, self.ctx.decls[name].node)
+        result = yield from self.build(res, name, self.ctx.decls[name].node)
         self.visiting.pop()
         if name in self.done:       # part of a cycle, already reported
             return None
@@ -77,9 +80,9 @@ class Resolver:
 class Resolve:
     def __init__(self, ctx: Context) -> None:
         self.ctx = ctx
-        self.groups = Resolver(ctx, ctx.groups, self.group, "group `{}` contains itself",
+        self.groups = Resolver(ctx, ctx.groups, Resolve.group, "group `{}` contains itself",
                                "a group may contain other groups, but not itself")
-        self.poses = Resolver(ctx, ctx.poses, self.pose, "pose `{}` is based on itself",
+        self.poses = Resolver(ctx, ctx.poses, Resolve.pose, "pose `{}` is based on itself",
                               "a pose can start from another pose, but not from itself")
 
     def servos_of(self, name: nodes.Name, in_pose: bool) -> list[str] | None:
@@ -106,7 +109,7 @@ class Resolve:
             return [text]
         if decl.kind == "group":
             ctx.references.add(text)
-            group = self.groups.get(text, name)
+            group = self.groups.get(self, text, name)
             if group is None:
                 return None
             if in_pose:
@@ -127,7 +130,7 @@ class Resolve:
             written.add(member.text)
             member_decl = ctx.decls.get(member.text)
             if member_decl is not None and member_decl.kind == "group":
-                yield self.groups.visit(member.text, member)    # resolved here; servos_of then finds it done
+                yield self.groups.visit(self, member.text, member)    # resolved here; servos_of then finds it done
             found = self.servos_of(member, in_pose=False)
             if found is None:
                 ok = False
@@ -145,7 +148,7 @@ class Resolve:
             if ctx.lookup(decl.base, "pose", "a pose to start from", {}) is None:
                 ok = False
             else:
-                base = yield self.poses.visit(decl.base.text, decl.base)
+                base = yield self.poses.visit(self, decl.base.text, decl.base)
                 if base is None:
                     ok = False
                 else:
@@ -213,7 +216,7 @@ def resolve(tree: nodes.Program, ctx: Context) -> Resolve:
     """Every group, then every pose, in declaration order."""
     res = Resolve(ctx)
     for name in ctx.declared("group"):
-        res.groups.get(name)
+        res.groups.get(res, name)
     for name in ctx.declared("pose"):
-        res.poses.get(name)
+        res.poses.get(res, name)
     return res

@@ -167,7 +167,7 @@ class _Statements:
             return None
         if ctx.lookup(name, "pose", "a pose", {"sequence": f"to run a sequence, write `play {name.text}`"}) is None:
             return None
-        return self.res.poses.get(name.text, name)
+        return self.res.poses.get(self.res, name.text, name)
 
     def count(self, q: nodes.Quantity) -> int | None:
         value = self.ctx.take(quantities.count(q), q.span)
