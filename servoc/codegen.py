@@ -90,8 +90,20 @@ def environment() -> jinja2.Environment:
 
 
 def render(template: str, **context) -> str:
+    """A template rendered with `context` (jinja's low-level API: `new_context`, `root_render_func`).
+
+    A macro that calls itself (program.asm.j2's `ops`) keeps the render's context in a reference
+    cycle; its variables are dropped after rendering, so the program's records are freed at once
+    rather than pinned until a collection."""
+    env = environment()
     try:
-        return environment().get_template(template).render(**context)
+        tpl = env.get_template(template)
+        ctx = tpl.new_context(context)
+        try:
+            return env.concat(tpl.root_render_func(ctx))
+        finally:
+            ctx.parent.clear()
+            ctx.vars.clear()
     except jinja2.TemplateError as exc:
         raise RuntimeError(f"firmware template {template}: {exc}") from exc
 
