@@ -400,14 +400,20 @@ def test_json_internal_error(capsys, program, monkeypatch):
     assert data["error"]["kind"] == "internal" and "boom" in data["error"]["message"]
 
 
-def test_the_collector_is_paused_only_while_the_program_is_read(capsys, program, monkeypatch):
-    seen = []
-    real = cli.api.front_end
+def _collector_seen_by(monkeypatch, name: str) -> list[bool]:
+    """Whether the cyclic collector was on at each call of `cli.api.<name>`."""
+    seen: list[bool] = []
+    real = getattr(cli.api, name)
 
     def watched(*args):
         seen.append(gc.isenabled())
         return real(*args)
-    monkeypatch.setattr(cli.api, "front_end", watched)
+    monkeypatch.setattr(cli.api, name, watched)
+    return seen
+
+
+def test_the_collector_is_paused_only_while_the_program_is_read(capsys, program, monkeypatch):
+    seen = _collector_seen_by(monkeypatch, "front_end")
     assert run(["lint", str(program)], capsys)[0] == 0
     assert seen == [False] and gc.isenabled() and gc.get_freeze_count() == 0
 
@@ -419,13 +425,7 @@ def test_the_collector_is_paused_only_while_the_program_is_read(capsys, program,
 
 
 def test_the_api_front_end_restores_the_collector(program, monkeypatch):
-    seen = []
-    real = cli.api.parse
-
-    def watched(*args):
-        seen.append(gc.isenabled())
-        return real(*args)
-    monkeypatch.setattr(cli.api, "parse", watched)
+    seen = _collector_seen_by(monkeypatch, "parse")
     source, reporter = cli.api.load_source(str(program))
     for was in (True, False):
         (gc.enable if was else gc.disable)()
