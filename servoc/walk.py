@@ -24,7 +24,6 @@ BodyOf = Callable[[str], tuple]
 _KINDS = {f"{word}{suffix}": word.lower()
           for word in ("Move", "Hold", "Repeat", "Loop", "Play", "Select", "Send", "Wait")
           for suffix in ("Stmt", "", "Step")}
-COMPOUND = ("repeat", "loop", "select")     # the statements with bodies inside
 
 
 def kind(st: Any) -> str:

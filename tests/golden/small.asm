@@ -11,6 +11,7 @@
 T2CON   = 0xC8
 
 ; ---------------------------------------------------------------- RAM
+HBANK   = 0x08              ; register bank 1, the edge handler's: R0..R7 at HBANK..HBANK+7
 CUR     = 0x30              ; current N of pin p (0..23) at CUR + p
 STATE   = 0xA0              ; motion state of pin p at STATE + 4 p: Q|N0, REM|DMAG, ERR lo, ERR hi
 STACK   = 0x72              ; the stack: STACK up to STATE
@@ -57,7 +58,7 @@ reset:
         ANL     P1, #0xF6        ; 2  servo lines low at once: pan, tilt
         ANL     P2, #0xBF        ; 2  servo lines low at once: claw
         MOV     SP, #STACK-1            ; 2  the first PUSH writes STACK
-        MOV     R0, #0x08
+        MOV     R0, #HBANK
 clear:  MOV     @R0, #0                 ; clear the handler's bank, CUR, flags and work
         INC     R0
         CJNE    R0, #STACK, clear
@@ -480,9 +481,9 @@ fi_done:
         RET                             ; looks at next (a select's inputs) is at most P old
 
 engine_start:                           ; the first frame: its first rise comes 64 cycles from here
-        MOV     0x0D, #<win_p1     ; bank 1 R5/R4: the first port's window
-        MOV     0x0C, #>win_p1
-        MOV     0x0E, #116              ; bank 1 R6: a rise
+        MOV     HBANK+5, #<win_p1     ; bank 1 R5/R4: the first port's window
+        MOV     HBANK+4, #>win_p1
+        MOV     HBANK+6, #116              ; bank 1 R6: a rise
         ORL     TMOD, #0x01             ; Timer0: 16 bits
         MOV     TH0, #0xFF
         MOV     TL0, #0xC0
@@ -651,7 +652,7 @@ tc3:
         NOP                             ; 1
         NOP                             ; 1
 tc4:
-        MOV     PSW, #0x08              ; 2  bank 1
+        MOV     PSW, #HBANK             ; 2  bank 1 (RS1 RS0 = 01: the same bits)
         PUSH    DPL                     ; 2
         PUSH    DPH                     ; 2
         MOV     DPL, R5                 ; 2  the port's window
