@@ -97,9 +97,10 @@ def lint(plan_: _plan.Plan, reporter: Reporter) -> None:
 def _no_cycle_collection():
     """The cyclic garbage collector paused, then restored.
 
-    The front end builds a large acyclic tree (a 1 MB program makes a million
-    objects): reference counting frees all of it, and the collector's full
-    passes over the growing heap would otherwise take over a third of the time.
+    The front end builds large acyclic structures (half a million to two
+    million objects for 1 MB programs): reference counting frees all of it, and
+    the collector's passes over the growing heap would otherwise take a quarter
+    to a third of the time (both measured by benchmarks/lint_scale.py).
     """
     was = gc.isenabled()
     gc.disable()

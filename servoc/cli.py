@@ -247,8 +247,8 @@ def _main(argv: list[str], run: _Run) -> int:
     hex_text = _check_inputs_and_outputs(args)
 
     firmware = None
-    # The program's tree, model and plan (a million objects for a 1 MB program)
-    # live until the command ends: the cyclic collector is paused while they are
+    # The program's tree, model and plan (up to two million objects for a 1 MB
+    # program, benchmarks/lint_scale.py) live until the command ends: the cyclic collector is paused while they are
     # built, and never walks them afterwards.
     gc.disable()
     try:
