@@ -267,3 +267,34 @@ def test_sends_at_the_limit_verify():
     report = api.verify(built.plan, built.firmware, 300)
     assert report.ok, [str(m) for m in report.mismatches[:5]]
     assert report.bytes_sent >= 140
+
+
+def deep_serial_source(depth: int) -> str:
+    """`depth` sequences, each playing the one below, with the serial line busy at the deepest one:
+    the innermost move's F differs between passes (found at run time, a call deeper still), it
+    sends a byte, and bytes come in. The servo is on P0.0, whose motion state lies just above the
+    stack: an overflow would change its pulses."""
+    text = ("serial 4800\nservo a = P0.0 speed 0.005s/60deg\npose p { a: 10 }\npose q { a: 200 }\n"
+            'sequence q0 {\n  move p\n  send "s"\n  move q\n}\n')
+    for i in range(1, depth):
+        text += f"sequence q{i} {{\n  play q{i - 1}\n}}\n"
+    return text + f"main {{\n  loop {{ play q{depth - 1} }}\n}}\n"
+
+
+def test_deepest_nesting_with_serial_runs_with_bytes_coming():
+    """Nested exactly as deep as `serial` leaves stack for: one level more is `too-deep`; at the
+    limit, with a byte coming every 7.3 frames at shifting phases, every pulse is exact and
+    every byte is sent. (The handlers' share of the bound, the edge handler and the serial
+    handler on top of the deepest call at once, is counted from the code, not forced here.)"""
+    depth = costs.max_nesting(serial=True)
+    _, diags = front_end_text(deep_serial_source(depth + 1))
+    assert [d.code for d in diags if d.is_error] == ["too-deep"]
+    text = deep_serial_source(depth)
+    built = build_text(text)
+    assert built.firmware.unit.stack_bytes <= costs.stack_room(serial=True) < costs.stack_bytes(depth + 1, True)
+    assert any(inst.step.frames is None for inst in built.plan.moves), "the run-time F path is not used"
+    frames = 300
+    scenario = "\n".join(f'{round((20 + 7.3 * k) * built.plan.period_us)}us "z"' for k in range(38))
+    plan, trace, evs, report = run(text, scenario, frames)
+    assert report.ok, [str(m) for m in report.mismatches[:5]]
+    assert report.bytes_sent >= 40 and set(sent(trace)) == {"s"}
