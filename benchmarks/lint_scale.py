@@ -5,7 +5,8 @@
 Three programs of about 1 MB each, all valid:
 - `wide poses`: 24 servos and 4,300 poses of 19 entries, one used;
 - `short poses`: 1 servo and 44,000 one-entry poses, one used;
-- `long main`: 24 servos, 50 poses and 40,000 moves in `main`.
+- `long main`: the compile-time benchmark's program (24 servos, 50 poses) with
+  48,000 moves in `main`.
 
 For each: the wall time of the whole `servoc lint FILE` command (a fresh
 process: start-up, parse, check, plan, lint, printing), the lines it prints,
@@ -37,6 +38,7 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from servoc import api  # noqa: E402
+from suite import moves_source  # noqa: E402
 from servoc.diagnostics import Reporter  # noqa: E402
 from servoc.resources import grammar_text  # noqa: E402
 from servoc.source import SourceFile  # noqa: E402
@@ -68,13 +70,9 @@ def short_poses(rng: random.Random) -> str:
 
 
 def long_main(rng: random.Random) -> str:
-    lines = _servos(24)
-    lines += [f"pose k{j} {{ " + ", ".join(f"s{i}: {rng.randrange(20, 160)}deg" for i in range(24)) + " }"
-              for j in range(50)]
-    lines.append("main {")
-    while sum(map(len, lines)) + len(lines) < SIZE:
-        lines.append(f"  move k{rng.randrange(50)} in {rng.choice((800, 1000, 1200, 1500))}ms")
-    return "\n".join(lines + ["}"]) + "\n"
+    """The compile-time benchmark's program (suite.moves_source), with as many moves as fit 1 MB."""
+    per_move = (len(moves_source(2000)) - len(moves_source(1000))) / 1000
+    return moves_source(int((SIZE - len(moves_source(0))) / per_move), seed=rng.randrange(1000))
 
 
 PROGRAMS = (("wide poses", wide_poses), ("short poses", short_poses), ("long main", long_main))

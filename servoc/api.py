@@ -100,7 +100,7 @@ def _no_cycle_collection():
     The front end builds large acyclic structures (half a million to two
     million objects for 1 MB programs): reference counting frees all of it, and
     the collector's passes over the growing heap would otherwise take a quarter
-    to a third of the time (both measured by benchmarks/lint_scale.py).
+    to two fifths of the time (both measured by benchmarks/lint_scale.py).
     """
     was = gc.isenabled()
     gc.disable()
