@@ -30,7 +30,7 @@ from . import wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .plan import (UNBOUNDED, AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
-                   send_gap, send_run, sends, steps, takes_frames)
+                   fewest_frames, send_gap, send_run, sends, steps, takes_frames)
 from .source import SourceFile
 from .units import N_MAX
 
@@ -122,6 +122,9 @@ class _Ctx:
     frames_memo: dict = field(default_factory=dict)   # plan.takes_frames of each sequence
     sends_memo: dict = field(default_factory=dict)    # plan.sends of each sequence
     port_channels: tuple = ()        # (port, its channels) for each port of the plan
+    fewest_memo: dict = field(default_factory=dict)   # plan.fewest_frames of each sequence
+    flagged: bool = False            # a loop tests FRAMED (frame_io sets it)
+    byte_maps: list = field(default_factory=list)     # the bytes each select's `on`s name
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -200,12 +203,30 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             flush()
             out.append({"op": "send", "byte": st.byte, "text": st.text, "where": ctx.where(st.span)})
             continue
+        where = ctx.where(st.span)
+        if isinstance(st, LoopStep):
+            flush()
+            lab = ctx.label("loop")
+            # a pass that took no frame waits for the next one: always, or when FRAMED says so
+            pad = ("frame" if not takes_frames(st.body, ctx.plan, ctx.frames_memo) else
+                   "flag" if fewest_frames(st.body, ctx.plan, ctx.fewest_memo) == 0 else "")
+            ctx.flagged = ctx.flagged or pad == "flag"
+            out.append({"op": "loop", "label": lab, "where": where, "pad": pad})
+            _ops(ctx, st.body, out)
+            out.append({"op": "loop_end", "label": lab, "where": where, "pad": pad})
+            continue
         framed = takes_frames((st,), ctx.plan, ctx.frames_memo)
         if not framed and not sends((st,), ctx.plan, ctx.sends_memo):
             continue            # takes no frame and sends nothing: no code, so it cannot delay a frame
-        where = ctx.where(st.span)
-        if not framed and isinstance(st, RepeatStep):
-            flush()             # sends only (at most QUEUE bytes in all, checked first): written out
+        if isinstance(st, RepeatStep) and fewest_frames(st.body, ctx.plan, ctx.fewest_memo) == 0:
+            # a pass can run through without a frame (only sends, or a select whose event is there):
+            # written out pass by pass, so that the work between two frames stays bounded (lint
+            # limits the passes: `too-long`, and the sends: at most QUEUE bytes in all)
+            if st.count > layout.MAX_FRAMELESS_PASSES and framed:
+                raise layout.FramelessRepeat(
+                    f"this repeat's passes can take no frame, and the firmware writes such a repeat out "
+                    f"pass by pass: at most {layout.MAX_FRAMELESS_PASSES}, not {st.count}")
+            flush()
             for _ in range(st.count):
                 _ops(ctx, st.body, out)
             continue
@@ -221,21 +242,16 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             out.append({"op": "repeat", "label": lab, "count": st.count, "where": where})
             _ops(ctx, st.body, out)
             out.append({"op": "repeat_end", "label": lab, "where": where})
-        elif isinstance(st, LoopStep):
-            lab = ctx.label("loop")
-            out.append({"op": "loop", "label": lab, "where": where})
-            _ops(ctx, st.body, out)
-            out.append({"op": "loop_end", "label": lab, "where": where})
         elif isinstance(st, PlayStep):
             out.append({"op": "play", "label": _seq_label(ctx.plan, st.sequence), "name": st.sequence, "where": where})
     flush()
 
 
 def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
-    """A select: after each frame it looks at its events in the order written and runs the first
-    branch whose input is active or whose byte is the oldest received; a byte no `on` takes is
-    dropped. With `after`, once F frames passed with none, the after branch. While it waits,
-    frame_io repeats the current targets."""
+    """A select: as soon as it is reached, and after each frame it waits, it looks at its events
+    in the order written and runs the first branch whose input is active or whose byte is the
+    oldest received; bytes that no `on` names are dropped first. With `after`, the look made
+    after F frames with none takes it. While it waits, frame_io repeats the current targets."""
     inputs = {i.name: i for i in ctx.plan.program.inputs}
     lab = ctx.label("sel")
     ons, after = [], None
@@ -246,15 +262,22 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
             if br.frames > layout.MAX_AFTER_FRAMES:      # lint's `too-long` reports this first
                 raise layout.AfterTooLong(f"this `after` waits {br.frames} frames; the firmware counts at most "
                                           f"{layout.MAX_AFTER_FRAMES}")
-            after = {"frames": max(1, br.frames), "ops": ops, "where": ctx.where(br.span)}
+            after = {"frames": br.frames, "looks": br.frames + 1, "ops": ops, "where": ctx.where(br.span)}
             continue
         on = {"k": k, "ops": ops, "byte": br.event.byte, "text": br.event.text, "where": ctx.where(br.span)}
         if br.event.input is not None:
             pin = inputs[br.event.input]
             on.update(port=pin.port, bit=pin.bit, active_high=pin.active_high)
         ons.append(on)
+    named = sorted({on["byte"] for on in ons if on["byte"] is not None})
+    byte_map = None
+    if ctx.plan.program.serial is not None and named:
+        byte_map = {"label": f"{lab}_w", "where": ctx.where(st.span),
+                    "bytes": [sum(1 << (b & 7) for b in named if b >> 3 == i) for i in range(32)],
+                    "names": ", ".join(_hex8(b) for b in named)}
+        ctx.byte_maps.append(byte_map)
     return {"op": "select", "label": lab, "ons": ons, "after": after, "where": ctx.where(st.span),
-            "serial": ctx.plan.program.serial is not None, "queue": costs.QUEUE}
+            "serial": ctx.plan.program.serial is not None, "byte_map": byte_map}
 
 
 def _seq_label(plan: Plan, name: str) -> str:
@@ -288,6 +311,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     ram = layout.RamAllocator(layout.DIRECT_END + (costs.SERIAL_RAM if serial is not None else 0))
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
+    framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED"), 0)
     ram.next = layout.WORK_BASE
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
     ram.alloc("SEGK", 2, "frame number k in the current move")
@@ -300,6 +324,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     e = _engine(plan, ram, period_cycles)
+    e["framed"] = ctx.flagged
     s = None if serial is None else _serial(serial, ram)
     stack_base = ram.next if serial is not None else layout.STACK_BASE
     chans = []
@@ -337,7 +362,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     text = render("firmware.asm.j2",
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
-                  ram=ram.symbols, flag_bits=layout.flag_equates(),
+                  ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit,
+                  byte_maps=ctx.byte_maps,
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
                   state_base=layout.STATE_BASE, stack_base=stack_base, s=s,
@@ -358,6 +384,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         breakdown["edge time table C(N)"] = 2 * 256
     if ease_tables:
         breakdown["eased curve tables"] = sum(len(t["values"]) for t in ease_tables)
+    if ctx.byte_maps:
+        breakdown["the bytes each select names"] = 32 * len(ctx.byte_maps)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),

@@ -128,8 +128,18 @@ class SendOverrun(LayoutError):
     help = f"put a frame (a move or a hold) between the sends: at most {costs.QUEUE} bytes between two frames"
 
 
-# A select's `after` F is counted in 16 bits (it looks after each frame; the F-th look takes it).
-MAX_AFTER_FRAMES = 0xFFFF
+# A select's `after` F is counted in 16 bits: F + 1 looks (one as it is reached, one after each
+# frame), the last of which takes it.
+MAX_AFTER_FRAMES = 0xFFFE
+
+# A repeat whose pass can take no frame (a select whose event is already there) is written out
+# pass by pass, so that the work between two frames stays bounded: at most this many passes.
+MAX_FRAMELESS_PASSES = 16
+
+
+class FramelessRepeat(LayoutError):
+    code = "too-long"
+    help = "put a frame in each pass (a `hold` of one frame), or use fewer passes"
 
 
 class AfterTooLong(LayoutError):

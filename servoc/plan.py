@@ -315,11 +315,37 @@ def _any_frame(acc: bool, st: Step, inner) -> bool:
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
-    """Whether every pass of `body` takes at least one frame (a move always does; a hold when
-    it is at least half a frame; repeat, loop and play when their body does; a select always,
-    since it looks at its events after each frame; a send never). Pass one `memo`
-    to calls on the same plan so each sequence is looked at once."""
+    """Whether `body` has anything that can take a frame (a move; a hold of at least half a
+    frame; a select, which waits while no event is there; repeat, loop and play of those): a
+    body without can only send. Pass one `memo` to calls on the same plan so each sequence is
+    looked at once."""
     return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_frame, memo)
+
+
+def _fewest(acc: int, st: Step, inner) -> int:
+    kind = walk.kind(st)
+    if kind == "send":
+        return acc
+    if kind == "select":
+        # an event already there is taken at once: an `on` branch may take no frame before it,
+        # `after` comes after its F
+        return acc + min((v + (b.frames if isinstance(b, AfterBranch) else 0)
+                          for b, v in zip(st.branches, inner)), default=0)
+    if kind == "move":
+        return acc + (st.frames or 1)
+    if kind == "hold":
+        return acc + st.frames
+    if kind == "repeat":
+        return acc + st.count * inner
+    if kind == "loop":
+        return acc + max(1, inner)      # a pass that took no frame waits for one before the next
+    return acc + inner
+
+
+def fewest_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> int:
+    """The fewest frames one pass of `body` can take (0: it can run through without one, e.g. a
+    select whose event is already there, or only sends)."""
+    return walk.fold(body, lambda name: plan.sequence(name).body, 0, _fewest, memo)
 
 
 def _any_send(acc: bool, st: Step, inner) -> bool:
@@ -333,52 +359,70 @@ def sends(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
 
 @dataclass(frozen=True)
 class SendRun:
-    """The bytes `send` gives with no frame between them, for one pass of a body: before its
-    first frame (`lead`), after its last (`tail`), and the most anywhere (`most`). A body that
-    may take no frame has lead = tail = most = all its bytes."""
-    framed: bool
-    lead: int = 0
+    """The bytes `send` gives with no frame between them, over the ways one pass of a body can
+    go: `zero` the most bytes of a way that takes no frame (None: every way takes a frame); of
+    the ways that take frames, the most bytes before the first frame (`lead`) and after the last
+    (`tail`) (None: no way takes a frame); `most` the most anywhere."""
+    zero: int | None = 0
+    lead: int | None = None
+    tail: int | None = None
     most: int = 0
-    tail: int = 0
 
     def then(self, nxt: "SendRun") -> "SendRun":
-        if not self.framed and not nxt.framed:
-            t = self.lead + nxt.lead
-            return SendRun(False, t, t, t)
-        if not nxt.framed:
-            t = self.tail + nxt.lead
-            return SendRun(True, self.lead, max(self.most, t), t)
-        if not self.framed:
-            t = self.lead + nxt.lead
-            return SendRun(True, t, max(t, nxt.most), nxt.tail)
-        return SendRun(True, self.lead, max(self.most, nxt.most, self.tail + nxt.lead), nxt.tail)
+        zero = None if self.zero is None or nxt.zero is None else self.zero + nxt.zero
+        leads = ([] if self.lead is None else [self.lead]) + (
+            [] if self.zero is None or nxt.lead is None else [self.zero + nxt.lead])
+        tails = ([] if nxt.tail is None else [nxt.tail]) + (
+            [] if nxt.zero is None or self.tail is None else [self.tail + nxt.zero])
+        join = [] if self.tail is None or nxt.lead is None else [self.tail + nxt.lead]
+        lead, tail = max(leads, default=None), max(tails, default=None)
+        return SendRun(zero, lead, tail, max([self.most, nxt.most, zero or 0] + leads + tails + join))
 
     def either(self, other: "SendRun") -> "SendRun":
-        return SendRun(self.framed and other.framed, max(self.lead, other.lead), max(self.most, other.most),
-                       max(self.tail, other.tail))
+        def top(a, b):
+            return b if a is None else a if b is None else max(a, b)
+        return SendRun(top(self.zero, other.zero), top(self.lead, other.lead), top(self.tail, other.tail),
+                       max(self.most, other.most))
 
     def frames(self, n: int) -> "SendRun":
-        return SendRun(n > 0)
+        return SendRun(None, 0, 0, 0) if n > 0 else SendRun(0)
+
+    def pad(self) -> "SendRun":
+        """A loop's pass: one that took no frame waits for a frame before the next."""
+        if self.zero is None:
+            return self
+        return SendRun(None, max(self.zero, self.lead or 0), self.tail or 0, self.most)
 
     def again(self, count: int | None) -> "SendRun":
         """`count` passes one after another (None: forever)."""
         if count == 0:
-            return SendRun(False)
-        if not self.framed:
-            t = UNBOUNDED if count is None and self.lead else self.lead * (count or 1)
-            return SendRun(False, t, t, t)
-        twice = self.tail + self.lead if count != 1 else 0
-        return SendRun(True, self.lead, max(self.most, twice), self.tail)
+            return SendRun(0)
+        if count is None:
+            if self.zero:
+                return SendRun(UNBOUNDED, UNBOUNDED, UNBOUNDED, UNBOUNDED)
+            join = [] if self.tail is None or self.lead is None else [self.tail + self.lead]
+            return SendRun(None, self.lead, self.tail, max([self.most] + join))
+        z = self.zero
+        if z is None:
+            twice = [] if count < 2 or self.tail is None or self.lead is None else [self.tail + self.lead]
+            return SendRun(None, self.lead, self.tail, max([self.most] + twice))
+        lead = None if self.lead is None else z * (count - 1) + self.lead
+        tail = None if self.tail is None else self.tail + z * (count - 1)
+        span = ([] if count < 2 or self.tail is None or self.lead is None
+                else [self.tail + z * (count - 2) + self.lead])
+        return SendRun(z * count, lead, tail,
+                       max([self.most, z * count] + [v for v in (lead, tail) if v is not None] + span))
 
 
-UNBOUNDED = 1 << 30     # sends in a loop that takes no frame (lint's empty-loop refuses it)
+UNBOUNDED = 1 << 30     # sends repeated forever with no frame between them
 
 
 def _fold_sends(plan: Plan, blank, send):
     """The program folded into a summary of its sends: `blank` stands for nothing, `send` for one
     byte, `blank.frames(n)` for n frames; summaries combine with `then` (one after the other),
-    `either` (one or the other) and `again` (repeated; None: forever). A select takes a frame,
-    or its `after`'s F, before its branch."""
+    `either` (one or the other), `again` (repeated; None: forever) and `pad` (a loop's pass, which
+    waits for a frame when it took none). A select may take no frame before an `on` branch (its
+    event already there) and takes its F before `after`."""
     def step(acc, st: Step, inner):
         kind = walk.kind(st)
         if kind == "send":
@@ -390,13 +434,13 @@ def _fold_sends(plan: Plan, blank, send):
         elif kind == "select":
             one = None
             for br, v in zip(st.branches, inner):
-                way = blank.frames(max(1, br.frames) if isinstance(br, AfterBranch) else 1).then(v)
+                way = blank.frames(br.frames if isinstance(br, AfterBranch) else 0).then(v)
                 one = way if one is None else one.either(way)
-            one = one or blank.frames(1)
+            one = one or blank
         elif kind == "repeat":
             one = inner.again(st.count)
         elif kind == "loop":
-            one = inner.again(None)
+            one = inner.pad().again(None)
         else:
             one = inner
         return acc.then(one)
@@ -405,19 +449,21 @@ def _fold_sends(plan: Plan, blank, send):
 
 def send_run(plan: Plan) -> int:
     """The most bytes the program can `send` with no frame between them."""
-    return _fold_sends(plan, SendRun(False), SendRun(False, 1, 1, 1)).most
+    return _fold_sends(plan, SendRun(0), SendRun(1, None, None, 1)).most
 
 
 @dataclass(frozen=True)
 class _Gaps:
     """Frames around the sends of one pass of a body, each count clipped at `cap`: the frames of
     passes that send nothing (`quiet`), before the first send and after the last of those that do
-    (`head`, `tail`), and the fewest frames (at least one) between two sends inside (`gap`)."""
+    (`head`, `tail`), the fewest frames (at least one) between two sends inside (`gap`), and
+    whether a pass can send and take no frame at all (`zsend`)."""
     cap: int
     quiet: frozenset = frozenset({0})
     head: frozenset = frozenset()
     tail: frozenset = frozenset()
     gap: int | None = None
+    zsend: bool = False
 
     def clip(self, values) -> frozenset:
         return frozenset(min(v, self.cap) for v in values)
@@ -425,18 +471,24 @@ class _Gaps:
     def then(self, nxt: "_Gaps") -> "_Gaps":
         joins = [a + b for a in self.tail for b in nxt.head if a + b > 0]
         gaps = [g for g in (self.gap, nxt.gap, min(joins, default=None)) if g is not None]
+        zsend = (self.zsend and (nxt.zsend or 0 in nxt.quiet)) or (0 in self.quiet and nxt.zsend)
         return _Gaps(self.cap, self.clip(a + b for a in self.quiet for b in nxt.quiet),
                      self.head | self.clip(a + b for a in self.quiet for b in nxt.head),
                      nxt.tail | self.clip(a + b for a in self.tail for b in nxt.quiet),
-                     min(gaps, default=None))
+                     min(gaps, default=None), zsend)
 
     def either(self, other: "_Gaps") -> "_Gaps":
         gaps = [g for g in (self.gap, other.gap) if g is not None]
         return _Gaps(self.cap, self.quiet | other.quiet, self.head | other.head, self.tail | other.tail,
-                     min(gaps, default=None))
+                     min(gaps, default=None), self.zsend or other.zsend)
 
     def frames(self, n: int) -> "_Gaps":
         return _Gaps(self.cap, frozenset({min(n, self.cap)}))
+
+    def pad(self) -> "_Gaps":
+        """A loop's pass: one that took no frame waits for a frame before the next."""
+        return _Gaps(self.cap, self.clip(max(q, 1) for q in self.quiet), self.head,
+                     self.tail | (frozenset({1}) if self.zsend else frozenset()), self.gap)
 
     def again(self, count: int | None) -> "_Gaps":
         out = _Gaps(self.cap)
@@ -447,7 +499,7 @@ class _Gaps:
 
 def send_gap(plan: Plan, cap: int) -> int:
     """The fewest frames between two sends that are not in one run (`cap` if never fewer)."""
-    found = _fold_sends(plan, _Gaps(cap), _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}))).gap
+    found = _fold_sends(plan, _Gaps(cap), _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}), zsend=True)).gap
     return cap if found is None else min(found, cap)
 
 
@@ -737,12 +789,13 @@ def firmware_value(n0: int, n1: int, k: int, frames: int, ease: str, table: tupl
 @dataclass(frozen=True)
 class Choice:
     """What happens at one select `expand` reaches: it waits `frames` frames (the current targets
-    repeating; at least one, since a select looks at its events after each frame), then runs
-    branch `branch` (an index into `SelectStep.branches`). For an `after` branch the wait is
-    always its own F (at least 1); an `on` branch of a select with an `after` is taken at the
+    repeating), then runs branch `branch` (an index into `SelectStep.branches`). A select looks at
+    its events as soon as it is reached and again after each frame it waits, so `frames` = 0 is an
+    event that was already there (the branch's first frame is the very next one). For an `after`
+    branch the wait is always its own F; an `on` branch of a select with an `after` is taken at the
     latest at the F-th look, where its events come before `after` (`frames` <= F)."""
     branch: int
-    frames: int = 1
+    frames: int = 0
 
 
 def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = None) -> Iterator[GoldenFrame]:
@@ -795,16 +848,16 @@ def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = No
                 after = st.after
                 wait = pick.frames
                 if isinstance(branch, AfterBranch):
-                    wait = max(1, branch.frames)
-                elif wait < 1:
-                    raise ValueError(f"choice {pick}: a select looks at its events after a frame")
-                elif after is not None and wait > max(1, after.frames):
+                    wait = branch.frames
+                elif wait < 0:
+                    raise ValueError(f"choice {pick}: a select waits a whole number of frames")
+                elif after is not None and wait > after.frames:
                     raise ValueError(f"choice {pick}: its `after` is taken after {after.frames} frames")
                 for _ in range(wait):
                     yield frame(st.span)
                 yield from run(branch.body)
                 continue
-            if not takes_frames((st,), plan, memo) and not sends((st,), plan, send_memo):
+            if not isinstance(st, LoopStep) and not takes_frames((st,), plan, memo) and not sends((st,), plan, send_memo):
                 continue        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through
             if isinstance(st, MoveStep):
                 f = move_frames_at(st, tuple(state), plan.speed_tables, classes)
@@ -828,8 +881,8 @@ def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = No
                     for fr in run(st.body):
                         before = fr
                         yield fr
-                    if before is None:      # a loop whose body makes no frames holds the last frame
-                        break
+                    if before is None:      # a pass that took no frame waits for the next frame
+                        yield frame(last_span)
             else:
                 yield from run(plan.sequence(st.sequence).body)
 

@@ -19,6 +19,12 @@ that loops without reaching a frame is an error, not a guess: the only
 backward branches allowed are counted pad loops (`MOV Rn,#k` then `DJNZ
 Rn,.`) and paths that pass a frame.
 
+One flag is followed along each path: FRAMED, which frame_io sets. A `loop`
+whose pass can take no frame clears it at the top of each pass and, at the
+end, waits for a frame only if it is still clear (`JB FRAMED`); the analysis
+knows it is set right after a frame and clear after the `CLR`, so that test
+goes one way on each path and the loop is bounded by the frame it reaches.
+
 One fact comes from code generation rather than from the code: a record
 list (`LCALL run_list`) is never empty and every record in it takes at least
 one frame, so a call of `run_list` always reaches a frame before it returns.
@@ -32,6 +38,8 @@ from dataclasses import dataclass
 
 FRAME_ROUTINE = "frame_io"      # LCALL of it: a frame starts (the cut point)
 FRAME_REACHING = {"run_list"}   # calls that always reach a frame before they return
+FRAME_FLAG = "FRAMED"           # set by frame_io; a loop clears it at the top of a pass and
+                                # tests it at the end (`JB FRAMED`): a pass that took no frame waits for one
 
 _REGS = {f"R{i}" for i in range(8)}
 _INDIRECT = {"@R0", "@R1"}
@@ -141,63 +149,75 @@ class Code:
 
     # ---------------------------------------------------------------- analysis
 
-    def walk(self, i: int) -> dict[str, int]:
+    def walk(self, i: int, clear: bool = False) -> dict:
         """Longest cycles from instruction i to each way out: 'frame' (the LCALL frame_io,
-        its 2 cycles included) and 'ret' (the RET of the routine i is in, included)."""
-        if i in self._walk_memo:
-            return self._walk_memo[i]
-        if i in self._on_path:
+        its 2 cycles included) and ('ret', clear) (the RET of the routine i is in, included,
+        with what is known of FRAMED there). `clear`: the path has passed a `CLR FRAMED` since
+        its last frame, so FRAMED is 0 (frame_io sets it): a `JB FRAMED` there falls through."""
+        key = (i, clear)
+        if key in self._walk_memo:
+            return self._walk_memo[key]
+        if key in self._on_path:
             raise WcetError(f"a loop through {self.label_at(i)} (line {self.instrs[i].line}) reaches no frame")
         if i >= len(self.instrs):
             raise WcetError("a path runs off the end of the code")
-        self._on_path.add(i)
+        self._on_path.add(key)
         try:
-            out = self._walk(self.instrs[i])
+            out = self._walk(self.instrs[i], clear)
         finally:
-            self._on_path.discard(i)
-        self._walk_memo[i] = out
+            self._on_path.discard(key)
+        self._walk_memo[key] = out
         return out
 
-    def _walk(self, ins: Instr) -> dict[str, int]:
+    def _walk(self, ins: Instr, clear: bool) -> dict:
         c = ins.cycles
         if ins.op in _CALLS:
             name = ins.args[0]
             if name == FRAME_ROUTINE:
                 return {"frame": c}
-            callee = self.walk(self.target(ins))
+            callee = self.walk(self.target(ins), clear)
             if name in FRAME_REACHING:
                 return {"frame": c + callee["frame"]}
             out = {"frame": c + callee["frame"]} if "frame" in callee else {}
-            if "ret" in callee:
-                out = _merge(out, _plus(self.walk(ins.index + 1), c + callee["ret"]))
+            for key, v in callee.items():
+                if key != "frame":
+                    out = _merge(out, _plus(self.walk(ins.index + 1, key[1]), c + v))
             return out
         if ins.op in ("RET", "RETI"):
-            return {"ret": c}
+            return {("ret", clear): c}
         if ins.op == "JMP":
             raise WcetError(f"line {ins.line}: an indirect jump between frames")
         if ins.op in _JUMPS:
-            return _plus(self.walk(self.target(ins)), c)
+            return _plus(self.walk(self.target(ins), clear), c)
+        if ins.args and ins.args[0] == FRAME_FLAG:
+            if ins.op == "CLR":
+                return _plus(self.walk(ins.index + 1, True), c)
+            if ins.op == "JB":      # set (behind a frame) unless cleared since
+                return _plus(self.walk(ins.index + 1 if clear else self.target(ins), clear), c)
+            raise WcetError(f"line {ins.line}: `{ins.op} {FRAME_FLAG}` outside frame_io")
         if ins.op == "DJNZ" and ins.args[-1] == ".":
             prev = self.instrs[ins.index - 1]
             if not (prev.op == "MOV" and prev.args[0] == ins.args[0] and prev.args[1].startswith("#")):
                 raise WcetError(f"line {ins.line}: a pad loop needs `MOV {ins.args[0]},#k` right before it")
             k = int(prev.args[1][1:], 0) or 256
-            return _plus(self.walk(ins.index + 1), c * k)
+            return _plus(self.walk(ins.index + 1, clear), c * k)
         if ins.op in _BRANCH2:
-            return _plus(_merge(self.walk(ins.index + 1), self.walk(self.target(ins))), c)
-        return _plus(self.walk(ins.index + 1), c)
+            return _plus(_merge(self.walk(ins.index + 1, clear), self.walk(self.target(ins), clear)), c)
+        return _plus(self.walk(ins.index + 1, clear), c)
 
-    def resume(self, i: int) -> int:
+    def resume(self, i: int, clear: bool = False) -> int:
         """Longest cycles from instruction i to the next frame, going on behind the callers
         of the routine i is in when it returns."""
-        r = self.walk(i)
+        r = self.walk(i, clear)
         best = r.get("frame", 0)
-        if "ret" in r:
+        for key, v in r.items():
+            if key == "frame":
+                continue
             entry = self.routine_of(i)
             sites = [] if entry is None else self.call_sites(entry)
             if not sites:
                 raise WcetError(f"a RET at {self.label_at(i)} with no caller")
-            best = max(best, max(r["ret"] + self.resume(s + 1) for s in sites))
+            best = max(best, max(v + self.resume(s + 1, key[1]) for s in sites))
         return best
 
     def longest(self, start: str, stops: set[str]) -> int:
@@ -224,10 +244,10 @@ class Code:
             if ins.op in ("RET", "RETI"):
                 out = c
             elif ins.op in _CALLS:
-                callee = self.walk(self.target(ins))
-                if "ret" not in callee:
+                rets = [v for k, v in self.walk(self.target(ins)).items() if k != "frame"]
+                if not rets:
                     raise WcetError(f"line {ins.line}: a call that does not return")
-                out = c + callee["ret"] + go(i + 1)
+                out = c + max(rets) + go(i + 1)
             elif ins.op == "JMP":
                 raise WcetError(f"line {ins.line}: an indirect jump")
             elif ins.op in _JUMPS:
@@ -263,7 +283,7 @@ class Code:
         if not resumes:
             raise WcetError("the code never calls frame_io")
         limit = sys.getrecursionlimit()
-        sys.setrecursionlimit(max(limit, 4 * len(self.instrs) + 1000))   # a path visits each instruction once
+        sys.setrecursionlimit(max(limit, 8 * len(self.instrs) + 1000))   # a path visits each instruction once in each FRAMED state
         try:
             return max((self.resume(i), i) for i in resumes)
         finally:
