@@ -124,7 +124,8 @@ class _Ctx:
     port_channels: tuple = ()        # (port, its channels) for each port of the plan
     fewest_memo: dict = field(default_factory=dict)   # plan.fewest_frames of each sequence
     flagged: bool = False            # a loop tests FRAMED (frame_io sets it)
-    byte_maps: list = field(default_factory=list)     # the bytes each select's `on`s name
+    written: int = 1                 # passes written out by the repeats around (plan.frameless_repeats)
+    byte_maps: dict = field(default_factory=dict)     # the bytes selects' `on`s name -> their map
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -222,13 +223,15 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             # a pass can run through without a frame (only sends, or a select whose event is there):
             # written out pass by pass, so that the work between two frames stays bounded (lint
             # limits the passes: `too-long`, and the sends: at most QUEUE bytes in all)
-            if st.count > layout.MAX_FRAMELESS_PASSES and framed:
+            if framed and ctx.written * st.count > layout.MAX_FRAMELESS_PASSES:    # lint's `too-long` first
                 raise layout.FramelessRepeat(
                     f"this repeat's passes can take no frame, and the firmware writes such a repeat out "
-                    f"pass by pass: at most {layout.MAX_FRAMELESS_PASSES}, not {st.count}")
+                    f"pass by pass: at most {layout.MAX_FRAMELESS_PASSES}, not {ctx.written * st.count}")
             flush()
+            ctx.written *= st.count if framed else 1
             for _ in range(st.count):
                 _ops(ctx, st.body, out)
+            ctx.written //= st.count if framed else 1
             continue
         if isinstance(st, MoveStep):
             run.append(_move_record(ctx, st, known))
@@ -272,10 +275,12 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
     named = sorted({on["byte"] for on in ons if on["byte"] is not None})
     byte_map = None
     if ctx.plan.program.serial is not None and named:
-        byte_map = {"label": f"{lab}_w", "where": ctx.where(st.span),
-                    "bytes": [sum(1 << (b & 7) for b in named if b >> 3 == i) for i in range(32)],
-                    "names": ", ".join(_hex8(b) for b in named)}
-        ctx.byte_maps.append(byte_map)
+        byte_map = ctx.byte_maps.get(tuple(named))      # selects that name the same bytes share one
+        if byte_map is None:
+            byte_map = {"label": f"bmap{len(ctx.byte_maps) + 1}", "where": ctx.where(st.span),
+                        "bytes": [sum(1 << (b & 7) for b in named if b >> 3 == i) for i in range(32)],
+                        "names": ", ".join(_hex8(b) for b in named)}
+            ctx.byte_maps[tuple(named)] = byte_map
     return {"op": "select", "label": lab, "ons": ons, "after": after, "where": ctx.where(st.span),
             "serial": ctx.plan.program.serial is not None, "byte_map": byte_map}
 
@@ -363,7 +368,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     text = render("firmware.asm.j2",
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
                   ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit,
-                  byte_maps=ctx.byte_maps,
+                  byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
                   state_base=layout.STATE_BASE, stack_base=stack_base, s=s,
@@ -385,7 +390,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if ease_tables:
         breakdown["eased curve tables"] = sum(len(t["values"]) for t in ease_tables)
     if ctx.byte_maps:
-        breakdown["the bytes each select names"] = 32 * len(ctx.byte_maps)
+        breakdown["maps of the bytes selects name"] = 32 * len(ctx.byte_maps)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),

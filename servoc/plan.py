@@ -357,6 +357,25 @@ def sends(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
     return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_send, memo)
 
 
+def frameless_repeats(plan: Plan) -> Iterator[tuple[RepeatStep, int]]:
+    """Each repeat that can take frames but whose pass can run through without one (a select
+    whose event is already there), with the passes the firmware writes out for it: its count
+    times that of the repeats of this kind around it in the same body (codegen writes such a
+    repeat out pass by pass, so that the work between two frames stays bounded)."""
+    frames_memo: dict = {}
+    fewest_memo: dict = {}
+    work = [(body, 1) for body in [plan.main] + [q.body for q in plan.sequences]]
+    while work:
+        body, times = work.pop()
+        for st in body:
+            inner = times
+            if (isinstance(st, RepeatStep) and takes_frames(st.body, plan, frames_memo)
+                    and fewest_frames(st.body, plan, fewest_memo) == 0):
+                inner = times * st.count
+                yield st, inner
+            work.extend((b, inner if isinstance(st, RepeatStep) else times) for b in walk.blocks(st))
+
+
 @dataclass(frozen=True)
 class SendRun:
     """The bytes `send` gives with no frame between them, over the ways one pass of a body can

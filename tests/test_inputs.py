@@ -269,7 +269,9 @@ def test_expand_follows_choices_and_waits_forever():
     assert after == [100] * 8           # 1 + 5 frames of waiting, then `move a` (already there: 1 frame)
     at_last = [f.n[0] for f in itertools.islice(expand(p, [Choice(0, 5)]), 8)]
     assert at_last == [100] * 6 + [103, 107]   # the F-th look: its events come before `after`
-    for late in (Choice(0, 6), Choice(0, 0)):   # past F; and before the first frame
+    at_once = [f.n[0] for f in itertools.islice(expand(p, [Choice(0, 0)]), 5)]
+    assert at_once == [100, 103, 107, 110, 110]  # the event was there as the select was reached: no frame of its own
+    for late in (Choice(0, 6), Choice(0, -1)):  # past F; and a wait of less than nothing
         with pytest.raises(ValueError):
             list(itertools.islice(expand(p, [late]), 10))
 

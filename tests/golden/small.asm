@@ -21,6 +21,7 @@ DIRB    = 0x26              ; per port: lines moving down; bit address 0x30 + pi
 RMASK   = 0x29              ; per port: lines the current record names; bit address 0x48 + pin
 FLAGS   = 0x2C              ; move flags, bits below
 SEGF    = 0x2D              ; F of the current move
+RUNF    = 0x2F              ; the runtime's flags (bit-addressable): FRAMED
 ERR0    = 0x48              ; DDA start of the current linear move: floor(-F / 2) mod 65536
 SEGK    = 0x4A              ; frame number k in the current move
 FLEFT   = 0x4C              ; frames left in the current move or hold
@@ -46,6 +47,7 @@ F8      = 0x64              ; FLAGS.4: the record's F is one byte
 ALLF    = 0x65              ; FLAGS.5: the move names every servo: no masks
 HOLDF   = 0x66              ; FLAGS.6: the record is a hold
 ENDF    = 0x67              ; FLAGS.7: the end of a record list
+FRAMED  = 0x78              ; RUNF.0: set by frame_io (a loop's pass that took no frame waits for one)
 
 ; ---------------------------------------------------------------- reset
         .org    0x0000

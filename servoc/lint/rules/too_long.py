@@ -1,10 +1,11 @@
-"""too-long: a move, hold or repeat that runs more frames or passes than the firmware counts."""
+"""too-long: a move, hold or repeat that runs more frames or passes than the firmware counts (or, for
+a repeat whose pass can take no frame, writes out)."""
 
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...layout import MAX_AFTER_FRAMES
-from ...plan import MoveStep, Plan, RepeatStep, SelectStep, steps
+from ...layout import MAX_AFTER_FRAMES, MAX_FRAMELESS_PASSES
+from ...plan import MoveStep, Plan, RepeatStep, SelectStep, frameless_repeats, steps
 from .. import Report, rule
 
 MAX_FRAMES = 65535           # frames of one move or hold, and passes of one repeat
@@ -27,3 +28,8 @@ def too_long(plan: Plan, report: Report) -> None:
         if isinstance(inst.step, MoveStep) and inst.step.frames is None and inst.frames > MAX_FRAMES:
             report(f"this move runs {inst.frames} frames; the firmware counts at most {MAX_FRAMES}",
                    inst.step.span, help="split it into several moves")
+    for st, passes in frameless_repeats(plan):
+        if passes > MAX_FRAMELESS_PASSES:
+            report(f"a pass of this repeat can take no frame (a select whose event is already there), so the "
+                   f"firmware writes it out pass by pass: {passes} passes, at most {MAX_FRAMELESS_PASSES}",
+                   st.span, help="put a frame in each pass (a `move`, or a `hold` of one frame), or use fewer passes")
