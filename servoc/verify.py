@@ -337,7 +337,7 @@ def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: fl
             start, select = reached[len(choices)]
             wanted = {br.event.byte for br in select.branches if not isinstance(br, AfterBranch)}
             pick = None
-            for j in range(1, lead + frames - start + 2):
+            for j in range(0, lead + frames - start + 2):
                 at = t1 + (start - 1 + j - lead) * period + phase
                 while came < len(arrivals) and arrivals[came][0] <= at:
                     if len(queue) < QUEUE:
@@ -355,7 +355,7 @@ def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: fl
                         queue.pop(0)
                         pick = Choice(k, j)
                         break
-                if pick is None and select.after is not None and j == max(1, select.after.frames):
+                if pick is None and select.after is not None and j == select.after.frames:
                     pick = Choice(len(select.branches) - 1, j)
                 if pick is not None:
                     break

@@ -126,7 +126,7 @@ def test_a_wrong_byte_sent_is_caught():
 
 
 HEXAPOD = (ROOT / "examples/hexapod_serial.servo").read_text(encoding="utf-8")
-HEXAPOD_P_US = 10589
+HEXAPOD_P_US = 10786
 HEXAPOD_SCENARIOS = {
     "at a frame boundary": (f'{200 * HEXAPOD_P_US}us "l"\n', "RL"),
     "mid-frame, unknown bytes around": ('2.3s "q"\n2.3053s "s" "?" "w"\n', "RSW"),
@@ -226,9 +226,13 @@ def test_send_runs_and_gaps_are_counted():
     assert send_gap(fe.plan, 100) == 1          # d e, one frame (the wait), d e again
     fe, _ = front_end_text('serial 4800\nservo arm = P1.0\npose p { arm: 100 }\n'
                            'main { move p; send "c"; hold 30ms; send "d"; select { on "x" { send "e" }; after 1s { } } }\n')
-    assert send_run(fe.plan) == 1
-    assert send_gap(fe.plan, 100) == 1          # d, a frame of the select, e
-    assert send_gap(fe.plan, 3) == 1
+    assert send_run(fe.plan) == 2               # d, then e at once if "x" is already there
+    assert send_gap(fe.plan, 100) == 6          # c, the hold's 6 frames, d
+    assert send_gap(fe.plan, 3) == 3
+    fe, _ = front_end_text('serial 4800\nservo arm = P1.0\npose p { arm: 100 }\n'
+                           'main { move p; loop { wait "x"; send "d"; send "e" } }\n')
+    assert send_run(fe.plan) == 2               # a pass that took no frame waits for one before the next
+    assert send_gap(fe.plan, 100) == 1
 
 
 def test_the_serial_handler_is_in_the_budget():
