@@ -10,7 +10,10 @@
 2. Latency. A 3-servo program at 4800 baud gets 16 bytes at phases spread over
    the frame; for each, the time from its stop bit to the first rise of the
    branch it starts (`verify.event_delays`).
-3. Added cycles. The same 24-servo hexapod with and without `serial 4800`: the
+3. Sustained rate. A loop of a select and one-frame moves (every command answered
+   with a byte) gets one command every frame, and then faster, for 100 commands:
+   how many are answered, and the longest run of frames without a new command.
+4. Added cycles. The same 24-servo hexapod with and without `serial 4800`: the
    shortest period each holds (from the generated code), and the serial
    handler's load in one frame.
 """
@@ -123,6 +126,42 @@ def latency() -> list[str]:
             f"(P = {period / 1000:.2f} ms: {min(delays) / period:.2f} P to {max(delays) / period:.2f} P)"]
 
 
+SUSTAINED = """\
+serial 4800
+frame 6ms
+servo arm = P1.0
+pose lo { arm: 20 }
+pose hi { arm: 22 }
+main {
+  move lo
+  loop {
+    select {
+      on "a" { move hi in 6ms; send "A" }
+      on "b" { move lo in 6ms; send "B" }
+    }
+  }
+}
+"""
+
+
+def sustained() -> list[str]:
+    fe, firmware, _ = build(SUSTAINED)
+    period = fe.plan.period_us
+    byte_us = 10 * 1_000_000 / 4800
+    out = []
+    for every in (period, period * 0.75, byte_us):
+        sent = "ab" * 50
+        scenario = "".join(f'{round(100_000 + k * every)}us "{c}"\n' for k, c in enumerate(sent))
+        frames = int((100_000 + 100 * every) / period) + 40
+        plan, trace, evs, report = run(fe, firmware, scenario, frames)
+        answered = "".join(chr(b) for _, b in trace.sent)
+        lost = sum(1 for a, b in zip(sent.upper(), answered) if a != b) + len(sent) - len(answered)
+        out.append(f"- a command every {every / 1000:.3f} ms ({period / every:.2f} a frame, P = {period / 1000:.1f} ms): "
+                   f"{len(answered)} of {len(sent)} answered, {'none' if not lost else lost} lost or out of order; "
+                   f"{1_000_000 * len(answered) / (frames * period):.0f} answers a second over the run")
+    return out
+
+
 def added() -> list[str]:
     text = (ROOT / "examples/hexapod_serial.servo").read_text(encoding="utf-8")
     plain = text.replace("serial 4800\n", "").replace('send "R"\n', "")
@@ -152,6 +191,8 @@ def main() -> int:
     print("\n".join(rates()))
     print("\n## Latency from a byte to its branch\n")
     print("\n".join(latency()))
+    print("\n## Sustained command rate\n")
+    print("\n".join(sustained()))
     print("\n## Added cycles\n")
     print("\n".join(added()))
     print(f"\n{time.time() - start:.1f} s")
