@@ -128,17 +128,19 @@ def test_a_sample_verifies_under_bytes_at_random_phases(n_bytes, n_inputs, after
     assert report.ok, (text, scenario, report.summary(), [str(m) for m in report.mismatches[:4]])
 
 
-def test_the_runtime_at_its_largest_assembles():
+@pytest.mark.parametrize("clock", ["clock 11.0592MHz", "clock 12MHz", "clock 20MHz mode 6T"])
+def test_the_runtime_at_its_largest_assembles(clock):
     # Every template at its largest: 24 servos on three ports, two speed classes (frames-needed
     # tables), eased and undated moves, the serial line, inputs, an 11.0592 MHz crystal (the
     # edge-time table) and a select with every kind of branch
     servos = "".join(f"servo s{p}{b} = P{p}.{b}{' speed 0.3s/60deg' if b % 2 else ''}\n"
                      for p in range(3) for b in range(8))
-    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\ninput go = P3.2\ninput stop = P3.3 high\n" + servos
+    text = (f"target stc89c52rc {clock}\nserial 4800\n"
+            + "input go = P3.2\ninput stop = P3.3 high\n" + servos
             + "pose lo { P0: 10, P1: 10, P2: 10 }\npose hi { P0: 240, P1: 240, P2: 240 }\n"
             + "main {\n  move lo\n  loop {\n    select {\n      on go { move hi in 2s ease in-out; send \"G\" }\n"
             + "      on stop { move lo }\n      on \"a\" { move hi; move lo in 3s ease in }\n"
             + "      after 500ms { move lo in 3s ease out }\n    }\n  }\n}\n")
     assert lints(text), text
     built = build_text(text)
-    assert built.plan.program.target.grid is False      # the C(N) table is in
+    assert built.plan.program.target.grid is (clock == "clock 12MHz")     # else the C(N) table is in
