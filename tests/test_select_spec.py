@@ -109,3 +109,22 @@ def test_expand_follows_the_loop_rule():
     built = build_text(HEAD + 'main {\n  move lo\n  loop {\n    wait "a"\n    send "b"\n  }\n}\n')
     frames = list(__import__("itertools").islice(plan_mod.expand(built.plan, (Choice(0, 0),) * 3), 6))
     assert [f.sent for f in frames] == [(), (98,), (98,), (98,), (), ()]
+
+
+def test_the_six_command_serial_arm_answers_every_command():
+    # examples/serial_arm.servo at 11.0592 MHz and 9600 baud: every command answered in order,
+    # the unknown byte dropped, four commands back to back queued and run in turn
+    from pathlib import Path
+    root = Path(__file__).resolve().parent.parent
+    text = (root / "examples/serial_arm.servo").read_text(encoding="utf-8")
+    scenario = (root / "examples/events/serial_arm.events").read_text(encoding="utf-8")
+    built = build_text(text)
+    plan = built.plan
+    evs = events.parse(scenario, plan.program.inputs, True)
+    frames = 2000                                       # 10.6 s: every reply is out by then
+    stim = api.stimulus(plan, evs)
+    trace = api.simulate(built.firmware.hex_text, max(api.cycles_needed(plan, frames), stim.last() + 1),
+                         plan.program.target, stim)
+    assert "".join(chr(b) for _, b in trace.sent) == "RLPRDWH"
+    report = api.check_events(plan, trace, frames, evs)
+    assert report.ok and report.bytes_sent == 7, (report.summary(), [str(m) for m in report.mismatches[:4]])
