@@ -229,14 +229,14 @@ def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
 
 def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list) -> _verify.VerifyReport:
     """Compare a run driven by `events` with the plan: the branch taken at each select is read from
-    the trace (`verify.infer_choices`), then each `on` must start within 2 P of its event."""
+    the trace (`verify.infer_choices`), then each `on` must start within 2 P of its event, and
+    every input pin must read what the events drove on it."""
     import dataclasses
     choices, report = _verify.infer_choices(plan_, trace, frames, events=events)
     late = _verify.check_event_delays(plan_, choices, events, _verify.first_rise_us(plan_, trace))
-    if not late:
-        return report
     extra = tuple(_verify.Mismatch(0, "-", "-", None, None, text) for text in late)
-    return dataclasses.replace(report, mismatches=report.mismatches + extra)
+    extra += tuple(_verify.driven_pins(plan_, trace, stimulus(plan_, events).pins))
+    return dataclasses.replace(report, mismatches=report.mismatches + extra) if extra else report
 
 
 def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
@@ -245,8 +245,9 @@ def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
 
 
 def check_trace(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int) -> _verify.VerifyReport:
-    """Compare `frames` frames of a simulation, from the first pulse, with the plan's golden frames."""
-    return _verify.verify(plan_, trace, frames)
+    """Compare `frames` frames of a simulation (run with `stimulus(plan_)`: every input inactive),
+    from the first pulse, with the plan's golden frames."""
+    return _verify.verify(plan_, trace, frames, driven=stimulus(plan_).pins)
 
 
 def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.VerifyReport:

@@ -84,9 +84,47 @@ def cycles_needed(plan: Plan, frames: int) -> int:
     return (lead + frames + 2) * target.cycles(plan.period_us) + target.cycles(5000)
 
 
-def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = ()) -> VerifyReport:
+def driven_pins(plan: Plan, trace: SimTrace, driven: tuple | None) -> list[Mismatch]:
+    """The firmware drives nothing but its servo lines. The trace records a port's pins as the
+    firmware's writes leave them (its latch and what drives the pin from outside): a pin that is no
+    servo and no input must never change; an input's pin must read at each write what `driven`
+    (the (cycle, port, outside level) changes ucsim made, as `api.Stimulus.pins`) put on it: a
+    latch written to 0 would hold it low (None: input pins are not checked)."""
+    out: list[Mismatch] = []
+    servo_pins = {(s.port, s.bit) for s in plan.program.servos}
+    inputs = {(i.port, i.bit): i for i in plan.program.inputs}
+    for port in range(4):           # P0-P3, ports without any servo included
+        for bit in range(8):
+            if (port, bit) in servo_pins:
+                continue
+            edges = trace.pin_edges(port, bit)
+            if (port, bit) not in inputs:
+                if edges:
+                    out.append(Mismatch(0, "-", f"P{port}.{bit}", None, None, "a pin that is not a servo changed"))
+                continue
+            if driven is None:
+                continue
+            outside = [(at, (level >> bit) & 1) for at, p, level in driven if p == port]
+            for at, level in ((w.cycle, (w.value >> bit) & 1) for w in trace.port_writes(port)):
+                # what was driven on it up to this write (ucsim may make a change a few cycles late)
+                could = {lv for c, lv in outside if at - DRIVE_SLACK <= c <= at}
+                could.add(next((lv for c, lv in reversed(outside) if c <= at - DRIVE_SLACK), 1))
+                if level not in could:
+                    out.append(Mismatch(0, inputs[(port, bit)].name, f"P{port}.{bit}", None, None,
+                                        f"input pin read {level} at cycle {at}, but it was driven "
+                                        f"{1 - level} from outside: the firmware wrote its latch"))
+                    break
+    return out
+
+
+DRIVE_SLACK = 8     # cycles a change of an input pin may come late in ucsim (api.simulate retries)
+
+
+def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = (), driven: tuple | None = None) -> VerifyReport:
     """Compare `frames` frames from the first pulse with what the simulation recorded (at each
-    select, the branch `choices` give, in the order the selects are reached; see plan.expand)."""
+    select, the branch `choices` give, in the order the selects are reached; see plan.expand).
+    `driven`: the changes of the input pins' outside levels ucsim made (see `driven_pins`); None
+    leaves the input pins unchecked."""
     mismatches: list[Mismatch] = []
     lead = first_pulse_frame(plan, choices)
     golden = [] if lead is None else list(itertools.islice(expand(plan, choices), lead, lead + frames))
@@ -103,11 +141,7 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = ()) -> Ver
         if r is None or r > reset_limit:
             mismatches.append(Mismatch(0, s.name, s.pin, None, None,
                                        f"line not driven low within {RESET_LOW_US} us of reset"))
-    servo_pins = {(s.port, s.bit) for s in plan.program.servos}
-    for port in range(4):           # P0-P3, ports without any servo included
-        for bit in range(8):
-            if (port, bit) not in servo_pins and trace.pin_edges(port, bit):
-                mismatches.append(Mismatch(0, "-", f"P{port}.{bit}", None, None, "a pin that is not a servo changed"))
+    mismatches += driven_pins(plan, trace, driven)
 
     firsts = [(ps[0][0] - port_offset[plan.channels[ch].port]) for ch, ps in pulses.items() if ps]
     if not golden or not firsts:
