@@ -351,9 +351,16 @@ def _main(argv: list[str], run: _Run) -> int:
         raise _Stop(str(exc), "missing-tool") from None
     report = api.check_trace(plan, trace, frames) if events is None else api.check_events(plan, trace, frames, events)
     if args.vcd:
+        from .events import byte_arrivals
+        from .target import byte_cycles
         from .vcd import MissingExtra, write_vcd
         try:
-            write_vcd(plan, trace, args.vcd, source.path)
+            serial = plan.program.serial
+            bit_cycles = 0 if serial is None else byte_cycles(serial.th1, serial.smod) // 10
+            rx = () if serial is None or not events else tuple(
+                (plan.program.target.cycles(at) - 10 * bit_cycles, b)
+                for at, b in byte_arrivals(events, 10 * bit_cycles, plan.program.target))
+            write_vcd(plan, trace, args.vcd, source.path, stim.pins, rx, bit_cycles)
         except MissingExtra as exc:
             raise _Stop(str(exc), "missing-extra") from None
         except OSError as exc:
@@ -562,12 +569,22 @@ def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> di
 
 def verify_data(report, source, plan: Plan) -> dict:
     """`servoc verify --format json`: the summary's numbers and every mismatch."""
+    cycle = plan.program.target.cycle_us
+
+    def us(cycles):         # machine cycles -> µs at the program's clock (3 decimals: ns)
+        return None if cycles is None else round(float(cycles * cycle), 3)
+
     return {"file": source.path, "ok": report.ok, "frames": report.frames, "pulses": report.pulses,
-            "max_error_cycles": report.max_error_cycles, "planned_period_us": plan.period_us,
-            "period_us": {"min": report.period_min, "max": report.period_max, "mean": report.period_mean},
-            "reset_low_us": report.reset_low_cycles, "bytes_sent": report.bytes_sent,
-            "mismatches": [{"frame": m.frame, "servo": m.servo, "pin": m.pin, "expected_us": m.expected_us,
-                            "measured_us": m.measured_us, "what": m.what} for m in report.mismatches]}
+            "max_error_cycles": report.max_error_cycles, "machine_cycle_us": float(cycle),
+            "planned_period_us": plan.period_us, "planned_period_cycles": plan.program.target.cycles(plan.period_us),
+            "period_cycles": {"min": report.period_min, "max": report.period_max, "mean": report.period_mean},
+            "period_us": {"min": us(report.period_min), "max": us(report.period_max), "mean": us(report.period_mean)},
+            "reset_low_cycles": report.reset_low_cycles, "reset_low_us": us(report.reset_low_cycles),
+            "bytes_sent": report.bytes_sent,
+            "mismatches": [{"frame": m.frame, "servo": m.servo, "pin": m.pin,
+                            "expected_cycles": m.expected_us, "measured_cycles": m.measured_us,
+                            "expected_us": us(m.expected_us), "measured_us": us(m.measured_us), "what": m.what}
+                           for m in report.mismatches]}
 
 
 def _plan_line(plan: Plan) -> str:

@@ -51,6 +51,7 @@ class VerifyReport:
     mismatches: tuple[Mismatch, ...] = field(default=())
     unit: str = "us"                    # what a machine cycle is called in the summary ("us" at 1 µs)
     bytes_sent: int | None = None       # bytes sent checked (None: the program has no serial line)
+    cycle_us: float = 1.0               # one machine cycle in µs, for the summary's µs
 
     @property
     def ok(self) -> bool:
@@ -59,6 +60,8 @@ class VerifyReport:
     def summary(self) -> str:
         period = "n/a" if self.period_min is None else (
             f"{self.period_min}..{self.period_max} {self.unit} (mean {self.period_mean:.3f})")
+        if self.period_min is not None and self.unit != "us":
+            period += f" = {self.period_mean * self.cycle_us:.1f} µs"
         sent = "" if self.bytes_sent is None else f", {self.bytes_sent} byte{'s' if self.bytes_sent != 1 else ''} sent checked"
         return (f"{'OK' if self.ok else 'FAILED'}: {self.frames} frames, {self.pulses} pulses checked{sent}, "
                 f"max error {self.max_error_cycles} cycles, period {period}, "
@@ -147,7 +150,8 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = (), driven
     if not golden or not firsts:
         if golden:
             mismatches.append(Mismatch(1, "-", "-", None, None, "no pulse at all"))
-        return VerifyReport(0, 0, 0, None, None, None, reset_low, tuple(mismatches), unit)
+        return VerifyReport(0, 0, 0, None, None, None, reset_low, tuple(mismatches), unit,
+                            cycle_us=float(target.cycle_us))
     t1 = min(firsts)
     period = target.cycles(plan.period_us)
     checked, max_err = 0, 0
@@ -192,7 +196,8 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = (), driven
     spans = [(r[-1] - r[0], len(r) - 1) for r in rises_by_channel.values() if len(r) > 1]
     mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
     return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
-                        max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit, sent)
+                        max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit, sent,
+                        float(target.cycle_us))
 
 
 def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: int,

@@ -514,6 +514,22 @@ def test_verify_json(capsys, program):
     assert data["planned_period_us"] == 10000
     assert data["period_us"] == {"min": 10000, "max": 10000, "mean": 10000.0}
     assert 0 <= data["reset_low_us"] <= 20
+    assert data["period_cycles"] == data["period_us"] and data["machine_cycle_us"] == 1.0   # 12 MHz: a cycle is a µs
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("clock,cycle_ns", [("clock 11.0592MHz", 1085.069), ("clock 22.1184MHz mode 6T", 271.267)])
+def test_verify_json_times_are_in_the_unit_their_name_says(capsys, tmp_path, clock, cycle_ns):
+    path = tmp_path / "stc.servo"
+    path.write_text(f"target stc89c52rc {clock}\nframe 10ms\nservo arm = P1.0\npose a {{ arm: 90deg }}\n"
+                    "main { move a }\n")
+    rc, out, _ = run(["verify", "--format", "json", str(path)], capsys)
+    data = json.loads(out)
+    assert rc == 0 and abs(data["machine_cycle_us"] * 1000 - cycle_ns) < 0.001
+    period = data["planned_period_cycles"]
+    assert data["period_cycles"]["min"] == period == round(10_000 / data["machine_cycle_us"])
+    assert abs(data["period_us"]["min"] - 10_000) <= data["machine_cycle_us"] / 2      # µs, not cycles
+    assert data["reset_low_us"] == round(data["reset_low_cycles"] * data["machine_cycle_us"], 3)
 
 
 @pytest.mark.toolchain
@@ -526,7 +542,7 @@ def test_verify_json_lists_every_mismatch(capsys, program, tmp_path):
     data = json.loads(out)
     assert rc == 1 and data["ok"] is False and len(data["mismatches"]) > 20
     m = data["mismatches"][0]
-    assert set(m) == {"frame", "servo", "pin", "expected_us", "measured_us", "what"}
+    assert set(m) == {"frame", "servo", "pin", "expected_cycles", "measured_cycles", "expected_us", "measured_us", "what"}
     assert m["servo"] == "arm" and m["pin"] == "P1.0" and m["expected_us"] != m["measured_us"]
     rc, text, _ = run(["verify", str(program), "--hex", str(hex_path)], capsys)
     assert f"and {len(data['mismatches']) - 20} more mismatches" in text
