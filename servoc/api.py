@@ -25,6 +25,8 @@ from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
 
+SimError = _sim.SimError
+
 ToolNotFound = toolchain.ToolNotFound
 write_atomic = toolchain.write_atomic
 
@@ -220,23 +222,37 @@ def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
         pins = tuple((at + shift * (at > 1), port, level) for at, port, level in stim.pins)
         uart = None if stim.uart is None else tuple((at + shift, on) for at, on in stim.uart)
         try:
-            return _sim.run(hex_text, cycles + 4, xtal_hz=target.sim_hz, inputs=pins, uart=uart, rx=stim.rx)
+            return _sim.run(hex_text, cycles + 4, xtal_hz=target.sim_hz, inputs=pins, uart=uart, rx=stim.rx,
+                            timeout=120 + cycles / 1_000_000)    # ucsim runs some 4 million cycles a second
         except _sim.MissedInput:
             if shift == 3:
                 raise
     raise AssertionError("unreachable")
 
 
-def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list) -> _verify.VerifyReport:
+def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list,
+                 line_of=None) -> _verify.VerifyReport:
     """Compare a run driven by `events` with the plan: the branch taken at each select is read from
     the trace (`verify.infer_choices`), then each `on` must start within 2 P of its event, and
-    every input pin must read what the events drove on it."""
+    every input pin must read what the events drove on it. The report lists the selects reached
+    and what they took (`line_of(span)`: a span's line), and the events no select took."""
+    return events_report(plan_, trace, frames, events, line_of)[1]
+
+
+def events_report(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list,
+                  line_of=None) -> tuple[tuple, _verify.VerifyReport]:
+    """(the choices found, the report) of `check_events`."""
     import dataclasses
     choices, report = _verify.infer_choices(plan_, trace, frames, events=events)
-    late = _verify.check_event_delays(plan_, choices, events, _verify.first_rise_us(plan_, trace))
+    t1 = _verify.first_rise_us(plan_, trace)
+    late = _verify.check_event_delays(plan_, choices, events, t1)
     extra = tuple(_verify.Mismatch(0, "-", "-", None, None, text) for text in late)
     extra += tuple(_verify.driven_pins(plan_, trace, stimulus(plan_, events).pins))
-    return dataclasses.replace(report, mismatches=report.mismatches + extra) if extra else report
+    end = None if t1 is None else t1 + (report.frames - 1) * plan_.period_us
+    return choices, dataclasses.replace(
+        report, mismatches=report.mismatches + extra,
+        reactions=tuple(_verify.reactions(plan_, choices, events, t1, line_of)),
+        warnings=() if end is None else tuple(_verify.unseen(plan_, choices, events, t1, end)))
 
 
 def cycles_needed(plan_: _plan.Plan, frames: int) -> int:

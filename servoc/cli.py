@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import dataclasses
 import difflib
 import importlib
 import gc
@@ -29,6 +30,7 @@ from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import AfterBranch, Plan, SelectStep, SendStep, branch_text, has_selects, steps, verify_frames
 from .starter import starter
+from .verify import SETTLE_MARGIN, verify_settle, verify_span
 from .target import fmt_us
 from .units import DAV_DEG, fmt_ms
 
@@ -317,39 +319,52 @@ def _main(argv: list[str], run: _Run) -> int:
                   + ("every width exactly 500 + 8 N µs" if not target.width_error_us()
                      else f"widths within {fmt_us(target.width_error_us())} of 500 + 8 N µs"))
         return 0
-    frames = args.frames or verify_frames(plan)
     if hex_text is None:
         hex_text = firmware.hex_text
     events = None
-    stim = api.stimulus(plan)
     if getattr(args, "events", None):
         from . import events as _events
         try:
-            with open(args.events, encoding="utf-8") as fh:
+            with open(args.events, encoding="utf-8-sig") as fh:
                 events = _events.parse(fh.read(), plan.program.inputs, plan.program.serial is not None)
-            stim = api.stimulus(plan, events)
         except OSError as exc:
             raise _Stop(f"cannot read {args.events}: {exc.strerror or exc}") from None
         except UnicodeDecodeError:
             raise _Stop(f"{args.events} is not UTF-8 text") from None
         except _events.EventsError as exc:
             raise _Stop(f"{args.events}: {exc}") from None
-        if events and not args.frames:     # the run goes on 2 s past the last event
-            last = max(e.time_us for e in events)
-            frames = max(frames, int((last + 2_000_000) / plan.period_us) + 1)
+    span = verify_span(plan, args.frames, events)
     progress = _color(sys.stderr) and not run.json
-    try:
-        if progress:
-            sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
-        cycles = api.cycles_needed(plan, frames)
-        if stim.last() >= cycles:
-            cycles = stim.last() + 1
-        trace = api.simulate(hex_text, cycles, plan.program.target, stim)
-        if progress:
-            sys.stderr.write(" " * 60 + "\r")
-    except api.ToolNotFound as exc:
-        raise _Stop(str(exc), "missing-tool") from None
-    report = api.check_trace(plan, trace, frames) if events is None else api.check_events(plan, trace, frames, events)
+    line_of = (lambda sp: source.line_col(sp.start)[0])
+    frames = span.frames
+    for _ in range(3):      # with events: until the consequences of the last one are checked
+        stim = api.stimulus(plan, span.events)
+        try:
+            if progress:
+                sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
+            cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
+            trace = api.simulate(hex_text, cycles, plan.program.target, stim)
+            if progress:
+                sys.stderr.write(" " * 60 + "\r")
+        except api.ToolNotFound as exc:
+            raise _Stop(str(exc), "missing-tool") from None
+        except api.SimError as exc:
+            raise _Stop(f"ucsim could not run the firmware: {exc}") from None
+        if events is None:
+            report = api.check_trace(plan, trace, frames)
+            break
+        choices, report = api.events_report(plan, trace, frames, span.events, line_of)
+        settle = verify_settle(plan, choices)
+        if args.frames or settle is None or settle + SETTLE_MARGIN <= frames or frames >= span.limit:
+            break
+        frames = min(span.limit, settle + SETTLE_MARGIN)
+    unchecked = list(span.notes)
+    if events is not None and not args.frames:
+        settle = verify_settle(plan, choices)
+        if settle is not None and settle + SETTLE_MARGIN > frames:
+            unchecked.append(f"the branch taken last runs past the {frames} frames checked (it waits again at "
+                             f"frame {settle}): its end is not checked")
+    report = dataclasses.replace(report, unchecked=tuple(unchecked))
     if args.vcd:
         from .events import byte_arrivals
         from .target import byte_cycles
@@ -373,6 +388,12 @@ def _main(argv: list[str], run: _Run) -> int:
         print(f"  {m}")
     if len(report.mismatches) > 20:
         print(f"  ... and {len(report.mismatches) - 20} more mismatches")
+    for r in report.reactions:
+        print(f"  {r}")
+    for w in report.warnings:
+        print(f"  warning: {w}")
+    for u in report.unchecked:
+        print(f"  not checked: {u}")
     return 0 if report.ok else 1
 
 
@@ -584,7 +605,10 @@ def verify_data(report, source, plan: Plan) -> dict:
             "mismatches": [{"frame": m.frame, "servo": m.servo, "pin": m.pin,
                             "expected_cycles": m.expected_us, "measured_cycles": m.measured_us,
                             "expected_us": us(m.expected_us), "measured_us": us(m.measured_us), "what": m.what}
-                           for m in report.mismatches]}
+                           for m in report.mismatches],
+            "selects": [{"line": r.line, "frame": r.frame, "time_us": round(r.time_us, 3), "branch": r.branch,
+                         "event": r.event, "waited_frames": r.waited} for r in report.reactions],
+            "warnings": list(report.warnings), "not_checked": list(report.unchecked)}
 
 
 def _plan_line(plan: Plan) -> str:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass, field
 
-from .plan import AfterBranch, Choice, Plan, expand
+from .plan import AfterBranch, Choice, Plan, branch_text, expand
 from .sim import SimTrace
 from .costs import QUEUE, rise_offsets
 from .target import byte_cycles
@@ -52,6 +52,9 @@ class VerifyReport:
     unit: str = "us"                    # what a machine cycle is called in the summary ("us" at 1 µs)
     bytes_sent: int | None = None       # bytes sent checked (None: the program has no serial line)
     cycle_us: float = 1.0               # one machine cycle in µs, for the summary's µs
+    reactions: tuple = ()               # with events: each select reached and what it took (Reaction)
+    warnings: tuple = ()                # with events: events no select took, as text
+    unchecked: tuple = ()               # what the run did not check, as text
 
     @property
     def ok(self) -> bool:
@@ -447,3 +450,144 @@ def check_event_delays(plan: Plan, choices: tuple, events: list, t1_us: float | 
         elif delay > 2 * plan.period_us:
             problems.append(f"`on {text}` started {delay / 1000:.3f} ms after its event, more than 2 P")
     return problems
+
+
+# ---------------------------------------------------------------- what happened in a run with events
+
+@dataclass(frozen=True)
+class Reaction:
+    """A select reached in the run, and what it did."""
+    line: int                   # the select's line in the source (0: unknown)
+    frame: int                  # the first frame of the branch, from the first pulse (1-based)
+    time_us: float              # that frame's first rise, from reset
+    branch: str                 # as written: `on "w"`, `on button`, `after 2s`
+    event: str                  # what chose it: `"w" arrived at 1.234 s`, `button active at ...`, `no event`
+    waited: int                 # frames the select waited
+
+    def __str__(self) -> str:
+        at = f"line {self.line}: " if self.line else ""
+        return (f"{at}select took `{self.branch}` at frame {self.frame} ({self.time_us / 1e6:.4f} s), "
+                f"after {self.waited} frame{'s' if self.waited != 1 else ''} of waiting: {self.event}")
+
+
+def reactions(plan: Plan, choices: tuple, events: list, t1_us: float | None, line_of=None) -> list[Reaction]:
+    """Each select the run reached, in order, with the branch it took and the event behind it."""
+    if t1_us is None:
+        return []
+    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 100_000)
+    arrivals = _arrivals(plan, events)
+    out = []
+    for (start, select), choice in zip(reached, choices):
+        branch = select.branches[choice.branch]
+        begins = t1_us + (start + choice.frames - lead) * plan.period_us
+        if isinstance(branch, AfterBranch):
+            why = "no event came"
+        else:
+            came = [at for at in _event_times(branch, events, arrivals) if at <= begins]
+            what = f"byte {branch.event.text} arrived" if branch.event.input is None else f"`{branch.event.input}` active"
+            why = f"{what} at {came[-1] / 1e6:.4f} s" if came else "no event before it"
+        line = 0 if line_of is None else line_of(select.span)
+        out.append(Reaction(line, start + choice.frames - lead + 1, begins, branch_text(branch), why, choice.frames))
+    return out
+
+
+def unseen(plan: Plan, choices: tuple, events: list, t1_us: float | None, end_us: float) -> list[str]:
+    """Events of the run no select took: an input's activation while no select waited for it, a
+    byte no `on` took (dropped, or still queued at the end). Events after `end_us` are not counted."""
+    if t1_us is None:
+        return []
+    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 100_000)
+    taken = []          # (the branch's first rise, its event) of each `on` taken
+    for (start, select), choice in zip(reached, choices):
+        branch = select.branches[choice.branch]
+        if not isinstance(branch, AfterBranch):
+            taken.append((t1_us + (start + choice.frames - lead) * plan.period_us, branch.event))
+    out: list[str] = []
+    window = 2 * plan.period_us
+    for name in sorted({e.input for e in events if e.input is not None}):
+        changes = [e for e in events if e.input == name]
+        for k, e in enumerate(changes):
+            if not e.active or float(e.time_us) > end_us:
+                continue
+            off = next((float(x.time_us) for x in changes[k + 1:] if not x.active), end_us)
+            if not any(ev.input == name and float(e.time_us) <= at <= off + window for at, ev in taken):
+                out.append(f"`{name}` active from {float(e.time_us) / 1e6:.4f} s to {off / 1e6:.4f} s: "
+                           "no select took it (none was waiting for it then)")
+    used: set[int] = set()
+    for at, ev in taken:
+        if ev.input is None:
+            k = next((k for k, (t, b) in enumerate(_arrivals(plan, events)) if k not in used and b == ev.byte and t <= at),
+                     None)
+            if k is not None:
+                used.add(k)
+    for k, (t, b) in enumerate(_arrivals(plan, events)):
+        if k not in used and t <= end_us:
+            out.append(f"byte {_show(b)} (arrived at {t / 1e6:.4f} s) was taken by no select: dropped (no `on` of the "
+                       "select that looked at it named it, or the queue was full) or still queued when the run ended")
+    return out
+
+
+def settle_frame(plan: Plan, choices: tuple) -> int | None:
+    """The frame, from the first pulse, at which the run that `choices` make is waiting at a select
+    no choice decides (every branch taken has run to its end); None when it never gets there (a
+    branch that loops forever, or main ends first: then its last frame)."""
+    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 100_000)
+    if len(reached) > len(choices):
+        return reached[len(choices)][0] - lead + 1
+    return None
+
+
+# ---------------------------------------------------------------- how long a run is
+
+MAX_SPAN_CYCLES = 60_000_000    # the longest run verify makes unless asked: 60 s at 12 MHz, about
+                                # 16 s of ucsim on the machine the tests run on
+SETTLE_MARGIN = 3               # frames after the last branch ends: its last bytes are out within 2 P
+
+
+@dataclass(frozen=True)
+class RunSpan:
+    """What one `servoc verify` run checks: `frames` from the first pulse (at most `limit`), the
+    `events` applied (those inside the run), and `notes` on what it leaves out."""
+    frames: int
+    limit: int
+    events: list
+    notes: tuple = ()
+
+
+def verify_span(plan: Plan, asked: int | None, events: list | None) -> RunSpan:
+    """The frames a verify run checks: `asked` (--frames) if given; else the whole program and a
+    tail, or up to its loop and two passes (`plan.verify_frames`), or, with events, on past the
+    last event until every branch an event chose has run to its end (`settle_frame`, found after
+    a run) - never more than MAX_SPAN_CYCLES of simulation, and it says what it leaves out."""
+    from .plan import verify_frames
+    target = plan.program.target
+    period = target.cycles(plan.period_us)
+    lead = first_pulse_frame(plan) or 0
+    notes: list[str] = []
+    if asked:
+        frames = limit = asked
+    else:
+        limit = max(1, MAX_SPAN_CYCLES // period - lead - 2)
+        frames = verify_frames(plan)
+        if plan.total_frames is not None and plan.total_frames + 1 > limit:
+            notes.append(f"the program runs {plan.total_frames} frames ({plan.total_frames * plan.period_us / 1e6:.1f} s); "
+                         f"verify checks the first {limit} ({limit * plan.period_us / 1e6:.1f} s): use --frames N "
+                         "for more (ucsim runs some 4 million machine cycles a second)")
+        if events:
+            last = max(float(e.time_us) for e in events)
+            frames = max(frames, int((last + 2_000_000) / plan.period_us) + 1)
+        frames = min(frames, limit)
+    applied = list(events or [])
+    if events:
+        end_us = (lead + frames) * plan.period_us
+        applied = [e for e in events if float(e.time_us) < end_us]
+        if len(applied) < len(events):
+            later = len(events) - len(applied)
+            notes.append(f"{later} event{'s' if later != 1 else ''} at or after {end_us / 1e6:.3f} s, the end of the "
+                         f"{frames} frames checked: not applied" + ("" if asked else " (use --frames N for a longer run)"))
+    return RunSpan(frames, limit, applied, tuple(notes))
+
+
+def verify_settle(plan: Plan, choices: tuple) -> int | None:
+    """`settle_frame`: the frame by which everything the events started has run."""
+    return settle_frame(plan, choices)
