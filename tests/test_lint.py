@@ -433,8 +433,18 @@ def test_p0_pull_up_counts_the_servos():
     text = "servo a = P0.0\nservo b = P0.1\nservo c = P1.0\npose p { a: 1, b: 1, c: 1 }\nmain { move p }\n"
     _, diags, _ = diagnose(text)
     notes = [d for d in diags if d.code == "p0-pull-up"]
-    assert len(notes) == 1 and "the 2 servos on P0 need pull-up" in notes[0].message
-    assert notes[0].severity is Severity.NOTE
+    assert len(notes) == 1 and "the 2 servos on P0 will float without pull-up resistors" in notes[0].message
+    assert notes[0].severity is Severity.WARNING        # compile, verify, flash and the editor show it too
+
+
+@pytest.mark.parametrize("level", ["", " low", " high"])
+def test_p0_pull_up_covers_inputs(level):
+    text = f"input b = P0.3{level}\nservo c = P1.0\npose p {{ c: 1 }}\nmain {{ wait b; move p }}\n"
+    _, diags, _ = diagnose(text)
+    (d,) = [d for d in diags if d.code == "p0-pull-up"]
+    assert "the input on P0" in d.message and "`b`" in d.message and d.severity is Severity.WARNING
+    _, diags, _ = diagnose(text.replace("P0.3", "P3.3"))
+    assert not [d for d in diags if d.code == "p0-pull-up"]
 
 
 def test_lint_reports_the_period_on_success(tmp_path, capsys):
