@@ -47,10 +47,11 @@ class FrontEnd:
 class Firmware:
     unit: codegen.AsmUnit
     image: toolchain.HexImage
-    rom_bytes: int            # code memory used, tables included
-    runtime_bytes: int        # the runtime routines
-    program_bytes: int        # the program's native control flow
-    data_bytes: int           # move records and curve tables
+    rom_bytes: int            # code memory used (bytes the HEX defines), tables included: the sum of
+    runtime_bytes: int        # the runtime routines,
+    program_bytes: int        # the program's native control flow,
+    data_bytes: int           # move records, curve tables, maps and frames-needed tables,
+    startup_bytes: int = 0    # and the reset and interrupt vectors and the reset code before the runtime
 
     @property
     def hex_text(self) -> str:
@@ -161,7 +162,8 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
         bigger = [c.display for c in CHIPS.values() if c.code_bytes >= room.needed]
         reporter.error("rom-overflow",
                        f"the firmware needs {room.needed} bytes of code memory, the {chip.display} has {chip.code_bytes}: "
-                       f"runtime {room.runtime}, program {room.program}, motion data {room.data} ("
+                       f"start-up {image.symbols['runtime_start']}, runtime {room.runtime}, program {room.program}, "
+                       f"motion data {room.data} ("
                        + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")",
                        NO_SPAN,
                        help="shorten the program: fewer distinct moves (play a sequence several times instead of "
@@ -173,7 +175,11 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
         reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the {chip.display} has {chip.ram_bytes}",
                        help=layout.RamFull.help)
         return None
-    return Firmware(unit, image, toolchain.rom_used(image.hex_text), room.runtime, room.program, room.data)
+    used = toolchain.rom_used(image.hex_text)
+    startup = toolchain.rom_used_in(image.hex_text, 0, image.symbols["runtime_start"])
+    # code is contiguous; only the data has gaps (page alignment), so its bytes are what is left
+    return Firmware(unit, image, used, room.runtime, room.program, used - startup - room.runtime - room.program,
+                    startup)
 
 
 def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | None]:

@@ -85,7 +85,9 @@ class _Parser(argparse.ArgumentParser):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="servoc", description="Compile .servo motion programs into cycle-exact 8051 firmware "
-                     "(AT89C52, 12 MHz) and verify every pulse in the ucsim simulator.",
+                     "(8052-class chips: AT89C52 at 12 MHz by default; AT89S52, AT89C55WD, STC89C52RC, "
+                     "STC89C58RD, any crystal they are rated for, 6T mode) and verify every pulse in the ucsim "
+                     "simulator.",
                      epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("-V", "--version", action="version", version=f"servoc {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
@@ -112,7 +114,7 @@ def build_parser() -> argparse.ArgumentParser:
     table.add_argument("--json", action="store_true", help="print the table as JSON, one object per move")
     p.add_argument("--plot", metavar="OUT.png", help="also draw every servo's angle over time (needs servoc[plot])")
     p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
-    p = add("compile", "compile to Intel HEX for the AT89C52")
+    p = add("compile", "compile to Intel HEX for the program's target (default AT89C52 at 12 MHz)")
     p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
     p.add_argument("--asm", metavar="OUT.asm", help="also write the generated assembly")
     p = add("verify", "compile, run in ucsim and compare every pulse with the plan")
@@ -313,7 +315,8 @@ def _main(argv: list[str], run: _Run) -> int:
             target = firmware.unit.target
             chip = target.chip
             print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{chip.code_bytes} bytes "
-                  f"(runtime {firmware.runtime_bytes}, program {firmware.program_bytes}, data {firmware.data_bytes}), "
+                  f"(start-up {firmware.startup_bytes}, runtime {firmware.runtime_bytes}, program "
+                  f"{firmware.program_bytes}, data {firmware.data_bytes}), "
                   f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes}); "
                   f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, "
                   + ("every width exactly 500 + 8 N µs" if not target.width_error_us()
@@ -583,6 +586,7 @@ def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> di
             "chip": chip.display, "clock_hz": firmware.unit.target.clock_hz, "six_t": firmware.unit.target.six_t,
             "machine_cycle_us": float(firmware.unit.target.cycle_us),
             "width_error_us": float(firmware.unit.target.width_error_us()), "rom_bytes": firmware.rom_bytes, "rom_size": chip.code_bytes,
+            "startup_bytes": firmware.startup_bytes,
             "runtime_bytes": firmware.runtime_bytes, "program_bytes": firmware.program_bytes,
             "data_bytes": firmware.data_bytes, "ram_bytes": firmware.unit.ram_bytes, "ram_size": chip.ram_bytes,
             "stack_bytes": firmware.unit.stack_bytes}

@@ -74,6 +74,7 @@ __all__ = [
     "find_tool",
     "rom_end",
     "rom_used",
+    "rom_used_in",
     "write_atomic",
 ]
 
@@ -293,6 +294,11 @@ def _normalize_hex(hex_text: str) -> str:
 def rom_used(hex_text: str) -> int:
     """Number of code bytes defined by an Intel HEX text."""
     return len(_load_hex(hex_text).addresses())
+
+
+def rom_used_in(hex_text: str, start: int, end: int) -> int:
+    """Number of code bytes an Intel HEX text defines at addresses start..end-1."""
+    return sum(1 for a in _load_hex(hex_text).addresses() if start <= a < end)
 
 
 def rom_end(hex_text: str) -> int:

@@ -144,3 +144,14 @@ def test_the_runtime_at_its_largest_assembles(clock):
     assert lints(text), text
     built = build_text(text)
     assert built.plan.program.target.grid is (clock == "clock 12MHz")     # else the C(N) table is in
+
+
+@pytest.mark.parametrize("name", ["biped", "hexapod_serial", "serial_arm", "stc_board"])
+def test_the_rom_breakdown_adds_up(name, capsys):
+    from pathlib import Path
+    from servoc.cli import main
+    path = Path(__file__).resolve().parent.parent / "examples" / f"{name}.servo"
+    built = build_text(path.read_text(encoding="utf-8"))
+    fw = built.firmware
+    assert fw.startup_bytes + fw.runtime_bytes + fw.program_bytes + fw.data_bytes == fw.rom_bytes
+    assert min(fw.startup_bytes, fw.runtime_bytes, fw.program_bytes, fw.data_bytes) > 0
