@@ -42,6 +42,8 @@ examples:
   servoc plan examples/biped.servo --csv      the same as CSV
   servoc compile examples/biped.servo -o biped.hex --asm biped.asm
   servoc verify examples/biped.servo          run the firmware in ucsim, check every pulse
+  servoc verify examples/hexapod_serial.servo --events examples/events/hexapod_serial.events
+                                              the same with timed button presses and host bytes
   servoc flash prog.servo --port /dev/ttyUSB0 compile and write it to an STC89 board (needs servoc[flash]);
                                               for an AT89 chip, print the programmer's command
   servoc lint prog.servo --format json        diagnostics for editors and tools
@@ -117,14 +119,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = add("compile", "compile to Intel HEX for the program's target (default AT89C52 at 12 MHz)")
     p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
     p.add_argument("--asm", metavar="OUT.asm", help="also write the generated assembly")
-    p = add("verify", "compile, run in ucsim and compare every pulse with the plan")
+    p = add("verify", "compile, run in ucsim and compare every pulse and every byte sent with the plan "
+                      "(--events: with timed inputs and bytes from a host)")
     p.add_argument("--vcd", metavar="OUT.vcd", help="also write the simulated pin waveforms (needs servoc[vcd])")
     p.add_argument("--hex", metavar="FILE.hex", help="check this HEX (built from FILE.servo) instead of compiling")
-    p.add_argument("--events", metavar="EVENTS", help="drive the program's inputs with these timed changes "
-                   "(lines `500ms button active`; docs/language.md, \"servoc verify --events\")")
+    p.add_argument("--events", metavar="EVENTS", help="drive the program's inputs and serial line with these "
+                   "timed events (lines `500ms button active`, `1.2s \"w\"`; docs/language.md, \"servoc verify "
+                   "--events\"); the report lists each select reached and the branch it took")
     p.add_argument("--frames", type=int, metavar="N",
                    help="frames to check from the first pulse (default: the whole program and 20 more; for a "
-                        "program that loops forever, up to its loop and two passes of it, at least 400)")
+                        "program that loops forever, up to its loop and two passes of it, at least 400; with "
+                        "--events, on until the last event's branch has ended; at most 60 s of simulated time)")
     p = add("flash", "compile and write to an STC89 board (needs servoc[flash]), or print an AT89's "
                      "programmer command")
     p.add_argument("--port", metavar="PORT", help="the STC89 board's serial port, e.g. /dev/ttyUSB0 or COM3 "
@@ -185,6 +190,13 @@ def _json_requested(argv: list[str]) -> bool:
 def main(argv: list[str] | None = None) -> int:
     try:
         return _command(argv)
+    except BrokenPipeError:     # `servoc lint x --format json | head`: the reader left; no traceback
+        try:
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, sys.stdout.fileno())       # Python's flush at exit would fail again
+        except (OSError, ValueError):
+            pass
+        return 141 if argv is None else 1
     finally:
         gc.unfreeze()       # the command froze its program's objects (see _main); a caller in the same
                             # process gets them back to the collector
@@ -222,7 +234,11 @@ def _color(stream) -> bool:
 
 def _main(argv: list[str], run: _Run) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:                   # the command's own usage, not the top level's
+        sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)
+        owner = sub.choices.get(args.command) if sub is not None and args.command else None
+        (owner or parser).error(f"unrecognized arguments: {' '.join(extra)}")
     run.command = args.command
     if hasattr(args, "format"):
         run.json = args.format == "json"

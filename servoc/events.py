@@ -55,7 +55,7 @@ class ByteEvent:
     input = None        # not an input's change
 
 
-_BYTE = re.compile(r'"(.)"|(\d+)')
+_BYTE = re.compile(r'"(.)"|0[xX]([0-9A-Fa-f]+)|(\d+)')
 
 
 def _bytes(rest: str, number: int) -> bytes:
@@ -64,12 +64,15 @@ def _bytes(rest: str, number: int) -> bytes:
     rest = rest.strip()
     while pos < len(rest):
         m = _BYTE.match(rest, pos)
-        if m is None or (m.group(2) is not None and int(m.group(2)) > 255):
-            raise EventsError(number, f"`{rest[pos:].split()[0]}` is not a byte: write a one-character string "
-                                      f"such as \"w\" or an integer 0..255")
-        if m.group(1) is not None and ord(m.group(1)) > 127:
+        token = rest[pos:].split()[0] if m is None or m.group(1) is None else m.group(0)
+        value = None if m is None else (ord(m.group(1)) if m.group(1) is not None else
+                                        int(m.group(2), 16) if m.group(2) is not None else int(m.group(3)))
+        if m is None or (m.end() < len(rest) and rest[m.end()] not in " \t") or value > 255:
+            raise EventsError(number, f"`{token}` is not a byte: write a one-character string such as \"w\", "
+                                      f"an integer 0..255 or a hex byte 0x00..0xFF")
+        if m.group(1) is not None and value > 127:
             raise EventsError(number, f"`{m.group(0)}` is not one ASCII character: write its byte as a number")
-        out.append(ord(m.group(1)) if m.group(1) is not None else int(m.group(2)))
+        out.append(value)
         pos = m.end()
         while pos < len(rest) and rest[pos] in " \t":
             pos += 1
@@ -85,7 +88,8 @@ def parse(text: str, inputs: tuple[model.Input, ...], serial: bool = False) -> l
     `serial`: whether the program declares the serial line (lines of bytes need it)."""
     names = {i.name for i in inputs}
     out: list[InputEvent | ByteEvent] = []
-    for number, raw in enumerate(text.splitlines(), start=1):
+    last: tuple[Fraction, int] | None = None       # the time of the line before, and its number
+    for number, raw in enumerate(text.removeprefix("\ufeff").splitlines(), start=1):
         line = _COMMENT.sub(lambda m: m.group(1) or "", raw).strip()
         if not line:
             continue
@@ -94,6 +98,7 @@ def parse(text: str, inputs: tuple[model.Input, ...], serial: bool = False) -> l
             if not serial:
                 raise EventsError(number, "bytes on the serial line, but the program declares no `serial`")
             out.append(ByteEvent(Fraction(tm.group(1)) * _SCALE[tm.group(2)], _bytes(tm.group(3), number)))
+            last = _in_order(last, out[-1].time_us, number)
             continue
         m = _LINE.match(line)
         if m is None:
@@ -106,7 +111,16 @@ def parse(text: str, inputs: tuple[model.Input, ...], serial: bool = False) -> l
         if level not in ("active", "inactive"):
             raise EventsError(number, f"`{level or ''}`: say `active` or `inactive`")
         out.append(InputEvent(Fraction(value) * _SCALE[unit], name, level == "active"))
+        last = _in_order(last, out[-1].time_us, number)
     return sorted(out, key=lambda e: e.time_us)
+
+
+def _in_order(last: tuple[Fraction, int] | None, time_us: Fraction, number: int) -> tuple[Fraction, int]:
+    """Lines come in time order: an event before the one on the line before it is an error."""
+    if last is not None and time_us < last[0]:
+        raise EventsError(number, f"this event at {float(time_us) / 1000:g} ms comes before the one on line "
+                                  f"{last[1]} ({float(last[0]) / 1000:g} ms): write the events in time order")
+    return time_us, number
 
 
 def byte_arrivals(events: list, byte_cycles: int, target: Target) -> list[tuple[float, int]]:

@@ -208,6 +208,8 @@ class Plan:
     moves: tuple[MoveInstance, ...]         # every distinct move instance the program reaches
     total_frames: int | None                # frames until main ends; None if it loops forever
     nesting: int = 0                        # deepest stack of repeats and plays around a statement
+    firmware_limit: tuple | None = None     # (code, message, help) of the resource limit the code generated
+                                            # for this plan hits (layout.LayoutError), found without assembling
 
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)
@@ -302,8 +304,8 @@ def budget(p: Plan) -> Plan:
     from . import codegen, layout    # codegen builds on the plan types
     try:
         unit = codegen.generate(p)
-    except layout.LayoutError:
-        return replace(p, min_period_us=p.period_us)
+    except layout.LayoutError as exc:
+        return replace(p, min_period_us=p.period_us, firmware_limit=(exc.code, str(exc), exc.help))
     return replace(p, min_period_us=unit.min_period_us or p.period_us)
 
 

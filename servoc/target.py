@@ -139,7 +139,11 @@ def closest(name: str) -> list[str]:
 
 
 def fmt_hz(hz: int | Fraction) -> str:
-    text = f"{float(Fraction(hz) / MHZ):.4f}".rstrip("0").rstrip(".")
+    """`12 MHz`, `11.0592 MHz`; a crystal that is not a round figure to the hertz, `10.499999 MHz`."""
+    mhz = Fraction(hz) / MHZ
+    text = f"{float(mhz):.4f}".rstrip("0").rstrip(".")
+    if Fraction(text) != mhz:
+        text = f"{float(mhz):.7f}".rstrip("0").rstrip(".")
     return f"{text} MHz"
 
 

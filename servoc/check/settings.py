@@ -71,7 +71,10 @@ def target(item: nodes.TargetDecl, ctx: Context) -> Target:
         q = item.clock
         hz = ctx.take(quantities.frequency_hz(q, "`clock`", "a clock frequency such as `12MHz`"), q.span)
         if hz is not None:
-            if not 0 < hz <= chip.max_hz or hz.denominator != 1:
+            if hz.denominator != 1:
+                r.error("bad-clock", f"clock `{format_quantity(q)}` is not a whole number of hertz", q.span,
+                        help="a crystal's frequency is given to the hertz: e.g. `clock 12MHz` or `clock 11.0592MHz`")
+            elif not 0 < hz <= chip.max_hz:
                 r.error("bad-clock", f"clock `{format_quantity(q)}` is outside what the {chip.display} is rated for",
                         q.span, help=f"the {chip.display} runs from a crystal of up to {fmt_hz(chip.max_hz)}; "
                                      "e.g. `clock 12MHz` or `clock 11.0592MHz`")

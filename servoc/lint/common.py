@@ -34,8 +34,21 @@ def positions(plan: Plan):
 
 
 def num(x) -> str:
-    """A Fraction as written: `7` or `7.5`."""
-    return str(x.numerator) if x.denominator == 1 else f"{float(x):g}"
+    """A Fraction as written, exactly: `7`, `7.5`, `500.0000001` (a terminating decimal; else to 6
+    significant digits and a `~`, which a value written in decimal never needs)."""
+    if x.denominator == 1:
+        return str(x.numerator)
+    d, twos, fives = x.denominator, 0, 0
+    while d % 2 == 0:
+        d, twos = d // 2, twos + 1
+    while d % 5 == 0:
+        d, fives = d // 5, fives + 1
+    if d != 1:
+        return f"~{float(x):g}"
+    places = max(twos, fives)
+    whole = abs(x.numerator) * 10 ** places // x.denominator
+    text = f"{whole // 10 ** places}.{whole % 10 ** places:0{places}d}"
+    return ("-" if x < 0 else "") + text
 
 
 def origin_text(origin: tuple, source) -> str:

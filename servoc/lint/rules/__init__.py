@@ -8,4 +8,5 @@ from . import (  # noqa: F401
     unused, unreachable, duplicate_event,
     p0_pull_up,
     too_deep,
+    firmware_limit,
 )

@@ -1,0 +1,20 @@
+"""The resource limits the generated code hits (serial-too-fast, send-overrun, ram-overflow, ...):
+found from the code generated for the plan, without the assembler, so lint and the language server
+report them as compile does. A limit another rule reports first (too-deep, too-long) is not repeated.
+Only the ROM (rom-overflow) needs the assembler: `servoc compile` reports it."""
+
+from __future__ import annotations
+
+from ...diagnostics import Diagnostic, Severity
+from ...plan import Plan
+from .. import Report, rule
+
+
+@rule("serial-too-fast", Severity.ERROR)
+def firmware_limit(plan: Plan, report: Report) -> None:
+    if plan.firmware_limit is None:
+        return
+    code, message, help_ = plan.firmware_limit
+    if any(d.code == code and d.is_error for d in report.reporter.diagnostics):
+        return
+    report.reporter.report(Diagnostic(code, Severity.ERROR, message, plan.program.main_span, "", help_, ()))
