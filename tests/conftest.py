@@ -62,6 +62,18 @@ def front_end_text(text: str, name: str = "prog.servo") -> tuple[api.FrontEnd, l
     return fe, reporter.diagnostics
 
 
+def simulate_events(text: str, scenario: str, frames: int, hex_text: str | None = None):
+    """Compile `text` and run it (or `hex_text`, built from it) in ucsim for `frames` frames from the
+    first pulse, driven by the events `scenario` (as `servoc verify --events`): (plan, events, trace)."""
+    from servoc import events
+    built = build_text(text)
+    plan = built.plan
+    evs = events.parse(scenario, plan.program.inputs, plan.program.serial is not None)
+    stim = api.stimulus(plan, evs)
+    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
+    return plan, evs, api.simulate(hex_text or built.firmware.hex_text, cycles, plan.program.target, stim)
+
+
 def assert_exact(report, text: str = "") -> None:
     """The report is OK with zero error and checked some pulses."""
     detail = "\n".join(str(m) for m in report.mismatches[:15])

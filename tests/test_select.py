@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from conftest import build_text
+from conftest import build_text, simulate_events
 from servoc import api, cli, codegen, events, verify
 
 pytestmark = pytest.mark.toolchain
@@ -46,12 +46,7 @@ main {
 
 
 def run(text: str, scenario: str, frames: int):
-    built = build_text(text)
-    plan = built.plan
-    evs = events.parse(scenario, plan.program.inputs)
-    stim = api.stimulus(plan, evs)
-    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
-    trace = api.simulate(built.firmware.hex_text, cycles, plan.program.target, stim)
+    plan, evs, trace = simulate_events(text, scenario, frames)
     return plan, trace, evs, api.check_events(plan, trace, frames, evs)
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import build_text
+from conftest import build_text, simulate_events
 from servoc import api, events, plan as plan_mod, verify
 from servoc.plan import Choice
 from servoc.target import byte_cycles
@@ -30,12 +30,8 @@ pose mid { arm: 30 }
 
 
 def simulate(text: str, scenario: str, frames: int):
-    built = build_text(text)
-    plan = built.plan
-    evs = events.parse(scenario, plan.program.inputs, True)
-    stim = api.stimulus(plan, evs)
-    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
-    return plan, api.simulate(built.firmware.hex_text, cycles, plan.program.target, stim)
+    plan, _, trace = simulate_events(text, scenario, frames)
+    return plan, trace
 
 
 def exact(plan, trace, frames: int, choices: tuple) -> verify.VerifyReport:
@@ -118,13 +114,8 @@ def test_the_six_command_serial_arm_answers_every_command():
     root = Path(__file__).resolve().parent.parent
     text = (root / "examples/serial_arm.servo").read_text(encoding="utf-8")
     scenario = (root / "examples/events/serial_arm.events").read_text(encoding="utf-8")
-    built = build_text(text)
-    plan = built.plan
-    evs = events.parse(scenario, plan.program.inputs, True)
     frames = 2000                                       # 10.6 s: every reply is out by then
-    stim = api.stimulus(plan, evs)
-    trace = api.simulate(built.firmware.hex_text, max(api.cycles_needed(plan, frames), stim.last() + 1),
-                         plan.program.target, stim)
+    plan, evs, trace = simulate_events(text, scenario, frames)
     assert "".join(chr(b) for _, b in trace.sent) == "RLPRDWH"
     report = api.check_events(plan, trace, frames, evs)
     assert report.ok and report.bytes_sent == 7, (report.summary(), [str(m) for m in report.mismatches[:4]])

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import build_text, front_end_text
+from conftest import build_text, front_end_text, simulate_events
 from servoc import api, cli, costs, events, verify
 from servoc.plan import send_gap, send_run
 from servoc.target import byte_cycles, timer1_baud, working_bauds
@@ -46,12 +46,7 @@ main {
 
 
 def run(text: str, scenario: str, frames: int):
-    built = build_text(text)
-    plan = built.plan
-    evs = events.parse(scenario, plan.program.inputs, True)
-    stim = api.stimulus(plan, evs)
-    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
-    trace = api.simulate(built.firmware.hex_text, cycles, plan.program.target, stim)
+    plan, evs, trace = simulate_events(text, scenario, frames)
     return plan, trace, evs, api.check_events(plan, trace, frames, evs)
 
 
@@ -211,7 +206,7 @@ def test_sends_that_outrun_the_line_are_refused(tmp_path, capsys):
 
 
 def test_events_file_bytes():
-    evs = events.parse('# the host\n1s "#" 35 # two hashes\n1.5ms 0 255 "w"\n', (), True)
+    evs = events.parse('# the host\n1.5ms 0 255 "w"\n1s "#" 35 # two hashes\n', (), True)
     assert [(e.time_us, e.data) for e in evs] == [(1500, bytes([0, 255, 119])), (1_000_000, b"##")]
     for bad in ('1s 256\n', '1s "ab"\n', '1s "w" x\n', '1s "\u20ac"\n'):
         with pytest.raises(events.EventsError):

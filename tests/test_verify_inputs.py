@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import build_text
-from servoc import api, events, toolchain
+from conftest import build_text, simulate_events
+from servoc import api, toolchain
 
 pytestmark = pytest.mark.toolchain
 
@@ -28,18 +28,13 @@ SCENARIO = "500ms btn active\n700ms btn inactive\n1.5s btn active\n1.52s btn ina
 
 
 def run(text: str, scenario: str, frames: int = 400, hex_text: str | None = None):
-    built = build_text(text)
-    plan = built.plan
-    evs = events.parse(scenario, plan.program.inputs)
-    stim = api.stimulus(plan, evs)
-    trace = api.simulate(hex_text or built.firmware.hex_text, max(api.cycles_needed(plan, frames), stim.last() + 1),
-                         plan.program.target, stim)
-    return built, api.check_events(plan, trace, frames, evs)
+    plan, evs, trace = simulate_events(text, scenario, frames, hex_text)
+    return plan, api.check_events(plan, trace, frames, evs)
 
 
 @pytest.mark.parametrize("level", ["", " low", " high"])
 def test_an_input_on_a_servo_port_verifies(level):
-    built, report = run(PROGRAM.format(level=level), SCENARIO)
+    _, report = run(PROGRAM.format(level=level), SCENARIO)
     assert report.ok, (report.summary(), [str(m) for m in report.mismatches[:4]])
     assert report.pulses > 300
 
