@@ -253,7 +253,7 @@ def frame_value(n0: int, n1: int, k: int, frames: int, ease: str) -> int:
         return n1
     if ease == "linear":
         sign = (delta > 0) - (delta < 0)
-        return n0 + sign * round_half_up(Fraction(abs(delta) * k, frames))
+        return n0 + sign * ((2 * abs(delta) * k + frames) // (2 * frames))    # floor(|delta| k / F + 1/2)
     e = ease_value(ease, Fraction(k, frames))
     return math.floor(n0 + delta * e + Fraction(1, 2)) if isinstance(e, Fraction) else math.floor(n0 + delta * e + 0.5)
 
