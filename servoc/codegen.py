@@ -126,6 +126,10 @@ class _Ctx:
     flagged: bool = False            # a loop tests FRAMED (frame_io sets it)
     written: int = 1                 # passes written out by the repeats around (plan.frameless_repeats)
     byte_maps: dict = field(default_factory=dict)     # the bytes selects' `on`s name -> their map
+    slots: dict = field(default_factory=dict)         # id(select) -> its level (select_slots)
+    edge_ports: tuple = ()           # ports with an input some `on press`/`on release` watches
+    looks: list = field(default_factory=list)         # every select's op, for its look routine
+    watches: int = 0                 # selects with a meanwhile body so far (their ids: 1, 2, ...)
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -251,38 +255,96 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
 
 
 def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
-    """A select: as soon as it is reached, and after each frame it waits, it looks at its events
-    in the order written and runs the first branch whose input is active or whose byte is the
-    oldest received; bytes that no `on` names are dropped first. With `after`, the look made
-    after F frames with none takes it. While it waits, frame_io repeats the current targets."""
+    """A select: as soon as it is reached, and after each frame it waits, its look routine tries
+    its events in the order written and says which branch to run: an input active (or, for an
+    edge, changed since the sample before), the oldest byte received if an `on` names it (`on
+    other`: any byte no other `on` names); bytes that no `on` names are dropped first. With
+    `after`, the look made after F frames with none takes it. While it waits, frame_io repeats
+    the current targets, or its meanwhile body runs and frame_w looks after each of its frames.
+    Its counters and samples are at its level (`select_slots`): selects waiting at once never
+    share one."""
     inputs = {i.name: i for i in ctx.plan.program.inputs}
     lab = ctx.label("sel")
-    ons, after = [], None
+    slot = ctx.slots[id(st)]
+    ons, after, branches = [], None, []
     for k, br in enumerate(st.branches):
         ops: list[dict] = []
         _ops(ctx, br.body, ops)
+        branches.append({"k": k, "ops": ops, "where": ctx.where(br.span)})
         if isinstance(br, AfterBranch):
             if br.frames > layout.MAX_AFTER_FRAMES:      # lint's `too-long` reports this first
                 raise layout.AfterTooLong(f"this `after` waits {br.frames} frames; the firmware counts at most "
                                           f"{layout.MAX_AFTER_FRAMES}")
-            after = {"frames": br.frames, "looks": br.frames + 1, "ops": ops, "where": ctx.where(br.span)}
+            after = {"k": k, "frames": br.frames, "looks": br.frames + 1, "where": ctx.where(br.span)}
             continue
-        on = {"k": k, "ops": ops, "byte": br.event.byte, "text": br.event.text, "where": ctx.where(br.span)}
-        if br.event.input is not None:
-            pin = inputs[br.event.input]
+        ev = br.event
+        on = {"k": k, "byte": ev.byte, "text": ev.text, "other": ev.other, "edge": ev.edge}
+        if ev.input is not None:
+            pin = inputs[ev.input]
             on.update(port=pin.port, bit=pin.bit, active_high=pin.active_high)
+            if ev.edge is not None:
+                on.update(pi=ctx.edge_ports.index(pin.port), now_high=(ev.edge == "press") == pin.active_high)
         ons.append(on)
     named = sorted({on["byte"] for on in ons if on["byte"] is not None})
-    byte_map = None
-    if ctx.plan.program.serial is not None and named:
-        byte_map = ctx.byte_maps.get(tuple(named))      # selects that name the same bytes share one
-        if byte_map is None:
-            byte_map = {"label": f"bmap{len(ctx.byte_maps) + 1}", "where": ctx.where(st.span),
-                        "bytes": [sum(1 << (b & 7) for b in named if b >> 3 == i) for i in range(32)],
-                        "names": ", ".join(_hex8(b) for b in named)}
-            ctx.byte_maps[tuple(named)] = byte_map
-    return {"op": "select", "label": lab, "ons": ons, "after": after, "where": ctx.where(st.span),
-            "serial": ctx.plan.program.serial is not None, "byte_map": byte_map}
+    other = any(on["other"] for on in ons)
+    serial = ctx.plan.program.serial is not None
+    byte_map = _byte_map(ctx, named, st) if serial and named else None
+    meanwhile = None
+    wid = 0
+    if st.meanwhile is not None:
+        ctx.watches += 1
+        wid = ctx.watches
+        meanwhile = []
+        _ops(ctx, st.meanwhile, meanwhile)
+    ports = sorted({inputs[on_.event.input].port for on_ in st.branches
+                    if not isinstance(on_, AfterBranch) and on_.event.edge is not None})
+    op = {"op": "select", "label": lab, "ons": ons, "after": after, "branches": branches,
+          "where": ctx.where(st.span), "serial": serial, "byte_map": None if other else byte_map,
+          "named_map": byte_map if other else None, "other": other, "slot": slot, "id": wid,
+          "meanwhile": meanwhile,
+          "edge_ports": [{"i": ctx.edge_ports.index(p), "port": p} for p in ports]}
+    ctx.looks.append(op)
+    return op
+
+
+def _byte_map(ctx: _Ctx, named: list[int], st: SelectStep) -> dict:
+    """The map of the bytes a select's `on`s name (selects that name the same bytes share one)."""
+    byte_map = ctx.byte_maps.get(tuple(named))
+    if byte_map is None:
+        byte_map = {"label": f"bmap{len(ctx.byte_maps) + 1}", "where": ctx.where(st.span),
+                    "bytes": [sum(1 << (b & 7) for b in named if b >> 3 == i) for i in range(32)],
+                    "names": ", ".join(_hex8(b) for b in named)}
+        ctx.byte_maps[tuple(named)] = byte_map
+    return byte_map
+
+
+def select_slots(plan: Plan) -> dict[int, int]:
+    """id(select) -> its level: the most meanwhile bodies around it in any context it runs in. A
+    select inside another's meanwhile body has a higher level than it, so selects that wait at the
+    same time (an outer one running its body, inner ones in it) never share a level."""
+    slots: dict[int, int] = {}
+    seen: set = set()
+    work: list = [(plan.main, 0)]
+    while work:
+        body, depth = work.pop()
+        if (id(body), depth) in seen:
+            continue
+        seen.add((id(body), depth))
+        for st in body:
+            if isinstance(st, SelectStep):
+                slots[id(st)] = max(slots.get(id(st), 0), depth)
+                work.extend((b.body, depth) for b in st.branches)
+                if st.meanwhile is not None:
+                    work.append((st.meanwhile, depth + 1))
+            elif isinstance(st, (RepeatStep, LoopStep)):
+                work.append((st.body, depth))
+            elif isinstance(st, PlayStep):
+                work.append((ctx_body(plan, st.sequence), depth))
+    return slots
+
+
+def ctx_body(plan: Plan, name: str) -> tuple:
+    return plan.sequence(name).body
 
 
 def _seq_label(plan: Plan, name: str) -> str:
@@ -294,6 +356,10 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     `hold_off` > 0 makes a test build that holds interrupts off for that many cycles (NOPs
     between CLR EA and SETB EA) at several points of the background: the edges must not move."""
     ctx = _Ctx(plan, source, [], {})
+    ctx.slots = select_slots(plan)
+    inputs = {i.name: i for i in plan.program.inputs}
+    ctx.edge_ports = tuple(sorted({inputs[b.event.input].port for st in steps(plan) if isinstance(st, SelectStep)
+                                   for b in st.branches if not isinstance(b, AfterBranch) and b.event.edge}))
     main_ops: list[dict] = []
     _ops(ctx, plan.main, main_ops)
     sequences = []
@@ -326,6 +392,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     ram.alloc("TMPD", 1, "scratch: |delta|")
     ram.alloc("TMPL", 1, "scratch")
     ram.alloc("LPTR", 2, "the record list being run: the next record")
+    watch = _select_ram(ctx, ram)
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     e = _engine(plan, ram, period_cycles)
@@ -373,6 +440,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
                   state_base=layout.STATE_BASE, stack_base=stack_base, s=s,
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
+                  looks=ctx.looks, watch=watch, fcall="frame_w" if watch else "frame_io",
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
@@ -411,6 +479,29 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    budget, work_from,
                    shortest,
                    target)
+
+
+def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
+    """RAM for the selects, level by level, and the levels frame_w looks at (empty: no meanwhile)."""
+    if ctx.edge_ports:
+        ram.alloc("SMP", len(ctx.edge_ports), "a look's samples of the ports with edge events")
+    levels = sorted(set(ctx.slots.values()))
+    watched = sorted({o["slot"] for o in ctx.looks if o["meanwhile"] is not None})
+    for level in levels:
+        here = [o for o in ctx.looks if o["slot"] == level]
+        if any(o["after"] for o in here):
+            ram.alloc(f"AFT{level}", 2, f"looks left before `after`, of the select waiting at level {level}")
+        if any(o["edge_ports"] for o in here):
+            ram.alloc(f"PRV{level}", len(ctx.edge_ports), f"the sample before, of the select waiting at level {level}")
+        if level in watched:
+            ram.alloc(f"WID{level}", 1, f"the select running its meanwhile body at level {level} (0: none)")
+            ram.alloc(f"WSP{level}", 1, f"the stack pointer where it started the body")
+    out = []
+    for i, level in enumerate(watched):
+        out.append({"slot": level, "selects": [o for o in ctx.looks if o["slot"] == level and o["meanwhile"] is not None],
+                    "cleared": watched[i:], "last": i == len(watched) - 1,
+                    "next": f"fw{watched[i + 1]}" if i + 1 < len(watched) else ""})
+    return out
 
 
 def _hold(cycles: int) -> str:

@@ -136,13 +136,25 @@ class Serial:
     span: Span = _span()
 
 
+EDGES = ("press", "release")
+
+
 @dataclass(frozen=True)
 class Event:
-    """What an `on` or a `wait` waits for: an input (its name) or a received byte."""
+    """What an `on` or a `wait` waits for: an input (its name), a received byte, or (`other`) any
+    byte no other `on` of the select names. `edge` ('press' or 'release') makes an input's event
+    its change to active / inactive between two samples while the select waits; None: its level."""
     input: str | None               # the input's name, or None for a byte
-    byte: int | None                # 0..255, or None for an input
-    text: str                       # as written: `button`, `"w"`, `119`
+    byte: int | None                # 0..255, or None for an input or `other`
+    text: str                       # as written: `button`, `"w"`, `119`, `press button`, `other`
     span: Span = _span()
+    edge: str | None = None
+    other: bool = False
+
+    @property
+    def is_byte(self) -> bool:
+        """A received byte: a named one or `other`."""
+        return self.input is None
 
 
 @dataclass(frozen=True)
@@ -163,11 +175,15 @@ class After:
 
 @dataclass(frozen=True)
 class Select:
-    """`select { on ... after ... }`: `branches` in the order written, an `After` only last.
-    `wait EVENT` is a Select with one `On` of an empty body and `wait` True."""
+    """`select { on ... after ... meanwhile ... }`: `branches` in the order written, an `After`
+    only last; `meanwhile` the body that runs while it waits (None: the targets repeat).
+    `wait EVENT` is a Select with one `On` of an empty body and `wait` True; `STATEMENT until
+    EVENT` one with one `On` of an empty body and the statement as its meanwhile, `until` True."""
     branches: tuple[Union[On, After], ...]
     wait: bool = False
     span: Span = _span()
+    meanwhile: tuple["Stmt", ...] | None = None
+    until: bool = False
 
     @property
     def ons(self) -> tuple[On, ...]:
@@ -211,6 +227,9 @@ class Program:
     frame_span: Span = _span()
     inputs: tuple[Input, ...] = ()            # `input` declarations, in source order
     serial: Serial | None = None              # `serial BAUD`, if given
+    home: Pose | None = None                  # `home POSE`, if given
+    stagger_us: Fraction | None = None        # `stagger DUR`, if given
+    home_span: Span = _span()
 
     @property
     def reacts(self) -> bool:

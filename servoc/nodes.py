@@ -200,8 +200,23 @@ class StringLit:
     span: Span
 
 
-# An event or a byte as written: an input's name, a string or a number.
-Event = Union[Name, StringLit, Quantity]
+@dataclass(frozen=True)
+class EdgeEvent:
+    """`press NAME` / `release NAME` after `on` or `wait`: `word` must be `press` or `release`
+    (no keywords: the checker says so otherwise)."""
+    word: Name
+    input: Name
+    span: Span
+
+
+@dataclass(frozen=True)
+class OtherEvent:
+    """`other` after `on`: any byte no other `on` of the select names."""
+    span: Span
+
+
+# An event or a byte as written: an input's name, a string, a number, an edge or `other`.
+Event = Union[Name, StringLit, Quantity, EdgeEvent, OtherEvent]
 
 
 @dataclass(frozen=True)
@@ -221,9 +236,24 @@ class AfterBranch:
 
 
 @dataclass(frozen=True)
+class MeanwhileBranch:
+    """`meanwhile { STATEMENTS }` inside a select: what runs while it waits."""
+    body: tuple["Stmt", ...]
+    span: Span
+
+
+@dataclass(frozen=True)
 class SelectStmt:
     """`select { BRANCH ... }`: the branches in the order written (not checked yet)."""
-    branches: tuple[Union[OnBranch, AfterBranch], ...]
+    branches: tuple[Union[OnBranch, AfterBranch, MeanwhileBranch], ...]
+    span: Span
+
+
+@dataclass(frozen=True)
+class UntilStmt:
+    """`STATEMENT until EVENT`: `select { on EVENT { } meanwhile { STATEMENT } }`."""
+    stmt: "Stmt"
+    event: Event
     span: Span
 
 
@@ -241,7 +271,7 @@ class SendStmt:
     span: Span
 
 
-Stmt = Union[MoveStmt, HoldStmt, RepeatStmt, LoopStmt, PlayStmt, SelectStmt, WaitStmt, SendStmt]
+Stmt = Union[MoveStmt, HoldStmt, RepeatStmt, LoopStmt, PlayStmt, SelectStmt, WaitStmt, SendStmt, UntilStmt]
 
 
 @dataclass(frozen=True)
@@ -260,7 +290,15 @@ class MainDecl:
     span: Span
 
 
-Item = Union[FrameDecl, TargetDecl, InputDecl, SerialDecl, ServoDecl, GroupDecl, PoseDecl, SequenceDecl, MainDecl]
+@dataclass(frozen=True)
+class SettingDecl:
+    """`home POSE` or `stagger DUR`: `word` must be `home` or `stagger` (no keywords)."""
+    word: Name
+    value: Union[Name, Quantity]
+    span: Span
+
+
+Item = Union[SettingDecl, FrameDecl, TargetDecl, InputDecl, SerialDecl, ServoDecl, GroupDecl, PoseDecl, SequenceDecl, MainDecl]
 
 
 @dataclass(frozen=True)

@@ -121,10 +121,13 @@ class AfterBranch:
 @dataclass(frozen=True)
 class SelectStep:
     """`select { ... }` (or `wait EVENT`, `wait` True): its branches in the order written, an
-    `AfterBranch` only last. While it waits, the current targets repeat frame after frame."""
+    `AfterBranch` only last. While it waits, the current targets repeat frame after frame, or its
+    `meanwhile` body runs (`until` True: it was written `STATEMENT until EVENT`)."""
     branches: tuple[Union[OnBranch, AfterBranch], ...]
     wait: bool = False
     span: Span = field(default=NO_SPAN, compare=False)
+    meanwhile: tuple["Step", ...] | None = None
+    until: bool = False
 
     @property
     def after(self) -> AfterBranch | None:
@@ -166,10 +169,62 @@ class SequencePlan:
 
 
 @dataclass(frozen=True)
+class Reach:
+    """Where a servo can be after an interruption: any N in lo..hi (and, if `unset`, still without a
+    target). `lo_at` / `hi_at`: the statement in whose frames it can be at lo / hi (for messages)."""
+    lo: int
+    hi: int
+    unset: bool = False
+    lo_at: Span = field(default=NO_SPAN, compare=False)
+    hi_at: Span = field(default=NO_SPAN, compare=False)
+
+
+def join(a, b):
+    """The positions of one servo in either of two states (an N, None: no target, or a Reach)."""
+    if a == b and not isinstance(a, Reach):
+        return a
+    if a is None or b is None:
+        other = b if a is None else a
+        if isinstance(other, Reach):
+            return replace(other, unset=True)
+        return Reach(other, other, True)
+    ra = a if isinstance(a, Reach) else Reach(a, a)
+    rb = b if isinstance(b, Reach) else Reach(b, b)
+    lo = ra if ra.lo <= rb.lo else rb
+    hi = ra if ra.hi >= rb.hi else rb
+    out = Reach(lo.lo, hi.hi, ra.unset or rb.unset, lo.lo_at, hi.hi_at)
+    return out.lo if out.lo == out.hi and not out.unset else out
+
+
+def far(value, n1: int) -> int | None:
+    """The position farthest from n1 a servo can be at (None: it has no target yet)."""
+    if isinstance(value, Reach):
+        return value.lo if n1 - value.lo >= value.hi - n1 else value.hi
+    return value
+
+
+def far_from(value, n1: int) -> Span:
+    """The statement in whose frames a servo can be at its position farthest from n1 (NO_SPAN: none)."""
+    if not isinstance(value, Reach):
+        return NO_SPAN
+    return value.lo_at if n1 - value.lo >= value.hi - n1 else value.hi_at
+
+
+def at_statement(value, span: Span):
+    """`value` with both extremes credited to the statement at `span` (for messages)."""
+    if value is None:
+        return None
+    r = value if isinstance(value, Reach) else Reach(value, value)
+    return replace(r, lo_at=span, hi_at=span)
+
+
+@dataclass(frozen=True)
 class ServoMotion:
     channel: int
-    n0: int | None        # None: the servo had no target yet (set at once)
-    n1: int
+    n0: int | None        # None: the servo had no target yet (set at once); after an interruption
+    n1: int               # the position farthest from n1 it can start from
+    cut: Span = field(default=NO_SPAN, compare=False)   # after an interruption: the statement whose frames
+                                                        # hold n0 (NO_SPAN: not after one)
 
     @property
     def delta(self) -> int:
@@ -191,6 +246,7 @@ class MoveInstance:
     motions: tuple[ServoMotion, ...]
     origin: Origin = field(default=("start",), compare=False)
     branch: Branch | None = field(default=None, compare=False)
+    cut: bool = field(default=False, compare=False)     # it can start after an interruption
 
 
 @dataclass(frozen=True)
@@ -208,6 +264,8 @@ class Plan:
     moves: tuple[MoveInstance, ...]         # every distinct move instance the program reaches
     total_frames: int | None                # frames until main ends; None if it loops forever
     nesting: int = 0                        # deepest stack of repeats and plays around a statement
+    cuts: tuple = ()                        # (select, per channel where an event can cut its meanwhile body)
+    startup: tuple = ()                     # (channel, frame of its first pulse) of the power-up, in order
     firmware_limit: tuple | None = None     # (code, message, help) of the resource limit the code generated
                                             # for this plan hits (layout.LayoutError), found without assembling
 
@@ -271,8 +329,44 @@ State = tuple  # per channel: N or None
 
 
 def _moved_servos(program: model.Program) -> set[str]:
-    return {t.servo for st in walk.statements([program.main, *(seq.body for seq in program.sequences)])
-            if isinstance(st, model.Move) for t in st.targets}
+    """The servos that get pulses: those a move names, and those of the `home` pose."""
+    home = {t.servo for t in program.home.targets} if program.home is not None else set()
+    return home | {t.servo for st in walk.statements([program.main, *(seq.body for seq in program.sequences)])
+                   if isinstance(st, model.Move) for t in st.targets}
+
+
+def startup_steps(program: model.Program, channels, period: int) -> tuple[tuple[Step, ...], tuple]:
+    """The power-up as steps run before `main`, and its schedule ((channel, frame of its first pulse)).
+
+    With `home`, its servos get their first pulse in frame 1 (each set at once: a servo without a
+    target jumps to its first one), or with `stagger` one after another in declaration order,
+    S = floor(DUR / P + 1/2) frames apart: one-frame moves naming one servo each, with holds of
+    S - 1 frames between them. The program's first frame follows the last servo's first pulse."""
+    home = program.home
+    if home is None:
+        return (), ()
+    n_of = {t.servo: t.n for t in home.targets}
+    order = [c for c in sorted(channels, key=lambda c: [s.name for s in program.servos].index(c.servo.name))
+             if c.servo.name in n_of]
+    gap = frames_for(program.stagger_us, period) if program.stagger_us is not None else 0
+    span = program.home_span
+    if gap == 0 or len(order) < 2:
+        targets = tuple(sorted((c.index, n_of[c.servo.name]) for c in order))
+        return (MoveStep(home.name, targets, 1, "linear", (), None, span),), tuple((c.index, 1) for c in order)
+    out: list[Step] = []
+    schedule = []
+    for i, c in enumerate(order):
+        if i:
+            out.append(HoldStep(gap - 1, Fraction(program.stagger_us), span)) if gap > 1 else None
+        out.append(MoveStep(home.name, ((c.index, n_of[c.servo.name]),), 1, "linear", (), None, span))
+        schedule.append((c.index, 1 + i * gap))
+    return tuple(out), tuple(schedule)
+
+
+def home_state(program: model.Program, channels) -> State:
+    """The state the program starts in: the `home` pose's N, None for the servos it does not name."""
+    home = {t.servo: t.n for t in program.home.targets} if program.home is not None else {}
+    return tuple(home.get(c.servo.name) for c in channels)
 
 
 def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
@@ -545,7 +639,8 @@ def _model_steps(body: tuple, index: dict[str, int], period: int) -> tuple[Step,
                 else AfterBranch(frames_for(b.duration_us, period), b.duration_us,
                                  _model_steps(b.body, index, period), b.span)
                 for b in st.branches)
-            out.append(SelectStep(branches, st.wait, st.span))
+            meanwhile = None if st.meanwhile is None else _model_steps(st.meanwhile, index, period)
+            out.append(SelectStep(branches, st.wait, st.span, meanwhile, st.until))
         elif isinstance(st, model.Send):
             out.append(SendStep(st.byte, st.text, st.span))
         else:
@@ -566,32 +661,35 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
     index = {c.servo.name: c.index for c in channels}
 
     speed_classes = tuple(c.speed_class for c in channels)
-    main = _model_steps(program.main, index, period)
+    startup, schedule = startup_steps(program, channels, period)
+    main = startup + _model_steps(program.main, index, period)
     seq_bodies = {s.name: SequencePlan(s.name, _model_steps(s.body, index, period), s.span)
                   for s in program.sequences}
     walker = _Walker(seq_bodies, tables, speed_classes)
-    walker.start(main, len(channels))
+    walker.start(main, len(channels), home_state(program, channels))
     # A move without duration whose F is the same in every context gets that F fixed;
     # only the others are left to the firmware's run-time rule.
     fixed: dict[int, int] = {}
     by_step: dict[int, set[int]] = {}
+    for inst in walker.instances.values():       # after an interruption: the firmware finds F from where it is
+        cut = any(m.cut != NO_SPAN or isinstance(m.n0, Reach) for m in inst.motions) or inst.cut
+        by_step.setdefault(id(inst.step), set()).add(None if cut else inst.frames)
     for inst in walker.instances.values():
-        by_step.setdefault(id(inst.step), set()).add(inst.frames)
-    for inst in walker.instances.values():
-        if inst.step.frames is None and len(by_step[id(inst.step)]) == 1:
+        if inst.step.frames is None and len(by_step[id(inst.step)]) == 1 and None not in by_step[id(inst.step)]:
             fixed[id(inst.step)] = inst.frames
     if fixed:
         main = _fix_frames(main, fixed)
         seq_bodies = {n: SequencePlan(sp.name, _fix_frames(sp.body, fixed), sp.span) for n, sp in seq_bodies.items()}
         walker = _Walker(seq_bodies, tables, speed_classes)
-    exits, total = walker.start(main, len(channels))
+    exits, total = walker.start(main, len(channels), home_state(program, channels))
     infinite = not exits
     # Every sequence main can name, also after a `loop` (code there never runs, but later
     # stages still walk it and look its sequences up).
     named = _named_sequences(main, seq_bodies)
     used = [seq_bodies[s.name] for s in program.sequences if s.name in named]
     return Plan(program, tuple(channels), ports, period, is_default, period, tables, tuple(classes),
-                main, tuple(used), tuple(walker.instances.values()), None if infinite else total, depth)
+                main, tuple(used), tuple(walker.instances.values()), None if infinite else total, depth,
+                cuts=tuple(walker.cuts.values()), startup=schedule)
 
 
 def has_selects(plan: Plan) -> bool:
@@ -618,7 +716,7 @@ def move_frames_at(step: MoveStep, state: State, tables, classes) -> int:
         return step.frames
     need = 0
     for ch, n1 in step.targets:
-        n0 = state[ch]
+        n0 = far(state[ch], n1)
         if n0 is not None:
             need = max(need, tables[classes[ch]][abs(n1 - n0)])
     return max(1, need)
@@ -635,16 +733,16 @@ def verify_frames(plan: Plan) -> int:
         return min(VERIFY_MAX_FRAMES, plan.total_frames + VERIFY_TAIL_FRAMES)
     walker = _Walker({s.name: s for s in plan.sequences}, plan.speed_tables,
                      tuple(c.speed_class for c in plan.channels))
-    state: State = (None,) * len(plan.channels)
+    state: State = home_state(plan.program, plan.channels)
     frames = 0
     for st in plan.main:
         if isinstance(st, LoopStep):
-            exits, first = walker.walk(st.body, state)
+            exits, first, _ = walker.walk(st.body, state)
             if len(exits) == 1 and first is not None:
-                _, later = walker.walk(st.body, next(iter(exits)))
+                _, later, _ = walker.walk(st.body, next(iter(exits)))
                 frames += first + (later or 0)
             break
-        exits, more = walker.walk((st,), state)
+        exits, more, _ = walker.walk((st,), state)
         if len(exits) != 1 or more is None:     # a loop inside a repeat or a sequence, or a select:
             frames += more or 0                 # what precedes it, and a margin
             break
@@ -661,12 +759,16 @@ Exits = dict
 class _Walker:
     """Runs the steps over states, not frames: each body is walked once per distinct entry state.
 
-    `walk(body, state)` gives the states the body can end in (none: it never ends) and the frames it
-    takes (None when that depends on events, i.e. it meets a select). A select walks each branch
-    from the state it is reached in; a repeat walks its body pass after pass over the set of states a
-    pass can start in, until that set comes round again (poses are absolute, so without selects the
-    second pass starts where every later one does); a loop walks its body from every state a pass
-    can start in until no new one appears. Every move instance is recorded once per entry state."""
+    `walk(body, state)` gives the states the body can end in (none: it never ends), the frames it
+    takes (None when that depends on events, i.e. it meets a select) and its hull: per servo every
+    position it can hold at any frame boundary inside the body (`join` of all the states it passes
+    through; a move's frames lie between its start and its pose). A select walks each branch
+    from the state it is reached in; one with a `meanwhile` also from where the body can be cut:
+    the body's hull, each servo's positions as a `Reach` (its farthest decides a move's speed,
+    so this stays one state per select and entry state, not one per frame). A repeat walks its
+    body pass after pass over the set of states a pass can start in, until that set comes round
+    again; a loop walks its body from every state a pass can start in until no new one appears.
+    Every move instance is recorded once per entry state."""
 
     def __init__(self, sequences: dict[str, SequencePlan], tables, classes):
         self.sequences = sequences
@@ -674,31 +776,39 @@ class _Walker:
         self.classes = classes
         self.instances: dict[tuple, MoveInstance] = {}
         self.played: set[str] = set()
-        self.memo: dict[tuple, tuple[Exits, int | None]] = {}
+        self.memo: dict[tuple, tuple[Exits, int | None, State]] = {}
+        self.cuts: dict[int, State] = {}      # id(select) -> the join of its cut states (for `servoc plan`)
 
-    def start(self, main: tuple[Step, ...], channels: int) -> tuple[Exits, int | None]:
-        return self.walk(main, (None,) * channels, ("start",), None)
+    def start(self, main: tuple[Step, ...], channels: int, home: State | None = None) -> tuple[Exits, int | None]:
+        exits, frames, _ = self.walk(main, home or (None,) * channels, ("start",), None)
+        return exits, frames
 
     def walk(self, body: tuple[Step, ...], state: State, origin: Origin = ("start",),
-             branch: Branch | None = None) -> tuple[Exits, int | None]:
-        """(exits, frames) of `body` entered in `state`; `origin` and `branch` are where `state` was
-        made and the innermost select branch around `body`, for the move instances found first here."""
+             branch: Branch | None = None) -> tuple[Exits, int | None, State]:
+        """(exits, frames, hull) of `body` entered in `state`; `origin` and `branch` are where `state`
+        was made and the innermost select branch around `body`, for the move instances found first here."""
         key = (id(body), state)
         if key in self.memo:
             return self.memo[key]
         cur: Exits = {state: None}
         total: int | None = 0
+        hull: State = state
 
         def made(where: Origin | None) -> Origin:
             return origin if where is None else where
+
+        def more(h: State) -> None:
+            nonlocal hull
+            hull = tuple(join(a, b) for a, b in zip(hull, h))
 
         for st in body:
             new: Exits = {}
             if isinstance(st, MoveStep):
                 for s, where in cur.items():
                     f = move_frames_at(st, s, self.tables, self.classes)
-                    motions = tuple(ServoMotion(ch, s[ch], n1) for ch, n1 in st.targets)
-                    self.instances.setdefault((id(st), s), MoveInstance(st, f, motions, made(where), branch))
+                    motions = tuple(ServoMotion(ch, far(s[ch], n1), n1, far_from(s[ch], n1)) for ch, n1 in st.targets)
+                    cut = any(isinstance(s[ch], Reach) for ch, _ in st.targets)
+                    self.instances.setdefault((id(st), s), MoveInstance(st, f, motions, made(where), branch, cut))
                     after = list(s)
                     for ch, n1 in st.targets:
                         after[ch] = n1
@@ -713,51 +823,85 @@ class _Walker:
                 new = cur
             elif isinstance(st, RepeatStep):
                 for s, where in cur.items():
-                    exits, frames = self._repeat(st, s, made(where), branch)
+                    exits, frames, h = self._repeat(st, s, made(where), branch)
+                    more(h)
                     for s2, w2 in exits.items():
                         new.setdefault(s2, where if w2 is None else w2)
                     total = None if total is None or frames is None else total + frames
             elif isinstance(st, LoopStep):
                 for s, where in cur.items():
-                    self._loop(st, s, made(where), branch)
+                    more(self._loop(st, s, made(where), branch))
             elif isinstance(st, SelectStep):
                 for s, where in cur.items():
+                    starts = {s: where}
+                    if st.meanwhile is not None:
+                        cut = self._meanwhile(st, s, made(where), branch)
+                        more(cut)
+                        starts[cut] = ("cut", st.span)
                     for b in st.branches:
-                        exits, _ = self.walk(b.body, s, made(where), b)
-                        for s2, w2 in exits.items():
-                            new.setdefault(s2, where if w2 is None else w2)
+                        for s1, w1 in starts.items():
+                            exits, _, h = self.walk(b.body, s1, made(w1), b)
+                            more(h)
+                            for s2, w2 in exits.items():
+                                new.setdefault(s2, w1 if w2 is None else w2)
                 total = None
             else:
                 self.played.add(st.sequence)
                 for s, where in cur.items():
-                    exits, frames = self.walk(self.sequences[st.sequence].body, s, made(where), branch)
+                    exits, frames, h = self.walk(self.sequences[st.sequence].body, s, made(where), branch)
+                    more(h)
                     for s2 in exits:
                         new.setdefault(s2, ("play", st.sequence, st.span))
                     total = None if total is None or frames is None else total + frames
             cur = new
+            for s in cur:
+                more(s)
             if not cur:
                 break
-        self.memo[key] = (cur, total)
+        self.memo[key] = (cur, total, hull)
         return self.memo[key]
 
+    def _meanwhile(self, st: SelectStep, state: State, origin: Origin, branch: Branch | None) -> State:
+        """Where the servos can be when an event cuts `st`'s meanwhile body (entered in `state`): at
+        any frame boundary of the body, where it ends (the select then waits on), or where the select
+        was reached (an event already there). Each position is credited to the body's statement
+        whose frames hold it."""
+        hull = tuple(at_statement(v, st.span) for v in state)
+        cur: Exits = {state: None}
+        for part in st.meanwhile:
+            new: Exits = {}
+            for s, where in cur.items():
+                exits, _, h = self.walk((part,), s, origin if where is None else where, branch)
+                hull = tuple(join(a, at_statement(b, part.span)) for a, b in zip(hull, h))
+                for s2, w2 in exits.items():
+                    new.setdefault(s2, where if w2 is None else w2)
+            cur = new
+            if not cur:
+                break
+        before = self.cuts.get(id(st))
+        self.cuts[id(st)] = (st, hull if before is None else tuple(join(a, b) for a, b in zip(before[1], hull)))
+        return hull
+
     def _repeat(self, st: RepeatStep, state: State, origin: Origin,
-                branch: Branch | None) -> tuple[Exits, int | None]:
+                branch: Branch | None) -> tuple[Exits, int | None, State]:
         """The states `st` ends in: layer k holds the states after k passes; the layers repeat with
         some period, from which layer `count` follows."""
         layers: list[Exits] = [{state: None}]
         seen = {frozenset(layers[0]): 0}
         totals: list[int | None] = []
+        hull: State = state
         while len(layers) <= st.count:
             nxt: Exits = {}
             frames: int | None = 0
             for s, where in layers[-1].items():
-                exits, f = self.walk(st.body, s, origin if where is None else where, branch)
+                exits, f, h = self.walk(st.body, s, origin if where is None else where, branch)
+                hull = tuple(join(a, b) for a, b in zip(hull, h))
                 for s2, w2 in exits.items():
                     nxt.setdefault(s2, where if w2 is None else w2)
                 frames = None if frames is None or f is None or len(layers[-1]) > 1 else f
             totals.append(frames)
             if not nxt:             # the first pass never ends: the frames until it stops
-                return {}, totals[0] if len(totals) == 1 else None
+                return {}, totals[0] if len(totals) == 1 else None, hull
             k = len(layers)
             j = seen.get(frozenset(nxt))
             if j is not None:
@@ -771,20 +915,23 @@ class _Walker:
         first = totals[0]
         later = totals[1] if len(totals) > 1 else (first if st.count > 1 else 0)
         if first is None or later is None:
-            return final, None
-        return final, first + later * (st.count - 1)
+            return final, None, hull
+        return final, first + later * (st.count - 1), hull
 
-    def _loop(self, st: LoopStep, state: State, origin: Origin, branch: Branch | None) -> None:
-        """Walk the body from every state a pass can start in (a fixpoint)."""
+    def _loop(self, st: LoopStep, state: State, origin: Origin, branch: Branch | None) -> State:
+        """Walk the body from every state a pass can start in (a fixpoint); returns the hull."""
         todo: list[tuple[State, Origin]] = [(state, origin)]
         seen = {state}
+        hull: State = state
         while todo:
             s, where = todo.pop(0)
-            exits, _ = self.walk(st.body, s, where, branch)
+            exits, _, h = self.walk(st.body, s, where, branch)
+            hull = tuple(join(a, b) for a, b in zip(hull, h))
             for s2, w2 in exits.items():
                 if s2 not in seen:
                     seen.add(s2)
                     todo.append((s2, where if w2 is None else w2))
+        return hull
 
 
 # ----------------------------------------------------------------- golden frames

@@ -51,9 +51,13 @@ def format_quantity(q: nodes.Quantity) -> str:
 
 
 def format_event(ev: nodes.Event) -> str:
-    """An event or a byte as written: `button`, `"w"`, `119`."""
+    """An event or a byte as written: `button`, `"w"`, `119`, `press button`, `other`."""
     if isinstance(ev, nodes.Name):
         return ev.text
+    if isinstance(ev, nodes.EdgeEvent):
+        return f"{ev.word.text} {ev.input.text}"
+    if isinstance(ev, nodes.OtherEvent):
+        return "other"
     if isinstance(ev, nodes.StringLit):
         return f'"{ev.text}"'
     return format_quantity(ev)
@@ -77,7 +81,7 @@ def format_program(tree: nodes.Program) -> str:
 
 
 # Consecutive declarations of one kind share a paragraph; blocks stand alone.
-_KIND = {nodes.FrameDecl: "setting", nodes.TargetDecl: "setting", nodes.SerialDecl: "setting",
+_KIND = {nodes.SettingDecl: "setting", nodes.FrameDecl: "setting", nodes.TargetDecl: "setting", nodes.SerialDecl: "setting",
          nodes.InputDecl: "input", nodes.ServoDecl: "servo",
          nodes.GroupDecl: "group", nodes.PoseDecl: "pose"}
 
@@ -87,7 +91,11 @@ def _item(item: nodes.Item) -> list[str]:
         return [f"frame {format_quantity(item.period)}"]
     if isinstance(item, nodes.TargetDecl):
         clock = f" clock {format_quantity(item.clock)}" if item.clock is not None else ""
-        return [f"target {item.chip.text}{clock}"]
+        mode = f" {item.mode[0].text} {format_quantity(item.mode[1])}" if item.mode is not None else ""
+        return [f"target {item.chip.text}{clock}{mode}"]
+    if isinstance(item, nodes.SettingDecl):
+        value = item.value.text if isinstance(item.value, nodes.Name) else format_quantity(item.value)
+        return [f"{item.word.text} {value}"]
     if isinstance(item, nodes.InputDecl):
         level = f" {item.level.text}" if item.level is not None else ""
         return [f"input {item.name.text} = {item.pin.text}{level}"]
@@ -153,12 +161,16 @@ def _stmt(stmt: nodes.Stmt, depth: int) -> list[str]:
         lines = [f"{pad}select {{"]
         for b in stmt.branches:
             head = f"on {format_event(b.event)}" if isinstance(b, nodes.OnBranch) else \
-                f"after {format_quantity(b.duration)}"
+                "meanwhile" if isinstance(b, nodes.MeanwhileBranch) else f"after {format_quantity(b.duration)}"
             lines.extend(_block(head, b.body, depth + 1))
         lines.append(f"{pad}}}")
         return lines
     if isinstance(stmt, nodes.WaitStmt):
         return [f"{pad}wait {format_event(stmt.event)}"]
+    if isinstance(stmt, nodes.UntilStmt):
+        lines = _stmt(stmt.stmt, depth)
+        lines[-1] += f" until {format_event(stmt.event)}"
+        return lines
     if isinstance(stmt, nodes.SendStmt):
         return [f"{pad}send {format_event(stmt.byte)}"]
     raise TypeError(f"not a statement: {stmt!r}")

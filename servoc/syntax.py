@@ -213,6 +213,12 @@ class _Builder:
     def serial_decl(self, ch):
         return nodes.SerialDecl(_quantity(ch[1]), _rule_span(ch))
 
+    # setting_decl: NAME (NAME | NUMBER)      the first NAME: `home` or `stagger`
+    def setting_decl(self, ch):
+        word, value = ch
+        return nodes.SettingDecl(_name(word), _name(value) if value.type == "NAME" else _quantity(value),
+                                 Span(word.start_pos, value.end_pos))
+
     # !servo_decl: "servo" NAME "=" PIN _servo_option*
     def servo_decl(self, ch):
         _, name, _, pin, *options = ch
@@ -317,6 +323,16 @@ class _Builder:
         body, end = ch[2]
         return nodes.AfterBranch(_quantity(ch[1]), body, Span(ch[0].start_pos, end))
 
+    # !meanwhile_branch: "meanwhile" block
+    def meanwhile_branch(self, ch):
+        body, end = ch[1]
+        return nodes.MeanwhileBranch(body, Span(ch[0].start_pos, end))
+
+    # !until_stmt: _untilable "until" event
+    def until_stmt(self, ch):
+        stmt, _, event = ch
+        return nodes.UntilStmt(stmt, event, Span(stmt.span.start, event.span.end))
+
     # !wait_stmt: "wait" event
     def wait_stmt(self, ch):
         return nodes.WaitStmt(ch[1], _rule_span(ch))
@@ -325,9 +341,13 @@ class _Builder:
     def send_stmt(self, ch):
         return nodes.SendStmt(ch[1], _rule_span(ch))
 
-    # event: NAME | STRING | NUMBER
+    # event: NAME | NAME NAME | STRING | NUMBER | OTHER
     def event(self, ch):
         tok = ch[0]
+        if len(ch) == 2:
+            return nodes.EdgeEvent(_name(ch[0]), _name(ch[1]), Span(ch[0].start_pos, ch[1].end_pos))
+        if tok.type == "OTHER":
+            return nodes.OtherEvent(_tspan(tok))
         if tok.type == "STRING":
             return nodes.StringLit(str(tok)[1:-1], _tspan(tok))
         if tok.type == "NUMBER":
@@ -339,7 +359,7 @@ class _Builder:
 
 _DECL_KWS = ("SERVO", "GROUP", "POSE", "SEQUENCE", "MAIN", "FRAME", "TARGET", "INPUT", "SERIAL")
 _STMT_KWS = ("MOVE", "HOLD", "REPEAT", "LOOP", "PLAY", "SELECT", "WAIT", "SEND")
-_BRANCH_KWS = ("ON", "AFTER")
+_BRANCH_KWS = ("ON", "AFTER", "MEANWHILE")
 _OPTION_KWS = ("SPEED", "TRIM", "LIMIT", "REVERSE")
 _EASE_KWS = ("LINEAR", "IN", "OUT", "IN_OUT")
 _ENDS = ("_NL", "SEMICOLON")
@@ -364,7 +384,7 @@ _NUMBER_AFTER = {
     "SERIAL": "a baud rate such as `9600`",
     "AFTER": _DURATION,
 }
-_EVENT = "an input's name or a byte such as `\"w\"` or `119`"
+_EVENT = "an input's name (or `press NAME`, `release NAME`), a byte such as `\"w\"` or `119`, or `other`"
 _BYTE = "a byte such as `\"w\"` or `119`"
 
 # What a NAME is, by the token before it (and, for `=` and `,`, the keyword
@@ -464,11 +484,11 @@ def _expected_words(expected: set[str], prev: list[str], term_text: dict[str, st
         words.append("a servo option (" + _listing(_OPTION_KWS, term_text) + ")")
         exp -= set(_OPTION_KWS)
     if set(_BRANCH_KWS) <= exp:
-        words.append("a branch (`on EVENT { ... }` or `after DUR { ... }`)")
+        words.append("a branch (`on EVENT { ... }`, `after DUR { ... }` or `meanwhile { ... }`)")
         exp -= set(_BRANCH_KWS)
     if {"NAME", "STRING", "NUMBER"} <= exp and last in ("ON", "WAIT", "SEND"):
         words.append(_BYTE if last == "SEND" else _EVENT)
-        exp -= {"NAME", "STRING", "NUMBER"}
+        exp -= {"NAME", "STRING", "NUMBER", "OTHER"}
     if set(_EASE_KWS) <= exp:
         words.append("an easing (" + _listing(_EASE_KWS, term_text) + ")")
         exp -= set(_EASE_KWS)
@@ -566,6 +586,13 @@ def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
         kind = _kind(tok, term_text)
         found = _found(tok, kws)
         help_ = ""
+        stray = toks[-1] if toks else None
+        if (stray is not None and stray.type == "NAME" and stray.value not in ("home", "stagger")
+                and (len(toks) == 1 or toks[-2].type in ("_NL", "SEMICOLON")) and not _open_braces(toks)):
+            words = _expected_words(set(_DECL_KWS), [], term_text)
+            return (f"expected {_join(words)}, found {_found(stray, kws)}", Span(stray.start_pos, stray.end_pos),
+                    "the settings `home POSE` and `stagger DUR` are the only declarations that start "
+                    "with another word")
         if tok.type in kws.values() and "NAME" in expected:
             return (f"`{tok.value}` is a keyword and cannot be used as a name, expected {_name_word(prev)}",
                     span, f"keywords are reserved; choose another name, such as `{tok.value}_1`")

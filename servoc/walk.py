@@ -22,12 +22,13 @@ BodyOf = Callable[[str], tuple]
 
 # The statement classes of the three trees, by name: nodes.*Stmt, model.*, plan.*Step.
 _KINDS = {f"{word}{suffix}": word.lower()
-          for word in ("Move", "Hold", "Repeat", "Loop", "Play", "Select", "Send", "Wait")
+          for word in ("Move", "Hold", "Repeat", "Loop", "Play", "Select", "Send", "Wait", "Until")
           for suffix in ("Stmt", "", "Step")}
 
 
 def kind(st: Any) -> str:
-    """'move', 'hold', 'repeat', 'loop', 'play', 'select', 'send' or 'wait' (syntax tree only)."""
+    """'move', 'hold', 'repeat', 'loop', 'play', 'select', 'send', or 'wait' and 'until' (syntax
+    tree only)."""
     try:
         return _KINDS[type(st).__name__]
     except KeyError:
@@ -36,10 +37,14 @@ def kind(st: Any) -> str:
 
 def blocks(st: Any) -> tuple[tuple, ...]:
     """The bodies directly inside `st`: a repeat's or a loop's one body, a select's branch bodies in
-    the order written; () for the others."""
+    the order written and then its meanwhile body (if it has one); an `until`'s statement as a
+    body of one; () for the others."""
     k = kind(st)
     if k == "select":
-        return tuple(b.body for b in st.branches)
+        extra = getattr(st, "meanwhile", None)
+        return tuple(b.body for b in st.branches) + (() if extra is None else (extra,))
+    if k == "until":
+        return ((st.stmt,),)
     return (st.body,) if k in ("repeat", "loop") else ()
 
 
@@ -211,6 +216,11 @@ def rebuild(body: tuple, change: Callable[[Any], Any]) -> tuple:
 def _with_blocks(st: Any, new: tuple[tuple, ...]) -> Any:
     """`st` with its blocks replaced by `new` (as `blocks` lists them)."""
     if kind(st) == "select":
-        return dataclasses.replace(st, branches=tuple(dataclasses.replace(b, body=nb)
-                                                      for b, nb in zip(st.branches, new)))
+        changed = dataclasses.replace(st, branches=tuple(dataclasses.replace(b, body=nb)
+                                                         for b, nb in zip(st.branches, new)))
+        if getattr(st, "meanwhile", None) is not None:
+            changed = dataclasses.replace(changed, meanwhile=new[-1])
+        return changed
+    if kind(st) == "until":
+        return dataclasses.replace(st, stmt=new[0][0])
     return dataclasses.replace(st, body=new[0])

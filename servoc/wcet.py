@@ -25,6 +25,10 @@ end, waits for a frame only if it is still clear (`JB FRAMED`); the analysis
 knows it is set right after a frame and clear after the `CLR`, so that test
 goes one way on each path and the loop is bounded by the frame it reaches.
 
+A select's meanwhile body is cut by frame_w, which runs right after each frame: an event sets
+the stack back to where the select started the body (`MOV SP, ...`) and jumps to its branches
+(`LJMP`); that path goes on as from the select, in the routine the select is in.
+
 One fact comes from code generation rather than from the code: a record
 list (`LCALL run_list`) is never empty and every record in it takes at least
 one frame, so a call of `run_list` always reaches a frame before it returns.
@@ -126,6 +130,8 @@ class Code:
     # ---------------------------------------------------------------- helpers
 
     def target(self, ins: Instr) -> int:
+        if not ins.args:
+            raise WcetError(f"line {ins.line}: {ins.op} without a target")
         name = ins.args[-1]
         if name not in self.labels:
             raise WcetError(f"line {ins.line}: unknown label `{name}`")
@@ -185,6 +191,13 @@ class Code:
             return out
         if ins.op in ("RET", "RETI"):
             return {("ret", clear): c}
+        if ins.op == "MOV" and ins.args[0] == "SP":
+            # a cut (frame_w): the stack as a select left it, and on at its branches, right after a
+            # frame (FRAMED set); a RET there returns to the callers of the routine the select is in
+            nxt = self.instrs[ins.index + 1]
+            if nxt.op != "LJMP":
+                raise WcetError(f"line {ins.line}: `MOV SP` between frames must be followed by an LJMP")
+            return {"frame": c + nxt.cycles + self.resume(self.target(nxt))}
         if ins.op == "JMP":
             raise WcetError(f"line {ins.line}: an indirect jump between frames")
         if ins.op in _JUMPS:

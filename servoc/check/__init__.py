@@ -42,7 +42,8 @@ def check(tree: nodes.Program, reporter: Reporter, path: str) -> model.Program |
     settings(tree, ctx)
     servos(tree, ctx)
     inputs(tree, ctx)
-    statements(tree, ctx, resolve(tree, ctx))
+    res = resolve(tree, ctx)
+    home = statements(tree, ctx, res)
     calls(tree, ctx)
     after = sum(1 for d in reporter.diagnostics if d.is_error)
     if after != before:
@@ -53,4 +54,5 @@ def check(tree: nodes.Program, reporter: Reporter, path: str) -> model.Program |
         poses=tuple(p for n in ctx.declared("pose") if (p := ctx.poses.get(n)) is not None),
         sequences=tuple(ctx.sequences), main=ctx.main, frame_us=ctx.frame_us, target=ctx.target,
         references=frozenset(ctx.references), main_span=ctx.main_span,
-        frame_span=ctx.frame_span, inputs=tuple(ctx.inputs.values()), serial=ctx.serial)
+        frame_span=ctx.frame_span, inputs=tuple(ctx.inputs.values()), serial=ctx.serial,
+        home=home, stagger_us=ctx.stagger_us, home_span=ctx.home.span if ctx.home is not None else ctx.main_span)

@@ -37,6 +37,9 @@ class Context:
     frame_us: Fraction | None = None                              # settings pass
     frame_span: Span = Span(0, 0)
     target: Target = DEFAULT_TARGET
+    home: nodes.Name | None = None                                # `home POSE`, resolved after the poses
+    stagger_us: Fraction | None = None
+    stagger_span: Span = Span(0, 0)
     servos: dict[str, model.Servo] = field(default_factory=dict)  # servos pass, declaration order
     order: dict[str, int] = field(default_factory=dict)          # servo -> declaration index
     servo_limits: dict[str, nodes.LimitOption] = field(default_factory=dict)

@@ -1,4 +1,4 @@
-"""Pass 2, settings: `frame` and `target`, once each, before the sequences and `main`."""
+"""Pass 2, settings: `frame`, `target`, `home` and `stagger`, once each, before the sequences and `main`."""
 
 from __future__ import annotations
 
@@ -19,9 +19,16 @@ def settings(tree: nodes.Program, ctx: Context) -> None:
     for item in tree.items:
         if isinstance(item, (nodes.SequenceDecl, nodes.MainDecl)) and used_from is None:
             used_from = item
-        if not isinstance(item, (nodes.FrameDecl, nodes.TargetDecl)):
+        if isinstance(item, nodes.SettingDecl):
+            if item.word.text not in POWER_UP:
+                r.error("syntax-error", f"expected a declaration, found `{item.word.text}`", item.word.span,
+                        help="declarations start with `servo`, `group`, `pose`, `sequence`, `main`, `frame`, "
+                             "`target`, `input`, `serial`, `home` or `stagger`")
+                continue
+        elif not isinstance(item, (nodes.FrameDecl, nodes.TargetDecl)):
             continue
-        word = "frame" if isinstance(item, nodes.FrameDecl) else "target"
+        word = item.word.text if isinstance(item, nodes.SettingDecl) else \
+            "frame" if isinstance(item, nodes.FrameDecl) else "target"
         kw = Span(item.span.start, item.span.start + len(word))
         first = seen.get(word)
         if first is not None:
@@ -29,17 +36,43 @@ def settings(tree: nodes.Program, ctx: Context) -> None:
                     help=f"the first `{word}` is at line {ctx.line(first.span)}; keep only one",
                     secondary=[Label(Span(first.span.start, first.span.start + len(word)), "first set here")])
             continue
-        if used_from is not None:
+        if used_from is not None and word not in POWER_UP:
             what = "main" if isinstance(used_from, nodes.MainDecl) else f"sequence {used_from.name.text}"
             r.error("late-setting", f"`{word}` must come before the sequences and `main` that use it",
                     kw, help=f"move it above `{what}` (line {ctx.line(used_from.span)}), "
                              "e.g. to the top of the file")
         seen[word] = item
-        if isinstance(item, nodes.FrameDecl):
+        if isinstance(item, nodes.SettingDecl):
+            power_up(item, ctx)
+        elif isinstance(item, nodes.FrameDecl):
             ctx.frame_span = item.span
             ctx.frame_us = frame(item, ctx)
         else:
             ctx.target = target(item, ctx)
+
+
+POWER_UP = ("home", "stagger")
+
+
+def power_up(item: nodes.SettingDecl, ctx: Context) -> None:
+    """`home POSE` (resolved with the poses, later) and `stagger DUR`."""
+    word, value = item.word.text, item.value
+    if word == "home":
+        if not isinstance(value, nodes.Name):
+            ctx.r.error("wrong-kind", f"`home` names a pose, not `{format_quantity(value)}`", value.span,
+                        help="declare the pose the robot is parked in, e.g. `pose rest { P1: 90deg }`, "
+                             "and write `home rest`")
+            return
+        ctx.home = value
+        return
+    if isinstance(value, nodes.Name):
+        ctx.r.error("bad-stagger", f"`stagger` is a time, not `{value.text}`", value.span,
+                    help="write the time between two servos' first pulses, e.g. `stagger 100ms`")
+        return
+    duration = ctx.take(quantities.duration_us(value, "`stagger`", "a time such as `100ms`"), value.span)
+    if duration is not None:
+        ctx.stagger_us = duration
+        ctx.stagger_span = item.span
 
 
 def frame(item: nodes.FrameDecl, ctx: Context) -> Fraction | None:

@@ -1,7 +1,8 @@
 """Pass 5, statements: the bodies of the sequences and of `main`, and what each sequence plays.
 
-A `select` needs at least one `on` and at most one `after`, written last; `wait EVENT` becomes
-`select { on EVENT { } }`. An event is a declared input or a byte (a one-character ASCII string or
+A `select` needs at least one `on`, at most one `after` and one `meanwhile`, both after every `on`
+(in either order), and at most one `on other`; `wait EVENT` becomes `select { on EVENT { } }` and
+`STATEMENT until EVENT` `select { on EVENT { } meanwhile { STATEMENT } }`. An event is a declared input or a byte (a one-character ASCII string or
 a whole number 0..255), and a byte needs `serial`; so does `send`."""
 
 from __future__ import annotations
@@ -17,7 +18,8 @@ from .resolve import Resolve
 Calls = list[tuple[str, Span]]
 
 
-def statements(tree: nodes.Program, ctx: Context, res: Resolve) -> None:
+def statements(tree: nodes.Program, ctx: Context, res: Resolve) -> model.Pose | None:
+    """Convert the bodies; returns the `home` pose (None: none, or an error reported)."""
     conv = _Statements(ctx, res)
     for name in ctx.declared("sequence"):
         decl: nodes.SequenceDecl = ctx.decls[name].node
@@ -29,6 +31,7 @@ def statements(tree: nodes.Program, ctx: Context, res: Resolve) -> None:
         ctx.main_span = ctx.mains[0].span
     for extra in ctx.mains[1:]:
         conv.body(extra.body, [])
+    return conv.pose_ref(ctx.home) if ctx.home is not None else None
 
 
 class _Statements:
@@ -71,6 +74,12 @@ class _Statements:
         if isinstance(stmt, nodes.WaitStmt):
             event = self.event(stmt.event, "wait")
             return None if event is None else model.Select((model.On(event, (), stmt.span),), True, stmt.span)
+        if isinstance(stmt, nodes.UntilStmt):
+            inner = self.stmt(stmt.stmt, calls)
+            event = self.event(stmt.event, "until")
+            if inner is None or event is None:
+                return None
+            return model.Select((model.On(event, (), stmt.event.span),), False, stmt.span, (inner,), True)
         if isinstance(stmt, nodes.SendStmt):
             byte = self.byte(stmt.byte, "send")
             if byte is None:
@@ -84,6 +93,7 @@ class _Statements:
         ok = True
         keyword = Span(stmt.span.start, stmt.span.start + len("select"))
         afters = [b for b in stmt.branches if isinstance(b, nodes.AfterBranch)]
+        whiles = [b for b in stmt.branches if isinstance(b, nodes.MeanwhileBranch)]
         if not any(isinstance(b, nodes.OnBranch) for b in stmt.branches):
             ctx.r.error("bad-select", "this `select` has no `on` branch: there is nothing to wait for", keyword,
                         help="add `on EVENT { ... }` (an input's name or a byte such as `\"w\"`); "
@@ -94,14 +104,29 @@ class _Statements:
                         help=f"the first `after` is at line {ctx.line(afters[0].span)}; keep one",
                         secondary=[Label(_kw(afters[0], "after"), "first `after` here")])
             ok = False
-        if afters and stmt.branches[-1] is not afters[-1] and len(afters) == 1:
-            ctx.r.error("bad-select", "`after` must be the last branch of a `select`", _kw(afters[0], "after"),
-                        help="move the `after` branch below every `on` (the `on`s are tried in the order written)")
+        for extra in whiles[1:]:
+            ctx.r.error("bad-select", "a `select` has at most one `meanwhile`", _kw(extra, "meanwhile"),
+                        help=f"the first `meanwhile` is at line {ctx.line(whiles[0].span)}; put everything "
+                             "the select runs while it waits in that one",
+                        secondary=[Label(_kw(whiles[0], "meanwhile"), "first `meanwhile` here")])
+            ok = False
+        ends = [b for b in stmt.branches if not isinstance(b, nodes.OnBranch)]
+        late_on = next((b for b in stmt.branches[stmt.branches.index(ends[0]):] if isinstance(b, nodes.OnBranch)),
+                       None) if ends else None
+        if late_on is not None and len(afters) <= 1 and len(whiles) <= 1:
+            word = "after" if isinstance(ends[0], nodes.AfterBranch) else "meanwhile"
+            message = ("`after` must be the last branch of a `select`" if not whiles else
+                       f"`{word}` must come after every `on` of a `select`")
+            ctx.r.error("bad-select", message, _kw(ends[0], word),
+                        help=f"move the `{word}` branch below every `on` (the `on`s are tried in the order written)")
             ok = False
         branches: list[model.On | model.After] = []
+        meanwhile = None
         for b in stmt.branches:
             body = self.body(b.body, calls)
-            if isinstance(b, nodes.OnBranch):
+            if isinstance(b, nodes.MeanwhileBranch):
+                meanwhile = body if meanwhile is None else meanwhile
+            elif isinstance(b, nodes.OnBranch):
                 event = self.event(b.event, "on")
                 if event is None:
                     ok = False
@@ -113,10 +138,45 @@ class _Statements:
                     ok = False
                 else:
                     branches.append(model.After(duration, body, b.span))
-        return model.Select(tuple(branches), False, stmt.span) if ok else None
+        if ok:
+            ok = self.other_once(branches)
+        return model.Select(tuple(branches), False, stmt.span, meanwhile) if ok else None
+
+    def other_once(self, branches: list) -> bool:
+        """At most one `on other`; an `on` of a byte written after it is still its own."""
+        others = [b for b in branches if isinstance(b, model.On) and b.event.other]
+        for extra in others[1:]:
+            self.ctx.r.error("bad-select", "a `select` has at most one `on other`", extra.event.span,
+                             help=f"the first `on other` is at line {self.ctx.line(others[0].span)}; keep one",
+                             secondary=[Label(others[0].event.span, "first `on other` here")])
+        return len(others) <= 1
 
     def event(self, ev: nodes.Event, word: str) -> model.Event | None:
-        """An input or a byte, after `on` or `wait`."""
+        """An input, an edge of one, a byte or `other`, after `on`, `wait` or `until`."""
+        if isinstance(ev, nodes.OtherEvent):
+            if word != "on":
+                self.ctx.r.error("bad-event", f"`{word} other` is not an event: `other` is a branch of a `select`",
+                                 ev.span, help="write `select { on other { ... } }`: `on other` takes any byte "
+                                               "no other `on` of the select names")
+                return None
+            self.need_serial(ev.span, "`on other` takes a byte received on the serial line")
+            return model.Event(None, None, "other", ev.span, None, True)
+        if isinstance(ev, nodes.EdgeEvent):
+            if ev.word.text not in model.EDGES:
+                self.ctx.r.error("bad-event", f"expected `press` or `release` before `{ev.input.text}`, found "
+                                 f"`{ev.word.text}`", ev.word.span,
+                                 help=f"`{word} press {ev.input.text}`: the input has become active; "
+                                      f"`{word} release {ev.input.text}`: it has become inactive")
+                return None
+            inner = self.event(ev.input, word)
+            if inner is None:
+                return None
+            if inner.input is None:
+                self.ctx.r.error("bad-event", f"`{ev.word.text}` is an input's change, not a byte's", ev.span,
+                                 help=f"write `{word} {format_event(ev.input)}` for a byte; `{ev.word.text}` "
+                                      "takes an input's name")
+                return None
+            return model.Event(inner.input, None, f"{ev.word.text} {inner.input}", ev.span, ev.word.text)
         if isinstance(ev, nodes.Name):
             if self.ctx.lookup(ev, "input", "an input or a byte",
                                {k: f"an event is an input (`input {ev.text} = P3.2`) or a byte such as `\"w\"`"
