@@ -966,21 +966,73 @@ class Choice:
     frames: int = 0
 
 
-def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = None) -> Iterator[GoldenFrame]:
+UNDECIDED = 1 << 60     # Choice.frames of a select that takes no branch within the frames looked at
+
+
+class Decider:
+    """Decides at each select what the firmware does: `reach(select, frames)` when it is reached
+    (`frames`: frames made so far) gives a token; `look(token, j, frames)` at its j-th look (0: as
+    it is reached, then after each frame it waits, meanwhile frames included) gives the index of
+    the branch taken there, or None to wait on. Raises ValueError for a decision a select cannot make."""
+
+    def reach(self, select: SelectStep, frames: int):
+        raise NotImplementedError
+
+    def look(self, token, j: int, frames: int) -> int | None:
+        raise NotImplementedError
+
+
+class ListDecider(Decider):
+    """`choices` in the order the selects are reached; when they run out, what the firmware does
+    when no event comes: the select's `after` after its F frames, or waiting forever."""
+
+    def __init__(self, choices: Iterable[Choice]) -> None:
+        self.picks = iter(choices)
+
+    def reach(self, select: SelectStep, frames: int):
+        pick = next(self.picks, None)
+        if pick is not None and pick.frames >= UNDECIDED:
+            return None
+        if pick is None and select.after is not None:
+            pick = Choice(len(select.branches) - 1, select.after.frames)
+        if pick is None:
+            return None
+        if not 0 <= pick.branch < len(select.branches):
+            raise ValueError(f"choice {pick}: the select has {len(select.branches)} branches")
+        branch = select.branches[pick.branch]
+        wait = pick.frames
+        if isinstance(branch, AfterBranch):
+            wait = branch.frames
+        elif wait < 0:
+            raise ValueError(f"choice {pick}: a select waits a whole number of frames")
+        elif select.after is not None and wait > select.after.frames:
+            raise ValueError(f"choice {pick}: its `after` is taken after {select.after.frames} frames")
+        return pick.branch, wait
+
+    def look(self, token, j: int, frames: int) -> int | None:
+        if token is None or j < token[1]:
+            return None
+        return token[0]
+
+
+def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list | None = None) -> Iterator[GoldenFrame]:
     """Every frame of the program, from the first timer frame; after main, the last repeats forever.
 
     A select cannot know which event comes: `expand` takes the next of `choices` at each select it
-    reaches, in the order reached; when they run out it does what the firmware does when no event
-    comes: it takes the select's `after` after its F frames, or waits there forever, repeating the
-    current targets. A `send` adds its byte to the next frame's `sent`. Raises ValueError for a
+    reaches, in the order reached (or asks a `Decider`); when they run out it does what the firmware
+    does when no event comes: it takes the select's `after` after its F frames, or waits there
+    forever, repeating the current targets or running its meanwhile body. A meanwhile body is cut
+    right after the frame of the look that takes a branch, where the servos are; selects inside
+    it are reached (and take their choices) as the body runs, and the outer select looks first
+    after each frame. A `send` adds its byte to the next frame's `sent`. Raises ValueError for a
     choice the select cannot make. `reached`, if given, gets (frames yielded so far, the select)
     each time a select is reached."""
+    decider = choices if isinstance(choices, Decider) else ListDecider(choices)
     count = len(plan.channels)
     state: list[int | None] = [None] * count
     last_span = NO_SPAN
     classes = tuple(c.speed_class for c in plan.channels)
     pending: list[int] = []
-    picks = iter(choices)
 
     memo: dict = {}
     send_memo: dict = {}
@@ -996,34 +1048,34 @@ def expand(plan: Plan, choices: Iterable[Choice] = (), reached: list | None = No
         now = tuple(state)
         return GoldenFrame(now, now if curve is None else curve, span, sent)
 
+    def select(st: SelectStep) -> Iterator[GoldenFrame]:
+        if reached is not None:
+            reached.append((made, st))
+        token = decider.reach(st, made)
+        j = 0
+        taken = decider.look(token, 0, made)
+        if taken is None and st.meanwhile is not None:
+            body = run(st.meanwhile)
+            for fr in body:
+                yield fr
+                j += 1
+                taken = decider.look(token, j, made)
+                if taken is not None:
+                    body.close()
+                    break
+        while taken is None:
+            yield frame(st.span)
+            j += 1
+            taken = decider.look(token, j, made)
+        yield from run(st.branches[taken].body)
+
     def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         for st in body:
             if isinstance(st, SendStep):
                 pending.append(st.byte)
                 continue
             if isinstance(st, SelectStep):
-                if reached is not None:
-                    reached.append((made, st))
-                pick = next(picks, None)
-                if pick is None and st.after is not None:
-                    pick = Choice(len(st.branches) - 1, st.after.frames)
-                if pick is None:
-                    while True:
-                        yield frame(st.span)
-                if not 0 <= pick.branch < len(st.branches):
-                    raise ValueError(f"choice {pick}: the select has {len(st.branches)} branches")
-                branch = st.branches[pick.branch]
-                after = st.after
-                wait = pick.frames
-                if isinstance(branch, AfterBranch):
-                    wait = branch.frames
-                elif wait < 0:
-                    raise ValueError(f"choice {pick}: a select waits a whole number of frames")
-                elif after is not None and wait > after.frames:
-                    raise ValueError(f"choice {pick}: its `after` is taken after {after.frames} frames")
-                for _ in range(wait):
-                    yield frame(st.span)
-                yield from run(branch.body)
+                yield from select(st)
                 continue
             if not isinstance(st, LoopStep) and not takes_frames((st,), plan, memo) and not sends((st,), plan, send_memo):
                 continue        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through

@@ -16,7 +16,7 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass, field
 
-from .plan import AfterBranch, Choice, Plan, branch_text, expand
+from .plan import UNDECIDED, AfterBranch, Choice, Decider, Plan, branch_text, expand
 from .sim import SimTrace
 from .costs import QUEUE, rise_offsets
 from .target import byte_cycles
@@ -345,76 +345,126 @@ def _arrivals(plan: Plan, events: list) -> list[tuple[float, int]]:
     return byte_arrivals(events, byte_cycles(serial.th1, serial.smod), plan.program.target)
 
 
-def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: float) -> tuple | None:
-    """The choices the firmware makes if it looks at its events once a frame at a fixed phase:
-    a waiting select looks right after each frame_io returns, which happens at the same point
-    of every frame; it drops the oldest bytes received while no `on` waits for them, then takes
-    an active input, or the oldest byte if an `on` waits for it, in the order written. Received bytes queue up (QUEUE at
-    the most) whether a select waits or not. The phase is not known here, so each of PHASES
-    phases is tried; the first whose run matches the trace exactly is returned (None: none does)."""
-    period = plan.period_us
-    by_input: dict[str, list] = {}
-    for e in events:
-        if e.input is not None:
-            by_input.setdefault(e.input, []).append(e)
-    arrivals = _arrivals(plan, events)
+class _EventDecider(Decider):
+    """What the firmware decides at each select when it looks at its events at a fixed phase of
+    the frame: right after each frame_io returns (the select's own wait, or frame_w during a
+    meanwhile body: the outer select first), and once as it is reached. Bytes queue up as they
+    arrive (QUEUE at the most) whether a select waits or not; a look drops the oldest bytes no
+    `on` names (none with `on other`), then takes the first `on` whose event is there: an input
+    active, an edge between the sample before and this one, the oldest byte if an `on` names it,
+    or (`on other`) any other byte; `after` at its F-th frame. Records the choices in the order
+    the selects are reached."""
 
-    def active(name: str, t: float) -> bool:
+    def __init__(self, plan: Plan, events: list, arrivals: list, t1: float, phase: float, lead: int) -> None:
+        self.plan, self.t1, self.phase, self.lead = plan, t1, phase, lead
+        self.arrivals = arrivals
+        self.came = 0
+        self.queue: list[int] = []
+        self.by_input: dict[str, list] = {}
+        for e in events:
+            if e.input is not None:
+                self.by_input.setdefault(e.input, []).append(e)
+        self.choices: list = []
+
+    def at(self, frames: int) -> float:
+        return self.t1 + (frames - 1 - self.lead) * self.plan.period_us + self.phase
+
+    def active(self, name: str, t: float) -> bool:
         state = False
-        for e in by_input.get(name, ()):
+        for e in self.by_input.get(name, ()):
             if float(e.time_us) > t:
                 break
             state = e.active
         return state
 
-    for step in range(PHASES):
-        phase = period * step / PHASES
-        choices: tuple = ()
-        queue: list[int] = []
-        came = 0
-        while True:
-            lead, reached = selects_reached(plan, choices, frames)
-            if len(reached) <= len(choices):
+    def reach(self, select, frames: int):
+        self.choices.append(None)
+        inputs = {b.event.input for b in select.branches if not isinstance(b, AfterBranch) and b.event.edge}
+        return {"select": select, "index": len(self.choices) - 1,
+                "prev": {name: self.active(name, self.at(frames)) for name in inputs}}
+
+    def look(self, token, j: int, frames: int) -> int | None:
+        select, t = token["select"], self.at(frames)
+        while self.came < len(self.arrivals) and self.arrivals[self.came][0] <= t:
+            if len(self.queue) < QUEUE:
+                self.queue.append(self.arrivals[self.came][1])
+            self.came += 1
+        ons = [(k, br.event) for k, br in enumerate(select.branches) if not isinstance(br, AfterBranch)]
+        named = {ev.byte for _, ev in ons if ev.byte is not None}
+        other = any(ev.other for _, ev in ons)
+        while self.queue and not other and self.queue[0] not in named:
+            self.queue.pop(0)                   # no `on` waits for it: dropped
+        now = {name: self.active(name, t) for name in token["prev"]}
+        pick = None
+        for k, ev in ons:
+            if ev.input is not None and ev.edge is None:
+                hit = self.active(ev.input, t)
+            elif ev.input is not None:
+                want = ev.edge == "press"
+                hit = now[ev.input] == want and token["prev"][ev.input] != want
+            elif ev.other:
+                hit = bool(self.queue) and self.queue[0] not in named
+            else:
+                hit = bool(self.queue) and self.queue[0] == ev.byte
+            if hit:
+                if ev.input is None:
+                    self.queue.pop(0)
+                pick = k
                 break
-            start, select = reached[len(choices)]
-            wanted = {br.event.byte for br in select.branches if not isinstance(br, AfterBranch)}
-            pick = None
-            for j in range(0, lead + frames - start + 2):
-                at = t1 + (start - 1 + j - lead) * period + phase
-                while came < len(arrivals) and arrivals[came][0] <= at:
-                    if len(queue) < QUEUE:
-                        queue.append(arrivals[came][1])
-                    came += 1
-                while queue and queue[0] not in wanted:
-                    queue.pop(0)                # no `on` waits for it: dropped
-                for k, br in enumerate(select.branches):
-                    if isinstance(br, AfterBranch):
-                        continue
-                    if br.event.input is not None and active(br.event.input, at):
-                        pick = Choice(k, j)
-                        break
-                    if br.event.input is None and queue and queue[0] == br.event.byte:
-                        queue.pop(0)
-                        pick = Choice(k, j)
-                        break
-                if pick is None and select.after is not None and j == select.after.frames:
-                    pick = Choice(len(select.branches) - 1, j)
-                if pick is not None:
-                    break
-            if pick is None:
-                break                           # it waits past the frames checked
-            choices += (pick,)
+        if pick is None and select.after is not None and j == select.after.frames:
+            pick = len(select.branches) - 1
+        token["prev"] = now
+        if pick is not None:
+            self.choices[token["index"]] = Choice(pick, j)
+        return pick
+
+    def decided(self) -> tuple:
+        out = [c if c is not None else Choice(0, UNDECIDED) for c in self.choices]
+        while out and out[-1].frames >= UNDECIDED:
+            out.pop()
+        return tuple(out)
+
+
+def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: float) -> tuple | None:
+    """The choices the firmware makes if it looks at its events once a frame at a fixed phase
+    (`_EventDecider`), found in one run of the golden model per phase. The phase is not known
+    here, so each of PHASES phases is tried; the first whose run matches the trace exactly is
+    returned (None: none does)."""
+    arrivals = _arrivals(plan, events)
+    tried: set = set()
+    lead = first_pulse_frame(plan) or 0
+    for step in range(PHASES):
+        phase = plan.period_us * step / PHASES
+        for _ in range(2):          # once more if the choices move the first pulse
+            decider = _EventDecider(plan, events, arrivals, t1, phase, lead)
+            for _ in itertools.islice(expand(plan, decider), lead + frames + 2):
+                pass
+            choices = decider.decided()
+            now = first_pulse_frame(plan, choices) or 0
+            if now == lead:
+                break
+            lead = now
+        if choices in tried:
+            continue
+        tried.add(choices)
         report = verify(plan, trace, frames, choices)
         if report.ok:
             return choices, report
     return None
 
 
+def _waited(choices: tuple) -> int:
+    """The frames the decided choices wait, in all."""
+    return sum(c.frames for c in choices if c.frames < UNDECIDED)
+
+
 def _event_times(branch, events: list, arrivals: list) -> list[float]:
     """When the event of an `on` branch happened: its input becoming active, or its byte arriving."""
-    if branch.event.input is not None:
-        return [float(e.time_us) for e in events if e.input == branch.event.input and e.active]
-    return [at for at, b in arrivals if b == branch.event.byte]
+    ev = branch.event
+    if ev.input is not None:
+        active = ev.edge != "release"
+        return [float(e.time_us) for e in events if e.input == ev.input and e.active == active]
+    return [at for at, b in arrivals if ev.other or b == ev.byte]
 
 
 def event_delays(plan: Plan, choices: tuple, events: list, t1_us: float) -> list[tuple[str, float, float | None]]:
@@ -423,10 +473,12 @@ def event_delays(plan: Plan, choices: tuple, events: list, t1_us: float) -> list
     to wait if the event came before, to that rise; None when no event came before it).
     `t1_us`: the first frame's rise."""
     out = []
-    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 10_000)
+    lead, reached = selects_reached(plan, choices, _waited(choices) + 10_000)
     period = plan.period_us
     arrivals = _arrivals(plan, events)
     for (start, select), choice in zip(reached, choices):
+        if choice.frames >= UNDECIDED:
+            continue
         branch = select.branches[choice.branch]
         if isinstance(branch, AfterBranch):
             continue
@@ -474,17 +526,21 @@ def reactions(plan: Plan, choices: tuple, events: list, t1_us: float | None, lin
     """Each select the run reached, in order, with the branch it took and the event behind it."""
     if t1_us is None:
         return []
-    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 100_000)
+    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
     arrivals = _arrivals(plan, events)
     out = []
     for (start, select), choice in zip(reached, choices):
+        if choice.frames >= UNDECIDED:
+            continue
         branch = select.branches[choice.branch]
         begins = t1_us + (start + choice.frames - lead) * plan.period_us
         if isinstance(branch, AfterBranch):
             why = "no event came"
         else:
             came = [at for at in _event_times(branch, events, arrivals) if at <= begins]
-            what = f"byte {branch.event.text} arrived" if branch.event.input is None else f"`{branch.event.input}` active"
+            ev = branch.event
+            what = ("a byte no other `on` names arrived" if ev.other else f"byte {ev.text} arrived"
+                    if ev.input is None else f"`{ev.input}` {'inactive' if ev.edge == 'release' else 'active'}")
             why = f"{what} at {came[-1] / 1e6:.4f} s" if came else "no event before it"
         line = 0 if line_of is None else line_of(select.span)
         out.append(Reaction(line, start + choice.frames - lead + 1, begins, branch_text(branch), why, choice.frames))
@@ -496,9 +552,11 @@ def unseen(plan: Plan, choices: tuple, events: list, t1_us: float | None, end_us
     byte no `on` took (dropped, or still queued at the end). Events after `end_us` are not counted."""
     if t1_us is None:
         return []
-    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 100_000)
+    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
     taken = []          # (the branch's first rise, its event) of each `on` taken
     for (start, select), choice in zip(reached, choices):
+        if choice.frames >= UNDECIDED:
+            continue
         branch = select.branches[choice.branch]
         if not isinstance(branch, AfterBranch):
             taken.append((t1_us + (start + choice.frames - lead) * plan.period_us, branch.event))
@@ -531,7 +589,7 @@ def settle_frame(plan: Plan, choices: tuple) -> int | None:
     """The frame, from the first pulse, at which the run that `choices` make is waiting at a select
     no choice decides (every branch taken has run to its end); None when it never gets there (a
     branch that loops forever, or main ends first: then its last frame)."""
-    lead, reached = selects_reached(plan, choices, sum(c.frames for c in choices) + 100_000)
+    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
     if len(reached) > len(choices):
         return reached[len(choices)][0] - lead + 1
     return None
