@@ -211,11 +211,11 @@ def far_from(value, n1: int) -> Span:
 
 
 def at_statement(value, span: Span):
-    """`value` with both extremes credited to the statement at `span` (for messages)."""
+    """`value` with the extremes not credited yet credited to the statement at `span` (for messages)."""
     if value is None:
         return None
     r = value if isinstance(value, Reach) else Reach(value, value)
-    return replace(r, lo_at=span, hi_at=span)
+    return replace(r, lo_at=r.lo_at if r.lo_at != NO_SPAN else span, hi_at=r.hi_at if r.hi_at != NO_SPAN else span)
 
 
 @dataclass(frozen=True)
@@ -813,6 +813,10 @@ class _Walker:
                     for ch, n1 in st.targets:
                         after[ch] = n1
                     new.setdefault(tuple(after), ("move", st.pose, st.span))
+                    ends = list(after)
+                    for ch, n1 in st.targets:       # each position credited to the move that goes there
+                        ends[ch] = Reach(n1, n1, False, st.span, st.span)
+                    more(tuple(ends))
                     if total is not None:
                         total += f
             elif isinstance(st, HoldStep):
@@ -866,7 +870,7 @@ class _Walker:
         any frame boundary of the body, where it ends (the select then waits on), or where the select
         was reached (an event already there). Each position is credited to the body's statement
         whose frames hold it."""
-        hull = tuple(at_statement(v, st.span) for v in state)
+        hull = tuple(at_statement(v, st.span) if v is not None else None for v in state)
         cur: Exits = {state: None}
         for part in st.meanwhile:
             new: Exits = {}

@@ -58,6 +58,10 @@ def origin_text(origin: tuple, source) -> str:
         return f"the end of `{origin[1]}`"
     if origin[0] == "move":
         return f"the end of `move {origin[1]}` (line {source.line_col(origin[2].start)[0]})"
+    if origin[0] == "cut":
+        return f"where an event cuts the meanwhile body of the select at line {source.line_col(origin[1].start)[0]}"
+    if origin[0] == "home":
+        return "the `home` pose"
     return "the start of `main`"
 
 

@@ -18,7 +18,7 @@ def duplicate_event(plan: Plan, report: Report) -> None:
         for b in st.branches:
             if not isinstance(b, OnBranch):
                 continue
-            key = (b.event.input, b.event.byte)
+            key = (b.event.input, b.event.byte, b.event.edge, b.event.other)
             if key not in first:
                 first[key] = b
                 continue

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ...diagnostics import Severity
 from ...diagnostics import Label
+from ...source import NO_SPAN
 from ...plan import Plan, branch_head, has_selects
 from ...speed import t_dav_of, too_fast
 from ...units import DAV_DEG, fmt_deg, fmt_ms
@@ -35,10 +36,18 @@ def infeasible_speed(plan: Plan, report: Report) -> None:
             span = branch_head(inst.branch) if inst.branch is not None else inst.origin[2] if len(inst.origin) > 2 else None
             if span is not None:
                 secondary = (Label(span, text if inst.branch is not None else "the state comes from here"),)
+        fix = (f"use `in {whole_ms_for(frames_min, plan.period_us, need)}` or longer, or drop the duration "
+               f"(`move {step.pose}`) to go as fast as the slowest servo allows")
+        if m.cut != NO_SPAN:
+            src = report.reporter.source
+            line = src.line_col(m.cut.start)[0]
+            stmt = src.text[m.cut.start:m.cut.end].split("\n")[0].strip()
+            context += (f"; an event can cut `{stmt}` (line {line}) short where `{ch_.name}` is at N {m.n0}")
+            secondary = secondary + (Label(m.cut, f"`{ch_.name}` can be at N {m.n0} here"),)
+            fix += f", or move `{ch_.name}` somewhere nearer N {m.n1} first"
         report(
             f"servo `{ch_.name}` cannot move {abs(m.delta)} DAV ({fmt_deg(abs(m.delta) * DAV_DEG)}) "
             f"in {written} ({inst.frames} frame{'s' if inst.frames != 1 else ''} = {fmt_ms(asked)}){context}: "
             f"at its top speed it needs {fmt_ms(need)}",
             step.span, label=f"too fast for `{ch_.name}`", secondary=secondary,
-            help=f"use `in {whole_ms_for(frames_min, plan.period_us, need)}` or longer, or drop the duration "
-                 f"(`move {step.pose}`) to go as fast as the slowest servo allows")
+            help=fix)
