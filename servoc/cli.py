@@ -699,7 +699,33 @@ def plan_data(plan: Plan, source) -> dict:
     if has_selects(plan):
         data["branches"] = [{"line": line, "branch": head, "frames": frames, "what": what}
                             for line, head, frames, what in _branch_rows(plan, source)]
+    if plan.startup:
+        data["startup"] = {"frames": startup_frames(plan),
+                           "servos": [{"servo": plan.channels[ch].name, "frame": f,
+                                       "ms": (f - 1) * plan.period_us / 1000} for ch, f in plan.startup]}
+    if plan.cuts:
+        data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
+                                  "servos": [{"servo": c.name, "low": lo, "high": hi, "unset": unset}
+                                             for c, (lo, hi, unset) in _ranges(plan, hull)]}
+                                 for st, hull in plan.cuts]
     return data
+
+
+def startup_frames(plan: Plan) -> int:
+    """Frames of the power-up (`home`, `stagger`): up to the last servo's first pulse."""
+    return max(f for _, f in plan.startup)
+
+
+def _ranges(plan: Plan, hull) -> list:
+    """(channel, (low N, high N, may have no target yet)) of each servo a meanwhile body can leave anywhere."""
+    from .plan import Reach
+    out = []
+    for c, v in zip(plan.channels, hull):
+        if v is None:
+            continue
+        r = v if isinstance(v, Reach) else Reach(v, v)
+        out.append((c, (r.lo, r.hi, r.unset)))
+    return out
 
 
 def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
@@ -726,6 +752,16 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
         ms_text = "-" if frames is None else f"{frames * plan.period_us / 1000:.1f}"
         lines.append((line, 0, f"{line:>5}  {head:<14} {f_text:>6} {ms_text:>9}  {what}"))
     out += [text for _, _, text in sorted(lines, key=lambda x: (x[0], x[1]))]
+    if plan.startup:
+        frames = startup_frames(plan)
+        out.append(f"power-up: `home {plan.program.home.name}`, {frames} frame{'s' if frames != 1 else ''} = "
+                   f"{fmt_ms(frames * plan.period_us)} before the program's first frame: "
+                   + ", ".join(f"{plan.channels[ch].name} at {fmt_ms((f - 1) * plan.period_us)}" for ch, f in plan.startup))
+    for st, hull in plan.cuts:
+        line = source.line_col(st.span.start)[0]
+        spans = [f"{c.name} N {lo}..{hi}" + (" (or no target yet)" if unset else "") for c, (lo, hi, unset) in _ranges(plan, hull)]
+        out.append(f"select at line {line}: an event can cut its meanwhile body where " + (", ".join(spans) or "nothing has a target")
+                   + " (the moves after it are checked from every one of these)")
     if has_selects(plan):
         out.append("total: depends on the events (each move above is listed once per state it can start in)")
     elif plan.total_frames is None:

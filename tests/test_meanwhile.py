@@ -1,0 +1,196 @@
+"""Reacting while moving, edges, `on other`, `until`, and power-up (`home`, `stagger`)."""
+
+from __future__ import annotations
+
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from conftest import build_text, simulate_events
+from servoc import api, plan as plan_mod, printer, syntax
+from servoc.diagnostics import Reporter
+from servoc.plan import Choice, SelectStep, expand
+from servoc.source import SourceFile
+
+PAN = """\
+frame 10ms
+servo pan = P2.0
+servo tilt = P2.1
+input button = P3.2
+pose rest  { pan: 122, tilt: 122 }
+pose left  { pan: 27, tilt: 108 }
+pose right { pan: 216, tilt: 108 }
+"""
+
+
+def lint_codes(text: str) -> list[tuple[str, int]]:
+    source = SourceFile("t.servo", text)
+    reporter = Reporter(source)
+    api.front_end(source, reporter)
+    return [(d.code, source.line_col(d.span.start)[0]) for d in reporter.diagnostics]
+
+
+# ---------------------------------------------------------------- front end
+
+@pytest.mark.parametrize("text", [
+    "main {\n  select {\n    on press b {}\n    on release b {}\n    after 1s {}\n    meanwhile {\n      hold 1s\n    }\n  }\n}\n",
+    "main {\n  move a in 1s until press b\n  wait release b\n  loop {\n    hold 1s\n  } until b\n}\n",
+    "home rest\nstagger 100ms\n",
+    "main {\n  select {\n    on \"x\" {}\n    on other {\n      send \"?\"\n    }\n  }\n}\n",
+])
+def test_new_constructs_print_back_as_written(text):
+    source = SourceFile("t.servo", text)
+    tree = syntax.parse(source, Reporter(source))
+    assert tree is not None
+    assert printer.format_program(tree) == text
+
+
+def test_home_press_and_release_stay_usable_names():
+    text = PAN.replace("input button", "input release") + "pose home { pan: 1 }\nhome home\nmain {\n  wait press release\n}\n"
+    assert not [c for c, _ in lint_codes(text) if c not in ("inexact-angle", "unused-pose")]
+
+
+@pytest.mark.parametrize("body, code", [
+    ("select { on button { }\n meanwhile { hold 1s }\n meanwhile { hold 1s } }", "bad-select"),
+    ("select { meanwhile { hold 1s }\n on button { } }", "bad-select"),
+    ("wait press \"a\"", "syntax-error"),
+    ("wait push button", "bad-event"),
+    ("wait other", "bad-event"),
+    ("select { on other { } }", "no-serial"),
+])
+def test_errors(body, code):
+    codes = [c for c, _ in lint_codes(PAN + "main {\n" + body + "\n}\n")]
+    assert code in codes, codes
+
+
+def test_until_on_a_select_is_a_syntax_error():
+    assert "syntax-error" in [c for c, _ in lint_codes(PAN + "main {\n wait button until button\n}\n")]
+
+
+def test_lint_notes_and_warnings():
+    codes = lint_codes(PAN + "main {\n  move rest in 1s\n  loop {\n    wait button\n    move left in 2s\n  }\n}\n")
+    assert ("no-home", 9) in codes and ("level-in-loop", 11) in codes
+    assert codes.count(("no-home", 9)) == 1
+    with_home = lint_codes(PAN + "home rest\nmain {\n  loop {\n    wait press button\n    move left in 2s\n  }\n}\n")
+    assert not [c for c, _ in with_home if c in ("no-home", "level-in-loop")]
+    assert ("until-no-frame", 9) in lint_codes(PAN + "main {\n  hold 1ms until button\n}\n")
+
+
+# ---------------------------------------------------------------- the interruption check
+
+def branch_speed_errors(text: str) -> bool:
+    return any(c == "infeasible-speed" for c, _ in lint_codes(text))
+
+
+def _plan(text):
+    source = SourceFile("t.servo", text)
+    reporter = Reporter(source)
+    front = api.front_end(source, reporter)
+    return front.plan
+
+
+def _take(it, n):
+    for i, x in enumerate(it):
+        if i >= n:
+            return
+        yield x
+
+
+def test_interruption_check_scales_with_the_program_not_its_frames():
+    """A 10,000-frame meanwhile body is one state per select: planning it takes no longer than a short one."""
+    import time
+    long = PAN + "main {\n  move rest in 1s\n  select {\n    on button { move rest in 2s }\n    meanwhile {\n      repeat 2500 {\n        move left in 20ms\n        move right in 20ms\n      }\n    }\n  }\n}\n"
+    t0 = time.perf_counter()
+    p = _plan(long)
+    took = time.perf_counter() - t0
+    assert p is not None and took < 5
+    (st_, hull), = p.cuts
+    assert hull[0].lo == 27 and hull[0].hi == 216
+
+
+# ---------------------------------------------------------------- firmware in ucsim
+
+pytestmark_sim = pytest.mark.toolchain
+
+SWEEP = PAN + """\
+home rest
+main {
+  loop {
+    select {
+      on press button {
+        wait release button
+        move rest in 600ms
+      }
+      meanwhile {
+        loop {
+          move left in 1s
+          move right in 1s
+        }
+      }
+    }
+  }
+}
+"""
+
+
+def run(text: str, scenario: str, frames: int):
+    plan, evs, trace = simulate_events(text, scenario, frames)
+    choices, report = api.events_report(plan, trace, frames, evs)
+    assert report.ok, (report.summary(), [str(m) for m in report.mismatches[:5]])
+    return plan, choices, report
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("at_ms", [500.0, 502.5, 505.0, 507.5, 1010.0, 1505.0])
+def test_a_press_cuts_the_sweep_at_every_phase(at_ms):
+    # presses early, mid-move, at a frame boundary (P = 10 ms) and right at a move's last frame
+    scenario = f"{at_ms / 1000}s button active\n{at_ms / 1000 + 0.3}s button inactive\n"
+    plan, choices, report = run(SWEEP, scenario, 250)
+    taken = [r for r in report.reactions if "press" in r.branch]
+    assert taken, report.reactions
+    delay = taken[0].time_us - at_ms * 1000
+    assert 0 < delay <= 2 * plan.period_us, delay
+
+
+@pytest.mark.toolchain
+def test_a_held_button_triggers_on_press_once():
+    text = PAN + "serial 4800\nmain {\n  move rest in 100ms\n  loop {\n    wait press button\n    send \"p\"\n  }\n}\n"
+    plan, evs, trace = simulate_events(text, "0.3s button active\n1.5s button inactive\n1.8s button active\n2s button inactive\n", 230)
+    assert "".join(chr(b) for _, b in trace.sent) == "pp"
+
+
+@pytest.mark.toolchain
+def test_on_other_answers_unknown_bytes():
+    text = PAN + "serial 4800\nmain {\n  move rest in 100ms\n  loop {\n    select {\n      on \"a\" { send \"A\" }\n      on other { send \"?\" }\n    }\n  }\n}\n"
+    plan, evs, trace = simulate_events(text, '0.3s "a"\n0.5s "x"\n0.7s "y" "a"\n', 120)
+    assert "".join(chr(b) for _, b in trace.sent) == "A??A"
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("stmt", ["move right in 2s", "hold 2s", "play sweep"])
+def test_until_cuts_each_kind_of_statement(stmt):
+    text = PAN + ("sequence sweep {\n  move left in 1s\n  move right in 1s\n}\nhome rest\nmain {\n  "
+                  f"{stmt} until button\n  move rest in 500ms\n}}\n")
+    plan, choices, report = run(text, "0.8s button active\n1.2s button inactive\n", 200)
+    assert choices and choices[0].frames > 0
+    assert any(r.branch == "on button" for r in report.reactions)
+
+
+@pytest.mark.toolchain
+def test_after_counts_meanwhile_frames():
+    text = PAN + "home rest\nmain {\n  select {\n    on button { }\n    after 500ms { move rest in 300ms }\n    meanwhile {\n      move left in 2s\n    }\n  }\n}\n"
+    plan, choices, report = run(text, "", 150)
+    assert choices in ((), (Choice(1, 50),))      # no event: the golden model takes `after` at its F
+
+
+@pytest.mark.toolchain
+def test_stagger_switches_servos_on_in_declaration_order():
+    text = PAN + "home rest\nstagger 50ms\nmain {\n  move left in 400ms\n}\n"
+    built = build_text(text)
+    p = built.plan
+    assert p.startup == ((0, 1), (1, 6))
+    report = api.verify(p, built.firmware, 40)
+    assert report.ok, report.summary()
+    frames = list(_take(expand(p), 8))
+    assert frames[0].n == (122, None) and frames[4].n == (122, None) and frames[5].n == (122, 122)
+    # the program's first move starts after the last servo's first pulse
+    assert frames[6].n[0] != 122
