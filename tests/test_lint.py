@@ -30,14 +30,14 @@ LINT_CODES = [
     "infeasible-speed", "eased-overspeed", "off-grid-width", "inexact-angle", "period-too-short",
     "period-too-long", "short-gap", "short-hold", "empty-loop", "too-long", "unused-servo", "unused-group",
     "unused-pose", "unused-sequence", "unreachable", "p0-pull-up", "too-deep", "duplicate-event", "unused-input",
-    "serial-too-fast",
+    "serial-too-fast", "no-home", "level-in-loop", "until-no-frame",
 ]
 FRONT_CODES = [
     "syntax-error", "duplicate-name", "pin-conflict", "bad-pin", "unknown-name", "wrong-kind", "bad-unit",
     "limit-violation", "out-of-range", "bad-limit", "bad-speed", "missing-main", "duplicate-main",
     "duplicate-setting", "late-setting", "bad-frame", "unsupported-target", "bad-count", "recursion",
     "duplicate-target", "duplicate-option", "empty-port", "duplicate-member", "invalid-utf8",
-    "bad-baud", "bad-byte", "bad-select", "no-serial",
+    "bad-baud", "bad-byte", "bad-select", "no-serial", "bad-event", "bad-stagger",
 ]
 CODES = LINT_CODES + FRONT_CODES
 
