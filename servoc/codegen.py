@@ -26,10 +26,10 @@ import jinja2
 
 from . import layout, resources
 from . import costs
-from . import wcet
+from . import walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .plan import (UNBOUNDED, AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
+from .plan import (UNBOUNDED, watches, AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
                    fewest_frames, send_gap, send_run, sends, steps, takes_frames)
 from .source import SourceFile
 from .units import N_MAX
@@ -266,7 +266,7 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
     inputs = {i.name: i for i in ctx.plan.program.inputs}
     lab = ctx.label("sel")
     slot = ctx.slots[id(st)]
-    ons, after, branches = [], None, []
+    ons, after, branches, edge_inputs = [], None, [], []
     for k, br in enumerate(st.branches):
         ops: list[dict] = []
         _ops(ctx, br.body, ops)
@@ -278,12 +278,14 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
             after = {"k": k, "frames": br.frames, "looks": br.frames + 1, "where": ctx.where(br.span)}
             continue
         ev = br.event
-        on = {"k": k, "byte": ev.byte, "text": ev.text, "other": ev.other, "edge": ev.edge}
+        on = {"k": k, "byte": ev.byte, "text": ev.text, "other": ev.other, "edge": ev.edge, "input": ev.input}
         if ev.input is not None:
             pin = inputs[ev.input]
             on.update(port=pin.port, bit=pin.bit, active_high=pin.active_high)
             if ev.edge is not None:
                 on.update(pi=ctx.edge_ports.index(pin.port), now_high=(ev.edge == "press") == pin.active_high)
+                if ev.input not in edge_inputs:
+                    edge_inputs.append(ev.input)
         ons.append(on)
     named = sorted({on["byte"] for on in ons if on["byte"] is not None})
     other = any(on["other"] for on in ons)
@@ -296,13 +298,24 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
         wid = ctx.watches
         meanwhile = []
         _ops(ctx, st.meanwhile, meanwhile)
-    ports = sorted({inputs[on_.event.input].port for on_ in st.branches
-                    if not isinstance(on_, AfterBranch) and on_.event.edge is not None})
-    op = {"op": "select", "label": lab, "ons": ons, "after": after, "branches": branches,
+    # Its frame on the stack (walk.select_frame bytes, R1 -> the top in its look): the `after`
+    # count, low byte first, then the sample before of each input an edge event watches.
+    size = walk.select_frame(st)
+    base = 2 if after else 0
+    if after:
+        after["off"] = -(size - 1)
+    prev = [{"off": base + j - (size - 1), "port": inputs[name].port, "name": name,
+             "smp": ctx.edge_ports.index(inputs[name].port)} for j, name in enumerate(edge_inputs)]
+    for on in ons:
+        if on["edge"]:
+            on["poff"] = next(p["off"] for p in prev if p["name"] == on["input"])
+    ports = sorted({p["port"] for p in prev})
+    op = {"op": "select", "label": lab, "ons": ons, "after": after, "branches": branches, "frame": size,
+          "prev": prev,
           "where": ctx.where(st.span), "serial": serial, "byte_map": None if other else byte_map,
           "named_map": byte_map if other else None, "other": other, "slot": slot, "id": wid,
           "meanwhile": meanwhile,
-          "edge_ports": [{"i": ctx.edge_ports.index(p), "port": p} for p in ports]}
+          "samples": [{"i": ctx.edge_ports.index(p), "port": p} for p in ports]}
     ctx.looks.append(op)
     return op
 
@@ -370,7 +383,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         sequences.append({"label": _seq_label(plan, seq.name), "name": seq.name, "ops": ops,
                           "where": ctx.where(seq.span)})
     serial = plan.program.serial
-    stack_bytes = costs.stack_bytes(plan.nesting, serial is not None)
+    stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, watches(plan))
     room = costs.stack_room(serial is not None)
     if stack_bytes > room:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
@@ -448,6 +461,10 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   target_text=target.describe(), cycle_text=fmt_us(target.cycle_us),
                   div_text=f"{float(target.div_cycles):g}",
                   fall_text="500 + 8 x N" if target.grid else "round_half_up((500 + 8 N) us / t_c)")
+    deepest = runtime_stack(text, [sq["label"] for sq in sequences])
+    if deepest > costs.runtime_stack(bool(watch)):
+        raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
+                           f"{costs.runtime_stack(bool(watch))} the stack bound counts")
     offsets = tuple(costs.rise_offsets(plan.ports, target).values())
     ram_bytes = ram.total(24, stack_bytes)
     breakdown: dict[str, int] = {}
@@ -482,20 +499,14 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
-    """RAM for the selects, level by level, and the levels frame_w looks at (empty: no meanwhile)."""
+    """RAM for the selects (their counts and samples before are on the stack, in their frames:
+    `walk.select_frame`), and the levels frame_w looks at (empty: no meanwhile)."""
     if ctx.edge_ports:
         ram.alloc("SMP", len(ctx.edge_ports), "a look's samples of the ports with edge events")
-    levels = sorted(set(ctx.slots.values()))
     watched = sorted({o["slot"] for o in ctx.looks if o["meanwhile"] is not None})
-    for level in levels:
-        here = [o for o in ctx.looks if o["slot"] == level]
-        if any(o["after"] for o in here):
-            ram.alloc(f"AFT{level}", 2, f"looks left before `after`, of the select waiting at level {level}")
-        if any(o["edge_ports"] for o in here):
-            ram.alloc(f"PRV{level}", len(ctx.edge_ports), f"the sample before, of the select waiting at level {level}")
-        if level in watched:
-            ram.alloc(f"WID{level}", 1, f"the select running its meanwhile body at level {level} (0: none)")
-            ram.alloc(f"WSP{level}", 1, f"the stack pointer where it started the body")
+    for level in watched:
+        ram.alloc(f"WID{level}", 1, f"the select running its meanwhile body at level {level} (0: none)")
+        ram.alloc(f"WSP{level}", 1, f"the stack pointer where it started the body")
     out = []
     for i, level in enumerate(watched):
         out.append({"slot": level, "selects": [o for o in ctx.looks if o["slot"] == level and o["meanwhile"] is not None],
@@ -563,6 +574,15 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
         "ctime": "\n".join("        " + line for line in ctime),
         "sorts": [{"s": n, "network": SORTING_NETWORKS[n]} for n in sizes],
     }
+
+
+def runtime_stack(text: str, sequence_labels: list[str]) -> int:
+    """The most bytes any runtime routine the code calls puts on the stack below its call (return
+    addresses and pushes included), read from the code: costs.runtime_stack must cover it."""
+    code = wcet.Code(text)
+    called = sorted({i.args[0] for i in code.instrs if i.op in ("LCALL", "ACALL")} - set(sequence_labels))
+    memo: dict[int, int] = {}
+    return max((code.stack_below(name, memo) for name in called), default=0)
 
 
 def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],

@@ -168,12 +168,20 @@ def default_period_us(min_period: int) -> int:
 # The stack: 46 bytes from the end of the direct variables (0x72, with 24 servos
 # on three ports) up to the motion state at 0xA0. Each `repeat` keeps its
 # pass counter there and each `play` its return address (2 bytes a level);
-# the runtime goes at most RUNTIME_STACK bytes deeper below a program call, and
-# the edge handler, which may come at any instruction, HANDLER_STACK more.
+# the runtime goes at most RUNTIME_STACK bytes deeper below a program call (WATCH_STACK
+# more with a meanwhile body: frame_w's call, and the calls of a look it makes), and
+# the edge handler, which may come at any instruction, HANDLER_STACK more. Code
+# generation reads the runtime's depth from the code (codegen.runtime_stack) and
+# holds it to these figures.
 STACK_BYTES = 46
 RUNTIME_STACK = 8
+WATCH_STACK = 3
 HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL
-ENGINE_STACK = RUNTIME_STACK + HANDLER_STACK
+
+
+def runtime_stack(watch: bool = False) -> int:
+    """Bytes the runtime may put on the stack below a program's call (`watch`: a meanwhile body)."""
+    return RUNTIME_STACK + (WATCH_STACK if watch else 0)
 
 
 def stack_room(serial: bool = False) -> int:
@@ -181,10 +189,10 @@ def stack_room(serial: bool = False) -> int:
     return STACK_BYTES - (SERIAL_RAM if serial else 0)
 
 
-def stack_bytes(nesting: int, serial: bool = False) -> int:
+def stack_bytes(nesting: int, serial: bool = False, watch: bool = False) -> int:
     """Stack bytes a program with `nesting` levels of repeat/play needs."""
-    return 2 * nesting + ENGINE_STACK + (SERIAL_STACK if serial else 0)
+    return 2 * nesting + runtime_stack(watch) + HANDLER_STACK + (SERIAL_STACK if serial else 0)
 
 
-def max_nesting(serial: bool = False) -> int:
-    return (stack_room(serial) - ENGINE_STACK - (SERIAL_STACK if serial else 0)) // 2
+def max_nesting(serial: bool = False, watch: bool = False) -> int:
+    return (stack_room(serial) - runtime_stack(watch) - HANDLER_STACK - (SERIAL_STACK if serial else 0)) // 2

@@ -410,6 +410,11 @@ def _any_frame(acc: bool, st: Step, inner) -> bool:
     return acc or kind == "move" or (kind == "hold" and st.frames > 0) or bool(inner)
 
 
+def watches(plan: Plan) -> bool:
+    """True when a select of the program has a meanwhile body (the firmware's frame_w looks)."""
+    return any(isinstance(st, SelectStep) and st.meanwhile is not None for st in steps(plan))
+
+
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
     """Whether `body` has anything that can take a frame (a move; a hold of at least half a
     frame; a select, which waits while no event is there; repeat, loop and play of those): a

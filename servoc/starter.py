@@ -21,11 +21,16 @@ servo gripper  = P1.3 speed 0.15s/60deg
 
 group arm = shoulder, elbow
 
-pose home  {{ base: 90deg, arm: 90deg, gripper: 1500us }}
-pose reach = home with {{ shoulder: 130deg, elbow: 60deg }}
+pose rest  {{ base: 90deg, arm: 90deg, gripper: 1500us }}
+pose reach = rest with {{ shoulder: 130deg, elbow: 60deg }}
 pose grab  = reach with {{ gripper: 60deg }}
 pose left  = grab with {{ base: 30deg }}
 pose right = grab with {{ base: 150deg }}
+
+# Power-up: the first frames hold the servos at `rest`, switched on 100 ms apart
+# so that they do not all draw their starting current at once.
+home rest
+stagger 100ms
 
 sequence pick {{
   move reach in 500ms ease in-out
@@ -34,12 +39,11 @@ sequence pick {{
 }}
 
 main {{
-  move home in 1s
   loop {{
     play pick
     move left in 800ms ease in-out
     move right                      # as fast as the slowest servo allows
-    move home in 600ms
+    move rest in 600ms
   }}
 }}
 """

@@ -145,17 +145,29 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
             done, value = True, acc
 
 
+def select_frame(st: Any) -> int:
+    """Bytes a select keeps on the stack from where it is reached until a branch starts (while it
+    waits and while its meanwhile body runs): its `after` count (2) and, for each input an edge
+    event of it watches, the sample before (1)."""
+    edges = {b.event.input for b in st.branches
+             if getattr(b, "event", None) is not None and getattr(b.event, "edge", None) is not None}
+    return (2 if getattr(st, "after", None) is not None else 0) + len(edges)
+
+
 def _deepest(acc: int, st: Any, inner: Any) -> int:
     if inner is None:
         return acc
-    if kind(st) == "select":    # a select with `after` counts its frames on the stack while it waits
-        return max(acc, max(inner, default=0), 1 if getattr(st, "after", None) is not None else 0)
+    if kind(st) == "select":    # its frame (2 bytes a level) under its meanwhile body, gone in its branches
+        frame = (select_frame(st) + 1) // 2
+        watched = inner[-1] if getattr(st, "meanwhile", None) is not None else 0
+        return max(acc, max(inner, default=0), frame + watched)
     return max(acc, inner + (kind(st) != "loop"))
 
 
 def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:
-    """The deepest stack of `repeat`s and `play`s around any statement (a `loop` costs nothing, a
-    `select` one level while it waits if it has an `after`)."""
+    """The deepest stack, in levels of 2 bytes, of `repeat`s and `play`s around any statement (a
+    `loop` costs nothing; a `select`'s frame, `select_frame` rounded up to levels, counts while it
+    waits and under its meanwhile body)."""
     return fold(body, body_of, 0, _deepest, memo)
 
 
@@ -174,9 +186,12 @@ def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
                     body, used = inner, used + 1
                     break
             elif k in ("loop", "select"):
-                deep = next((b for b in blocks(st) if used + nesting(b, body_of, memo) > limit), None)
+                under = [(b, used) for b in blocks(st)]
+                if k == "select" and getattr(st, "meanwhile", None) is not None:
+                    under[-1] = (under[-1][0], used + (select_frame(st) + 1) // 2)
+                deep = next(((b, u) for b, u in under if u + nesting(b, body_of, memo) > limit), None)
                 if deep is not None:
-                    body = deep
+                    body, used = deep
                     break
         else:
             return None

@@ -290,6 +290,51 @@ class Code:
         """The longest of the paths from each label to its RETI."""
         return max(self.longest(name, set()) for name in labels)
 
+    def stack_below(self, name: str, memo: dict[int, int] | None = None) -> int:
+        """The most bytes a call of routine `name` puts on the stack, its return address and
+        everything it pushes and calls included, until it returns. A `MOV SP` (frame_w's cut)
+        ends a path: the stack goes back to where a select left it, in the program."""
+        memo = {} if memo is None else memo
+        entry = self.labels.get(name)
+        if entry is None:
+            raise WcetError(f"no label `{name}`")
+        if entry in memo:
+            if memo[entry] < 0:
+                raise WcetError(f"`{name}` calls itself")
+            return memo[entry]
+        memo[entry] = -1
+        deepest = 0
+        seen: dict[int, int] = {}
+        work = [(entry, 0)]
+        while work:
+            i, depth = work.pop()
+            if seen.get(i, -1) >= depth:
+                continue
+            if i in seen and depth > seen[i] and self.instrs[i].op != "RET":
+                raise WcetError(f"the stack grows on a loop through {self.label_at(i)}")
+            seen[i] = depth
+            if i >= len(self.instrs):
+                raise WcetError("a path runs off the end of the code")
+            ins = self.instrs[i]
+            deepest = max(deepest, depth)
+            if ins.op in ("RET", "RETI") or (ins.op == "MOV" and ins.args[0] == "SP"):
+                continue
+            if ins.op == "JMP":
+                raise WcetError(f"line {ins.line}: an indirect jump in a called routine")
+            if ins.op in _CALLS:
+                deepest = max(deepest, depth + self.stack_below(ins.args[0], memo))
+                work.append((i + 1, depth))
+            elif ins.op in ("PUSH", "POP"):
+                work.append((i + 1, depth + (1 if ins.op == "PUSH" else -1)))
+            elif ins.op in _JUMPS:
+                work.append((self.target(ins), depth))
+            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
+                work.extend([(i + 1, depth), (self.target(ins), depth)])
+            else:
+                work.append((i + 1, depth))
+        memo[entry] = 2 + deepest
+        return memo[entry]
+
     def between_frames(self) -> tuple[int, int]:
         """(cycles, resume instruction) of the longest path from any frame to the next."""
         resumes = [ins.index + 1 for ins in self.instrs if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE]

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from ... import costs, walk
 from ...diagnostics import Reporter, Severity
-from ...plan import Plan
+from ...plan import Plan, watches
 from ...source import Span
 from .. import RULES, Report, rule
 from ..common import body_of
@@ -17,8 +17,9 @@ from ..common import body_of
 def too_deep(plan: Plan, report: Report) -> None:
     """Nested repeats and plays keep their counters and return addresses on a 32-byte stack."""
     serial = plan.program.serial is not None
-    if plan.nesting > costs.max_nesting(serial):
-        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial)
+    watch = watches(plan)
+    if plan.nesting > costs.max_nesting(serial, watch):
+        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch)
 
 
 def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
@@ -27,9 +28,9 @@ def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.B
 
 
 def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span,
-            serial: bool = False) -> None:
+            serial: bool = False, watch: bool = False) -> None:
     """At the first repeat or play past the limit."""
-    limit = costs.max_nesting(serial)
+    limit = costs.max_nesting(serial, watch)
     st = walk.first_too_deep(main, body_of, limit)
     word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
     report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial)}-byte "
