@@ -28,14 +28,14 @@ servo arm  = P1.0
 servo grip = P1.1 speed 0.3s/60deg
 pose rest { arm: 0, grip: 0 }
 pose reach { arm: 100, grip: 50 }
+home rest
 main {
-  move rest
   move reach in 500ms
   hold 100ms
   move rest
 }
 """
-# move rest: first targets, 1 frame. move reach in 500ms: 50 frames;
+# home rest: at power-up, 1 frame. move reach in 500ms: 50 frames;
 #   arm 100 DAV x 2.467 ms = 246.7 ms of 500 ms = 49%; grip 50 x 3.7 ms = 185 ms = 37%.
 # hold 100ms: 10 frames. move rest: arm needs 24.67 -> 25 frames, grip 18.5 -> 19: F = 25;
 #   arm 246.7 / 250 = 99%, grip 185 / 250 = 74%. Total 1 + 50 + 10 + 25 = 86 frames.
@@ -209,10 +209,12 @@ def test_plan_table(capsys, program):
     lines = out.splitlines()
     assert lines[0].startswith("frame period P = 10 ms")
     assert re.match(r"\s*line\s+pose\s+frames\s+ms\s+servos", lines[1])
-    rows = [re.split(r"\s{2,}", line.strip(), maxsplit=4) for line in lines[2:-1]]
-    assert [r[:4] for r in rows] == [["7", "rest", "1", "10.0"], ["8", "reach", "50", "500.0"],
+    rows = [re.split(r"\s{2,}", line.strip(), maxsplit=4) for line in lines[2:-2]]
+    assert [r[:4] for r in rows] == [["6", "rest", "1", "10.0"], ["8", "reach", "50", "500.0"],
                                       ["10", "rest", "25", "250.0"]]
-    assert rows[0][4] == "arm set, grip set"
+    assert rows[0][4] == "(already there)"
+    assert lines[-2] == ("power-up: `home rest`, 1 frame = 10 ms before the program's first frame: "
+                         "arm at 0 ms, grip at 0 ms")
     assert rows[1][4] == "arm +100 (49%), grip +50 (37%)"
     assert rows[2][4] == "arm -100 (99%), grip -50 (74%)"
     assert lines[-1] == "total: 86 frames = 860 ms, then the last targets repeat"
@@ -224,8 +226,6 @@ def test_plan_csv(capsys, program):
     rows = list(csv.reader(io.StringIO(out)))
     assert rows[0] == ["line", "pose", "frames", "ms", "ease", "servo", "delta", "speed_percent"]
     assert rows[1:] == [
-        ["7", "rest", "1", "10", "linear", "arm", "set", ""],
-        ["7", "rest", "1", "10", "linear", "grip", "set", ""],
         ["8", "reach", "50", "500", "linear", "arm", "+100", "49"],
         ["8", "reach", "50", "500", "linear", "grip", "+50", "37"],
         ["10", "rest", "25", "250", "linear", "arm", "-100", "99"],
@@ -473,9 +473,10 @@ def test_plan_json_table(capsys, program):
     assert data["min_period_us"] <= 10000 and data["dav_deg"] == 0.74
     moves = data["moves"]
     assert [(m["line"], m["pose"], m["frames"], m["ms"], m["ease"]) for m in moves] == [
-        (7, "rest", 1, 10.0, "linear"), (8, "reach", 50, 500.0, "linear"), (10, "rest", 25, 250.0, "linear")]
-    assert moves[0]["servos"] == [{"servo": "arm", "delta": None, "speed_percent": None},
-                                  {"servo": "grip", "delta": None, "speed_percent": None}]
+        (6, "rest", 1, 10.0, "linear"), (8, "reach", 50, 500.0, "linear"), (10, "rest", 25, 250.0, "linear")]
+    assert moves[0]["servos"] == []          # the power-up frame: every servo already parked there
+    assert data["startup"] == {"frames": 1, "servos": [{"servo": "arm", "frame": 1, "ms": 0.0},
+                                                      {"servo": "grip", "frame": 1, "ms": 0.0}]}
     assert moves[2]["servos"] == [{"servo": "arm", "delta": -100, "speed_percent": 99},
                                   {"servo": "grip", "delta": -50, "speed_percent": 74}]
 

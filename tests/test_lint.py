@@ -49,10 +49,12 @@ def run_cli(args: list[str], capsys) -> tuple[int, str, str]:
 
 
 def diagnose(text: str, name: str = "t.servo"):
+    """The front end's result and diagnostics, but the `no-home` note that every program without `home`
+    gets (its own tests are in test_meanwhile.py and its fixture)."""
     src = SourceFile(name, text)
     rep = api.Reporter(src)
     fe = api.front_end(src, rep)
-    return fe, rep.sorted(), src
+    return fe, [d for d in rep.sorted() if d.code != "no-home"], src
 
 
 def codes(text: str) -> list[str]:
@@ -107,6 +109,7 @@ def one_ms_program(duration: str, speed: str) -> str:
 servo arm = P1.0 speed {speed}/0.74deg
 pose down {{ arm: 20 }}
 pose up   {{ arm: 120 }}
+home down
 main {{
   move down
   hold 100ms
@@ -121,7 +124,7 @@ def test_a_move_1ms_too_fast_exits_1_at_the_move(tmp_path, capsys):
     rc, out, err = run_cli(["lint", str(path)], capsys)
     assert rc == 1
     head = err.splitlines()[0]
-    assert head.startswith(f"{path}:8:5: error: "), err
+    assert head.startswith(f"{path}:9:5: error: "), err
     assert head.endswith("[infeasible-speed]")
     assert "`arm`" in head and "100 DAV (74°)" in head and "300 ms" in head and "301 ms" in head
     # 51 frames are needed; 303 ms is the shortest whole-ms duration that rounds to 51 frames
@@ -450,11 +453,11 @@ def test_p0_pull_up_covers_inputs(level):
 
 def test_lint_reports_the_period_on_success(tmp_path, capsys):
     path = tmp_path / "ok.servo"
-    path.write_text("servo a = P1.0\npose p { a: 1 }\nmain { move p }\n")
+    path.write_text("servo a = P1.0\npose p { a: 1 }\nhome p\nmain { move p }\n")
     rc, out, err = run_cli(["lint", str(path)], capsys)
     assert rc == 0 and err == ""
     assert out == f"{path}: 1 servo on P1, P = 5.3 ms (default; shortest " + out.split("shortest ")[1]
-    assert "program 1 frame = 5.3 ms" in out
+    assert "program 2 frames = 10.6 ms" in out          # the power-up frame and the move
 
 
 def test_play_after_a_loop_is_linted_not_crashed():
@@ -596,7 +599,7 @@ def test_one_inexact_angle_written_twice():
 
 def _many_unused(n: int) -> str:
     return ("servo a = P1.0\n" + "".join(f"pose p{i} {{ a: {i % 250} }}\n" for i in range(n))
-            + "pose home { a: 0 }\nmain { move home }\n")
+            + "pose home { a: 0 }\nhome home\nmain { move home }\n")
 
 
 def test_a_few_unused_declarations_are_reported_one_by_one():

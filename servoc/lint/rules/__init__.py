@@ -6,7 +6,7 @@ from . import (  # noqa: F401
     off_grid_width, inexact_angle,
     period_too_short, period_too_long, short_gap, short_hold, empty_loop, too_long,
     unused, unreachable, duplicate_event,
-    reacting,
+    no_home, level_in_loop, until_no_frame,
     p0_pull_up,
     too_deep,
     firmware_limit,

@@ -1,0 +1,19 @@
+"""until-no-frame (warning): `STATEMENT until EVENT` on a statement that takes no frame: there is
+nothing for the event to cut short."""
+
+from __future__ import annotations
+
+from ...diagnostics import Severity
+from ...plan import Plan, SelectStep, bodies, takes_frames
+from .. import Report, rule
+
+
+@rule("until-no-frame", Severity.WARNING)
+def until_no_frame(plan: Plan, report: Report) -> None:
+    memo: dict = {}
+    for body in bodies(plan):
+        for st in body:
+            if isinstance(st, SelectStep) and st.until and not takes_frames(st.meanwhile, plan, memo):
+                report("this statement takes no frame, so there is nothing for `until` to cut short", st.span,
+                       label="takes no frame",
+                       help="a `hold` shorter than half a frame takes none; make it longer, or drop `until`")
