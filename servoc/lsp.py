@@ -158,6 +158,13 @@ class Declared:
     name: nodes.Name
 
 
+def _input_of(event: nodes.Event) -> tuple[nodes.Name, ...]:
+    """The input an event names (`b`, `press b`, `release b`), as a tuple of none or one."""
+    if isinstance(event, nodes.EdgeEvent):
+        return (event.input,)
+    return (event,) if isinstance(event, nodes.Name) else ()
+
+
 class Symbols:
     """Every name of one syntax tree: declarations (the first of a name counts) and uses."""
 
@@ -178,6 +185,9 @@ class Symbols:
                 if item.base is not None:
                     self.names.append(item.base)
                 self.names.extend(entry.target for entry in item.entries)
+            elif isinstance(item, nodes.SettingDecl) and item.word.text == "home" \
+                    and isinstance(item.value, nodes.Name):
+                self.names.append(item.value)
             if isinstance(item, (nodes.SequenceDecl, nodes.MainDecl)):
                 bodies.append(item.body)
         for st in walk.statements(bodies):
@@ -185,11 +195,10 @@ class Symbols:
                 self.names.append(st.pose)
             elif isinstance(st, nodes.PlayStmt):
                 self.names.append(st.name)
-            elif isinstance(st, nodes.WaitStmt) and isinstance(st.event, nodes.Name):
-                self.names.append(st.event)
+            elif isinstance(st, (nodes.WaitStmt, nodes.UntilStmt)):
+                self.names.extend(_input_of(st.event))
             elif isinstance(st, nodes.SelectStmt):
-                self.names.extend(b.event for b in st.branches
-                                  if isinstance(b, nodes.OnBranch) and isinstance(b.event, nodes.Name))
+                self.names.extend(n for b in st.branches if isinstance(b, nodes.OnBranch) for n in _input_of(b.event))
 
     def at(self, offset: int) -> nodes.Name | None:
         """The name under the cursor (touching either end of it counts)."""

@@ -14,6 +14,7 @@ terminal names. `parse` never raises, whatever the input.
 
 from __future__ import annotations
 
+import difflib
 import re
 import unicodedata
 from fractions import Fraction
@@ -401,6 +402,20 @@ _NAME_AFTER = {
 }
 
 
+def declaration_words() -> list[str]:
+    """The words a declaration starts with: the keywords, then the settings `home` and `stagger`."""
+    term_text = {t.name: t.pattern.value for t in _parser().terminals if isinstance(t.pattern, PatternStr)}
+    return [term_text[n] for n in _DECL_KWS if n in term_text] + ["home", "stagger"]
+
+
+def not_a_declaration(word: str) -> tuple[str, str]:
+    """The message and help for a top-level item that starts with `word`, no declaration's word."""
+    words = declaration_words()
+    close = difflib.get_close_matches(word, words, n=1, cutoff=0.7)
+    return (f"expected a declaration ({_join([f'`{w}`' for w in words])}), found `{_show(word)[1:-1]}`",
+            f"did you mean `{close[0]}`?" if close else "a declaration starts with one of these words")
+
+
 def _pos_of(exc: UnexpectedInput, text: str) -> int:
     if isinstance(exc, UnexpectedToken):
         pos = len(text) if exc.token.type == "$END" else exc.token.start_pos
@@ -475,8 +490,8 @@ def _expected_words(expected: set[str], prev: list[str], term_text: dict[str, st
     if "SIGN" in exp and "NUMBER" in exp:
         exp.discard("SIGN")
     if set(_DECL_KWS) <= exp:
-        words.append("a declaration (" + _listing(_DECL_KWS, term_text) + ")")
-        exp -= set(_DECL_KWS)
+        words.append("a declaration (" + _join([f"`{w}`" for w in declaration_words()]) + ")")
+        exp -= set(_DECL_KWS) | {"NAME"}
     if set(_STMT_KWS) <= exp:
         words.append("a statement (" + _listing(_STMT_KWS, term_text) + ")")
         exp -= set(_STMT_KWS)
@@ -586,13 +601,12 @@ def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
         kind = _kind(tok, term_text)
         found = _found(tok, kws)
         help_ = ""
-        stray = toks[-1] if toks else None
+        starts = [i + 1 for i, t in enumerate(toks) if t.type in ("_NL", "SEMICOLON")]
+        stray = toks[starts[-1] if starts else 0] if toks and (not starts or starts[-1] < len(toks)) else None
         if (stray is not None and stray.type == "NAME" and stray.value not in ("home", "stagger")
-                and (len(toks) == 1 or toks[-2].type in ("_NL", "SEMICOLON")) and not _open_braces(toks)):
-            words = _expected_words(set(_DECL_KWS), [], term_text)
-            return (f"expected {_join(words)}, found {_found(stray, kws)}", Span(stray.start_pos, stray.end_pos),
-                    "the settings `home POSE` and `stagger DUR` are the only declarations that start "
-                    "with another word")
+                and not _open_braces(toks)):
+            message, help_ = not_a_declaration(stray.value)
+            return message, Span(stray.start_pos, stray.end_pos), help_
         if tok.type in kws.values() and "NAME" in expected:
             return (f"`{tok.value}` is a keyword and cannot be used as a name, expected {_name_word(prev)}",
                     span, f"keywords are reserved; choose another name, such as `{tok.value}_1`")

@@ -91,7 +91,7 @@ def test_level_must_be_low_or_high():
 
 
 @pytest.mark.parametrize("text, line, col, words", [
-    ("main { select { on } }\n", 1, 20, "an input's name or a byte"),
+    ("main { select { on } }\n", 1, 20, "an input's name (or `press NAME`, `release NAME`), a byte"),
     ("main { send }\n", 1, 13, "a byte such as"),
     ("main { select { move a } }\n", 1, 17, "a branch"),
     ("main { wait \"x }\n", 1, 13, "no closing"),
@@ -110,7 +110,8 @@ BODY = "main { wait button; move a }\n"
 
 @pytest.mark.parametrize("decls, expected", [
     ("input button = P1.0\nservo arm = P1.0\n", [("pin-conflict", 1, 16)]),
-    ("input button = P3.2\ninput other = P3.2\nservo arm = P1.0\n", [("pin-conflict", 2, 15)]),
+    ("input button = P3.2\ninput other2 = P3.2\nservo arm = P1.0\n", [("pin-conflict", 2, 16)]),
+    ("input button = P3.2\ninput other = P3.3\nservo arm = P1.0\n", [("syntax-error", 2, 7)]),   # reserved
     ("serial 4800\ninput button = P3.0\nservo arm = P1.0\n", [("pin-conflict", 2, 16)]),
     ("serial 4800\ninput button = P3.1\nservo arm = P1.0\n", [("pin-conflict", 2, 16)]),
     ("input button = P3.0\nservo arm = P1.0\n", []),                 # without serial, RXD is a pin

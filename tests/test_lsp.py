@@ -34,6 +34,7 @@ servo leg = P1.1 trim 3
 pose up { arm: 122, leg: 1500us }
 pose down { arm: 0, leg: 100 }
 pose up { arm: 10 }
+home down
 main {
   move up
   move down in 20ms
@@ -301,7 +302,13 @@ def test_hover_on_a_move(editor: Editor):
     rows = [r for r in csv.DictReader(io.StringIO(table)) if r["pose"] == "down"]
     assert {r["servo"]: r["speed_percent"] for r in rows} == {"arm": "75", "leg": "15"}
 
+    # from `home down` the first move is speed-checked; without `home` it sets the servos at once
     first = editor.hover(uri, *where(FIXED, "move up", into=1)).contents.value
+    assert "F = 31 frames × P 10 ms = 310 ms (as fast as the slowest servo allows)" in first
+    assert "`arm`: +122 DAV (90.28°)" in first
+    no_home = FIXED.replace("home down\n", "")
+    editor.change(uri, no_home)
+    first = editor.hover(uri, *where(no_home, "move up", into=1)).contents.value
     assert "F = 1 frame × P 10 ms = 10 ms (as fast as the slowest servo allows)" in first
     assert "`arm`: set at once to N 122" in first
 
@@ -331,9 +338,9 @@ def test_definition_and_references_of_a_pose(editor: Editor):
     loc = editor.definition(uri, *where(FIXED, "move down", into=6))
     assert loc.uri == uri and pos(loc.range.start) == where(FIXED, "down") and pos(loc.range.end) == where(FIXED, "down", into=4)
     refs = editor.references(uri, *where(FIXED, "down"))
-    assert [pos(r.range.start) for r in refs] == [where(FIXED, "down"), where(FIXED, "down", nth=1)]
-    refs = editor.references(uri, *where(FIXED, "down", nth=1), with_decl=False)
-    assert [pos(r.range.start) for r in refs] == [where(FIXED, "down", nth=1)]
+    assert [pos(r.range.start) for r in refs] == [where(FIXED, "down", nth=n) for n in range(3)]   # `home down`
+    refs = editor.references(uri, *where(FIXED, "down", nth=2), with_decl=False)
+    assert [pos(r.range.start) for r in refs] == [where(FIXED, "down", nth=n) for n in (1, 2)]
 
 
 def test_definition_of_a_servo_group_and_sequence(editor: Editor):
@@ -403,3 +410,18 @@ def test_rename_needs_a_declared_name(editor: Editor):
     assert editor.prepare_rename(uri, *where(FIXED, "frame")) is None
     with pytest.raises(Exception, match="only a declared"):
         editor.rename(uri, *where(FIXED, "frame"), "x")
+
+
+def test_references_of_an_input_through_edges_and_until(editor: Editor):
+    text = ("input btn = P3.2\nservo arm = P1.0\npose a { arm: 10 }\npose b { arm: 200 }\nhome a\nmain {\n"
+            "  wait press btn\n  move b in 2s until release btn\n  select {\n    on btn { move a }\n"
+            "    meanwhile { hold 1s }\n  }\n}\n")
+    uri, diags = editor.open("edges.servo", text)
+    assert [d.code for d in diags] == []
+    refs = editor.references(uri, *where(text, "btn"))
+    assert [pos(r.range.start) for r in refs] == [where(text, "btn", nth=n) for n in range(4)]
+    edit = editor.rename(uri, *where(text, "btn", nth=2), "button")
+    assert len(edit.changes[uri]) == 4
+    refs = editor.references(uri, *where(text, "home a", into=5))       # `home a` uses the pose `a`
+    assert [pos(r.range.start) for r in refs] == [where(text, "a {"), where(text, "home a", into=5),
+                                                  where(text, "move a", into=5)]

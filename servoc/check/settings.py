@@ -8,6 +8,7 @@ from .. import nodes
 from ..diagnostics import Label
 from ..printer import format_quantity
 from ..source import Span
+from ..syntax import not_a_declaration
 from . import quantities
 from ..target import CHIPS, DEFAULT_CHIP, chip as find_chip, DEFAULT_CLOCK_HZ, Target, closest, fmt_hz
 from .context import Context
@@ -21,9 +22,8 @@ def settings(tree: nodes.Program, ctx: Context) -> None:
             used_from = item
         if isinstance(item, nodes.SettingDecl):
             if item.word.text not in POWER_UP:
-                r.error("syntax-error", f"expected a declaration, found `{item.word.text}`", item.word.span,
-                        help="declarations start with `servo`, `group`, `pose`, `sequence`, `main`, `frame`, "
-                             "`target`, `input`, `serial`, `home` or `stagger`")
+                message, help_ = not_a_declaration(item.word.text)
+                r.error("syntax-error", message, item.word.span, help=help_)
                 continue
         elif not isinstance(item, (nodes.FrameDecl, nodes.TargetDecl)):
             continue
