@@ -31,7 +31,7 @@ GRAMMAR_PATH = EXT / "syntaxes" / "servo.tmLanguage.json"
 PACKAGE = json.loads((EXT / "package.json").read_text(encoding="utf-8"))
 NODE_PACKAGES = ("vscode-textmate", "vscode-oniguruma", "vscode-languageclient")
 
-BAD_PROGRAM = "servo a = P1.0\npose p { a: 0 }\npose q { a: 250 }\nmain {\n  move p\n  move q in 10ms\n}\n"
+BAD_PROGRAM = "servo a = P1.0\npose p { a: 0 }\npose q { a: 250 }\nhome p\nmain {\n  move p\n  move q in 10ms\n}\n"
 
 
 # ---------------------------------------------------------------- node and the engine
@@ -148,6 +148,22 @@ def test_names_are_not_keywords(node):
         assert not is_keyword(scopes) and not has(scopes, "constant"), (word, scopes)
     assert has(one_token(lines[3], "stand"), "variable") and has(one_token(lines[3], "moves"), "variable")
     assert is_keyword(one_token(lines[3], "move")) and is_keyword(one_token(lines[3], "play"))
+
+
+def test_setting_and_edge_words_are_keywords_only_where_the_grammar_expects_them(node):
+    lines = tokenize(node, "\n".join([
+        "input release = P3.2",
+        "pose home { a: 1 }",
+        "home home",
+        "stagger 100ms",
+        "main { wait release release; move home until press release }",
+    ]))
+    assert not is_keyword(one_token(lines[0], "release")) and not is_keyword(one_token(lines[1], "home"))
+    assert is_keyword(one_token(lines[2], "home")) and not is_keyword(one_token(lines[2], "home", nth=1))
+    assert is_keyword(one_token(lines[3], "stagger"))
+    for word, nth, keyword in (("wait", 0, True), ("release", 0, True), ("release", 1, False),
+                               ("until", 0, True), ("press", 0, True), ("release", 2, False), ("home", 0, False)):
+        assert is_keyword(one_token(lines[4], word, nth=nth)) == keyword, (word, nth, lines[4])
 
 
 def test_in_out_is_one_token(node):
@@ -308,7 +324,7 @@ def test_problem_matcher_reads_servoc_lint(node, tmp_path):
         assert len(matches) == 1, output
         m = matches[0]
         assert m[1] == file_arg
-        assert (m[2], m[3], m[4], m[6]) == ("6", "3", "error", "infeasible-speed")
+        assert (m[2], m[3], m[4], m[6]) == ("7", "3", "error", "infeasible-speed")
         assert m[5].startswith("servo `a` cannot move") and not m[5].endswith("]")
         # Python's re reads it the same way
         py = [re.match(pattern["regexp"], line) for line in output]
