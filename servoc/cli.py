@@ -653,7 +653,11 @@ def _plan_rows(plan: Plan, source) -> list:
         line, _ = source.line_col(inst.step.span.start)
         ms = Fraction(inst.frames * plan.period_us, 1000)
         cells = []
+        power_up = plan.startup and inst.step.span == plan.program.home_span
         for m in inst.motions:
+            if power_up:            # the home pose's first pulses set the servos
+                cells.append((plan.channels[m.channel].name, "set", None))
+                continue
             if m.n0 is not None and m.delta == 0:
                 continue
             ch = plan.channels[m.channel]
@@ -663,6 +667,19 @@ def _plan_rows(plan: Plan, source) -> list:
                           None if m.n0 is None else round(float(speed))))
         rows.append((line, inst.step.pose, inst.frames, float(ms), inst.step.ease, cells))
     return rows
+
+
+def event_words(ev) -> str:
+    """What makes an event happen, in words: `when ...`."""
+    if ev.other:
+        return "a byte no other `on` of the select names is received"
+    if ev.input is None:
+        return f"byte {ev.byte} is received"
+    if ev.edge == "press":
+        return f"input `{ev.input}` becomes active (a press)"
+    if ev.edge == "release":
+        return f"input `{ev.input}` becomes inactive (a release)"
+    return f"input `{ev.input}` is active"
 
 
 def _branch_rows(plan: Plan, source) -> list:
@@ -676,8 +693,7 @@ def _branch_rows(plan: Plan, source) -> list:
                 if isinstance(b, AfterBranch):
                     what = f"after {b.frames} frame{'s' if b.frames != 1 else ''} with no event"
                 else:
-                    what = "when " + (f"input `{b.event.input}` is active" if b.event.input is not None
-                                      else f"byte {b.event.byte} is received")
+                    what = "when " + event_words(b.event)
                 head = ("wait " if st.wait else "") + (b.event.text if st.wait else branch_text(b))
                 rows.append((b_line, head, b.frames if isinstance(b, AfterBranch) else None,
                              what + ("" if st.wait else f" (select at line {line})")))

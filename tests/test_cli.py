@@ -212,7 +212,7 @@ def test_plan_table(capsys, program):
     rows = [re.split(r"\s{2,}", line.strip(), maxsplit=4) for line in lines[2:-2]]
     assert [r[:4] for r in rows] == [["6", "rest", "1", "10.0"], ["8", "reach", "50", "500.0"],
                                       ["10", "rest", "25", "250.0"]]
-    assert rows[0][4] == "(already there)"
+    assert rows[0][4] == "arm set, grip set"          # the power-up frame: the first pulses set them
     assert lines[-2] == ("power-up: `home rest`, 1 frame = 10 ms before the program's first frame: "
                          "arm at 0 ms, grip at 0 ms")
     assert rows[1][4] == "arm +100 (49%), grip +50 (37%)"
@@ -226,6 +226,8 @@ def test_plan_csv(capsys, program):
     rows = list(csv.reader(io.StringIO(out)))
     assert rows[0] == ["line", "pose", "frames", "ms", "ease", "servo", "delta", "speed_percent"]
     assert rows[1:] == [
+        ["6", "rest", "1", "10", "linear", "arm", "set", ""],        # the power-up frame, `home rest`
+        ["6", "rest", "1", "10", "linear", "grip", "set", ""],
         ["8", "reach", "50", "500", "linear", "arm", "+100", "49"],
         ["8", "reach", "50", "500", "linear", "grip", "+50", "37"],
         ["10", "rest", "25", "250", "linear", "arm", "-100", "99"],
@@ -474,7 +476,8 @@ def test_plan_json_table(capsys, program):
     moves = data["moves"]
     assert [(m["line"], m["pose"], m["frames"], m["ms"], m["ease"]) for m in moves] == [
         (6, "rest", 1, 10.0, "linear"), (8, "reach", 50, 500.0, "linear"), (10, "rest", 25, 250.0, "linear")]
-    assert moves[0]["servos"] == []          # the power-up frame: every servo already parked there
+    assert moves[0]["servos"] == [{"servo": "arm", "delta": None, "speed_percent": None},   # the power-up
+                                  {"servo": "grip", "delta": None, "speed_percent": None}]
     assert data["startup"] == {"frames": 1, "servos": [{"servo": "arm", "frame": 1, "ms": 0.0},
                                                       {"servo": "grip", "frame": 1, "ms": 0.0}]}
     assert moves[2]["servos"] == [{"servo": "arm", "delta": -100, "speed_percent": 99},
