@@ -846,7 +846,7 @@ class _Walker:
                     if st.meanwhile is not None:
                         cut = self._meanwhile(st, s, made(where), branch)
                         more(cut)
-                        starts[cut] = ("cut", st.span)
+                        starts[cut] = ("cut", st.span, st.branches[0].event.text if st.until else None)
                     for b in st.branches:
                         for s1, w1 in starts.items():
                             exits, _, h = self.walk(b.body, s1, made(w1), b)

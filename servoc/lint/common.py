@@ -53,13 +53,16 @@ def num(x) -> str:
 
 def origin_text(origin: tuple, source) -> str:
     """Where a state comes from (`MoveInstance.origin`), in words: `the start of `main``, `the end
-    of `walk``, `the end of `move stand` (line 12)`."""
+    of `walk``, `the end of `move stand` (line 12)`, where a meanwhile body or an `until` statement is cut."""
     if origin[0] == "play":
         return f"the end of `{origin[1]}`"
     if origin[0] == "move":
         return f"the end of `move {origin[1]}` (line {source.line_col(origin[2].start)[0]})"
     if origin[0] == "cut":
-        return f"where an event cuts the meanwhile body of the select at line {source.line_col(origin[1].start)[0]}"
+        line = source.line_col(origin[1].start)[0]
+        if origin[2] is not None:
+            return f"where `until {origin[2]}` (line {line}) cuts the statement short"
+        return f"where an event cuts the meanwhile body of the select at line {line}"
     if origin[0] == "home":
         return "the `home` pose"
     return "the start of `main`"

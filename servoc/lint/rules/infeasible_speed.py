@@ -5,7 +5,7 @@ from __future__ import annotations
 from ...diagnostics import Severity
 from ...diagnostics import Label
 from ...source import NO_SPAN
-from ...plan import Plan, branch_head, has_selects
+from ...plan import Plan, branch_head, branch_text, has_selects
 from ...speed import t_dav_of, too_fast
 from ...units import DAV_DEG, fmt_deg, fmt_ms
 from .. import Report, rule
@@ -33,7 +33,8 @@ def infeasible_speed(plan: Plan, report: Report) -> None:
         if reacts:
             text = context_text(inst, report.reporter.source)
             context = f", {text}"
-            span = branch_head(inst.branch) if inst.branch is not None else inst.origin[2] if len(inst.origin) > 2 else None
+            span = branch_head(inst.branch) if inst.branch is not None else \
+                inst.origin[2] if inst.origin[0] in ("move", "play") else None
             if span is not None:
                 secondary = (Label(span, text if inst.branch is not None else "the state comes from here"),)
         fix = (f"use `in {whole_ms_for(frames_min, plan.period_us, need)}` or longer, or drop the duration "
@@ -42,7 +43,13 @@ def infeasible_speed(plan: Plan, report: Report) -> None:
             src = report.reporter.source
             line = src.line_col(m.cut.start)[0]
             stmt = src.text[m.cut.start:m.cut.end].split("\n")[0].strip()
-            context += (f"; an event can cut `{stmt}` (line {line}) short where `{ch_.name}` is at N {m.n0}")
+            if inst.origin[0] == "cut":
+                sel = f"line {src.line_col(inst.origin[1].start)[0]}"
+                who = f"`until {inst.origin[2]}`" if inst.origin[2] is not None else f"an event of the select at {sel}"
+                context = ("" if inst.branch is None else f", after `{branch_text(inst.branch)}`") + \
+                    f", from where {who} cuts `{stmt}` (line {line}) short with `{ch_.name}` at N {m.n0}"
+            else:
+                context += f"; an event can cut `{stmt}` (line {line}) short where `{ch_.name}` is at N {m.n0}"
             secondary = secondary + (Label(m.cut, f"`{ch_.name}` can be at N {m.n0} here"),)
             fix += f", or move `{ch_.name}` somewhere nearer N {m.n1} first"
         report(
