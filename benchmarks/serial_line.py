@@ -20,6 +20,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 import tempfile
 import time
@@ -163,9 +164,9 @@ def sustained() -> list[str]:
 
 def added() -> list[str]:
     text = (ROOT / "examples/hexapod_serial.servo").read_text(encoding="utf-8")
-    plain = text.replace("serial 4800\n", "").replace('send "R"\n', "")
-    plain = plain.replace('on "w"', "on w").replace('on "s"', "on s").replace('on "l"', "on l")
-    plain = plain.replace('; send "W"', "").replace('; send "S"', "").replace('; send "L"', "")
+    plain = re.sub(r';? *send "."', "", text.replace("serial 4800\n", ""))          # the same program with buttons
+    plain = "\n".join(line for line in plain.splitlines() if "on other" not in line)
+    plain = re.sub(r'(on|until) "(.)"', r"\1 \2", plain)
     plain = "input w = P3.2\ninput s = P3.3\ninput l = P3.4\n" + plain
     out = []
     units = {}

@@ -30,7 +30,7 @@ from . import walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .plan import (UNBOUNDED, watches, AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
-                   fewest_frames, send_gap, send_run, sends, steps, takes_frames)
+                   edge_ports, fewest_frames, select_ram, select_slots, send_gap, send_run, sends, steps, takes_frames)
 from .source import SourceFile
 from .units import N_MAX
 
@@ -331,35 +331,6 @@ def _byte_map(ctx: _Ctx, named: list[int], st: SelectStep) -> dict:
     return byte_map
 
 
-def select_slots(plan: Plan) -> dict[int, int]:
-    """id(select) -> its level: the most meanwhile bodies around it in any context it runs in. A
-    select inside another's meanwhile body has a higher level than it, so selects that wait at the
-    same time (an outer one running its body, inner ones in it) never share a level."""
-    slots: dict[int, int] = {}
-    seen: set = set()
-    work: list = [(plan.main, 0)]
-    while work:
-        body, depth = work.pop()
-        if (id(body), depth) in seen:
-            continue
-        seen.add((id(body), depth))
-        for st in body:
-            if isinstance(st, SelectStep):
-                slots[id(st)] = max(slots.get(id(st), 0), depth)
-                work.extend((b.body, depth) for b in st.branches)
-                if st.meanwhile is not None:
-                    work.append((st.meanwhile, depth + 1))
-            elif isinstance(st, (RepeatStep, LoopStep)):
-                work.append((st.body, depth))
-            elif isinstance(st, PlayStep):
-                work.append((ctx_body(plan, st.sequence), depth))
-    return slots
-
-
-def ctx_body(plan: Plan, name: str) -> tuple:
-    return plan.sequence(name).body
-
-
 def _seq_label(plan: Plan, name: str) -> str:
     return f"seq{[s.name for s in plan.sequences].index(name) + 1}"
 
@@ -370,9 +341,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     between CLR EA and SETB EA) at several points of the background: the edges must not move."""
     ctx = _Ctx(plan, source, [], {})
     ctx.slots = select_slots(plan)
-    inputs = {i.name: i for i in plan.program.inputs}
-    ctx.edge_ports = tuple(sorted({inputs[b.event.input].port for st in steps(plan) if isinstance(st, SelectStep)
-                                   for b in st.branches if not isinstance(b, AfterBranch) and b.event.edge}))
+    ctx.edge_ports = edge_ports(plan)
     main_ops: list[dict] = []
     _ops(ctx, plan.main, main_ops)
     sequences = []
@@ -383,8 +352,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         sequences.append({"label": _seq_label(plan, seq.name), "name": seq.name, "ops": ops,
                           "where": ctx.where(seq.span)})
     serial = plan.program.serial
+    taken = select_ram(plan)
     stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, watches(plan))
-    room = costs.stack_room(serial is not None)
+    room = costs.stack_room(serial is not None, taken)
     if stack_bytes > room:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
                                   f"the firmware has {room}")
@@ -392,7 +362,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         raise layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
                                  f"the transmit queue holds {costs.QUEUE}")
 
-    ram = layout.RamAllocator(layout.DIRECT_END + (costs.SERIAL_RAM if serial is not None else 0))
+    ram = layout.RamAllocator(layout.DIRECT_END + (costs.SERIAL_RAM if serial is not None else 0) + taken)
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED"), 0)
@@ -411,7 +381,13 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     e = _engine(plan, ram, period_cycles)
     e["framed"] = ctx.flagged
     s = None if serial is None else _serial(serial, ram)
-    stack_base = ram.next if serial is not None else layout.STACK_BASE
+    # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
+    ram.alloc("ITEMS", 1 + 3 * (e["most"] - 1) + 3, "the handler's items for the port being pulsed",
+              direct=False)
+    if serial is not None:
+        ram.alloc("RXQ", costs.QUEUE, "the receive queue", direct=False)
+        ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
+    stack_base = ram.next if serial is not None or taken else layout.STACK_BASE
     chans = []
     for c in plan.channels:
         pin = 8 * c.port + c.bit
@@ -544,7 +520,6 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
         ports[-1]["rest_add"] = (costs.STOP - ports[-1]["rnext"]) % 0x10000   # no fall: straight to the next rise
     most = max((p["s"] for p in ports), default=1)
-    ram.alloc("ITEMS", 1 + 3 * (most - 1) + 3, "the handler's items for the port being pulsed")
     ram.alloc("RISEM", 1, "the lines of the next port to rise that have a target")
     ram.alloc("DC", 1, "how many distinct N the sorted port has")
     ram.alloc("EMC", 1, "ports the handler has taken from the sort buffer (counts on)")
@@ -608,10 +583,9 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],
 
 
 def _serial(serial, ram: layout.RamAllocator) -> dict:
-    """The serial line's numbers (serial.asm.j2) and its RAM, taken from the stack."""
+    """The serial line's numbers (serial.asm.j2) and its counters, taken from the stack (its queues
+    are allocated with the other buffers)."""
     q = costs.QUEUE
-    ram.alloc("RXQ", q, "the receive queue")
-    ram.alloc("TXQ", q, "the transmit queue")
     ram.alloc("RXW", 1, "bytes received and queued (counts on)")
     ram.alloc("RXR", 1, "bytes the program took from the receive queue (counts on)")
     ram.alloc("TXW", 1, "bytes the program queued to send (counts on)")

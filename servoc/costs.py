@@ -168,14 +168,16 @@ def default_period_us(min_period: int) -> int:
 # The stack: 46 bytes from the end of the direct variables (0x72, with 24 servos
 # on three ports) up to the motion state at 0xA0. Each `repeat` keeps its
 # pass counter there and each `play` its return address (2 bytes a level);
-# the runtime goes at most RUNTIME_STACK bytes deeper below a program call (WATCH_STACK
-# more with a meanwhile body: frame_w's call, and the calls of a look it makes), and
-# the edge handler, which may come at any instruction, HANDLER_STACK more. Code
+# the runtime goes at most RUNTIME_STACK bytes deeper below a program call (frame_io's
+# 4 under run_list's 4), WATCH_STACK more with a meanwhile body (frame_w calls a look,
+# 2, which calls rx_want, 2, which calls rx_named, 3: 9 where frame_io takes 4), and
+# the edge handler, which may come at any instruction, HANDLER_STACK more. The selects'
+# RAM (plan.select_ram) and the serial line's are taken from the stack's 46 bytes. Code
 # generation reads the runtime's depth from the code (codegen.runtime_stack) and
 # holds it to these figures.
 STACK_BYTES = 46
 RUNTIME_STACK = 8
-WATCH_STACK = 3
+WATCH_STACK = 5
 HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL
 
 
@@ -184,9 +186,10 @@ def runtime_stack(watch: bool = False) -> int:
     return RUNTIME_STACK + (WATCH_STACK if watch else 0)
 
 
-def stack_room(serial: bool = False) -> int:
-    """Bytes of stack: the serial line's queues and counters take SERIAL_RAM of them."""
-    return STACK_BYTES - (SERIAL_RAM if serial else 0)
+def stack_room(serial: bool = False, taken: int = 0) -> int:
+    """Bytes of stack: the serial line's queues and counters take SERIAL_RAM of them, the selects
+    `taken` more (plan.select_ram)."""
+    return STACK_BYTES - (SERIAL_RAM if serial else 0) - taken
 
 
 def stack_bytes(nesting: int, serial: bool = False, watch: bool = False) -> int:
@@ -194,5 +197,5 @@ def stack_bytes(nesting: int, serial: bool = False, watch: bool = False) -> int:
     return 2 * nesting + runtime_stack(watch) + HANDLER_STACK + (SERIAL_STACK if serial else 0)
 
 
-def max_nesting(serial: bool = False, watch: bool = False) -> int:
-    return (stack_room(serial) - runtime_stack(watch) - HANDLER_STACK - (SERIAL_STACK if serial else 0)) // 2
+def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0) -> int:
+    return (stack_room(serial, taken) - runtime_stack(watch) - HANDLER_STACK - (SERIAL_STACK if serial else 0)) // 2

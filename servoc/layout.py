@@ -34,6 +34,7 @@ STATE_BYTES = 4
 STATE_BASE = RAM_SIZE - 24 * STATE_BYTES     # motion state, 4 bytes per pin: 0xA0..0xFF
 STACK_BASE = STATE_BASE - costs.STACK_BYTES  # the stack below it: 0x72..0x9F
 DIRECT_END = STACK_BASE         # direct variables end where the stack starts
+DIRECT_LIMIT = 0x80             # above it, RAM is reached only through @R0/@R1 (direct 0x80.. are the SFRs)
 WORK_BASE = CUR_BASE + 24       # variables after CUR
 
 # Bit-addressable bytes: (name, address, what). A pin's bit address is (byte - 0x20) x 8 + pin.
@@ -153,18 +154,22 @@ class PeriodTooLong(LayoutError):
 
 
 class RamAllocator:
-    """A bump allocator over direct RAM from WORK_BASE up to DIRECT_END."""
+    """A bump allocator over RAM from WORK_BASE up to `end` (DIRECT_END, or further where the serial
+    line and the selects take bytes from the stack). A variable the code names directly must end
+    by DIRECT_LIMIT; buffers reached only through @R0/@R1 (direct=False) may go past it."""
 
     def __init__(self, end: int = DIRECT_END) -> None:
         self.next = WORK_BASE
         self.end = end
         self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)
 
-    def alloc(self, name: str, size: int, what: str) -> int:
+    def alloc(self, name: str, size: int, what: str, direct: bool = True) -> int:
         addr = self.next
         self.next += size
         if self.next > self.end:
-            raise RamFull(f"direct RAM is full: {name} does not fit below the stack at 0x{self.end:02X}")
+            raise RamFull(f"RAM is full: {name} does not fit below the stack at 0x{self.end:02X}")
+        if direct and self.next > DIRECT_LIMIT:
+            raise RamFull(f"direct RAM is full: {name} does not fit below 0x{DIRECT_LIMIT:02X}")
         self.symbols.append((name, addr, what))
         return addr
 

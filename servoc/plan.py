@@ -415,6 +415,46 @@ def watches(plan: Plan) -> bool:
     return any(isinstance(st, SelectStep) and st.meanwhile is not None for st in steps(plan))
 
 
+def select_slots(plan: Plan) -> dict[int, int]:
+    """id(select) -> its level: the most meanwhile bodies around it in any context it runs in. A
+    select inside another's meanwhile body has a higher level than it, so selects that wait at the
+    same time (an outer one running its body, inner ones in it) never share a level."""
+    slots: dict[int, int] = {}
+    seen: set = set()
+    work: list = [(plan.main, 0)]
+    while work:
+        body, depth = work.pop()
+        if (id(body), depth) in seen:
+            continue
+        seen.add((id(body), depth))
+        for st in body:
+            if isinstance(st, SelectStep):
+                slots[id(st)] = max(slots.get(id(st), 0), depth)
+                work.extend((b.body, depth) for b in st.branches)
+                if st.meanwhile is not None:
+                    work.append((st.meanwhile, depth + 1))
+            elif isinstance(st, (RepeatStep, LoopStep)):
+                work.append((st.body, depth))
+            elif isinstance(st, PlayStep):
+                work.append((plan.sequence(st.sequence).body, depth))
+    return slots
+
+
+def edge_ports(plan: Plan) -> tuple[int, ...]:
+    """The ports of the inputs some `on press` / `on release` watches, ascending (a look samples each)."""
+    inputs = {i.name: i for i in plan.program.inputs}
+    return tuple(sorted({inputs[b.event.input].port for st in steps(plan) if isinstance(st, SelectStep)
+                         for b in st.branches if not isinstance(b, AfterBranch) and b.event.edge}))
+
+
+def select_ram(plan: Plan) -> int:
+    """Bytes of RAM the selects take from the stack: a look's sample of each port in `edge_ports`,
+    and per level of `select_slots` with a meanwhile body, the select running it and its stack pointer."""
+    slots = select_slots(plan)
+    levels = {slots[id(st)] for st in steps(plan) if isinstance(st, SelectStep) and st.meanwhile is not None}
+    return len(edge_ports(plan)) + 2 * len(levels)
+
+
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
     """Whether `body` has anything that can take a frame (a move; a hold of at least half a
     frame; a select, which waits while no event is there; repeat, loop and play of those): a

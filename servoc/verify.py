@@ -285,7 +285,7 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
         if t1 is None or isinstance(branch, AfterBranch):
             return True
         begins = t1 + (start + cand.frames - lead) * plan.period_us
-        return any(at <= begins for at in _event_times(branch, events, arrivals))
+        return any(at <= begins for at in _occurrences(branch, events, arrivals))
 
     choices: tuple = ()
     report = verify(plan, trace, frames, choices)
@@ -316,7 +316,7 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
                 if isinstance(br, AfterBranch) or t1 is None:
                     continue
                 near: set[int] = set()          # a frame or three after each time its event came
-                for at in _event_times(br, events, arrivals):
+                for at in _occurrences(br, events, arrivals):
                     first = int((at - t1) / plan.period_us) + lead - start
                     near.update(w for w in range(first - 1, first + 4) if 1 <= w < max(1, waited - 3))
                 for w in sorted(near):
@@ -458,13 +458,59 @@ def _waited(choices: tuple) -> int:
     return sum(c.frames for c in choices if c.frames < UNDECIDED)
 
 
-def _event_times(branch, events: list, arrivals: list) -> list[float]:
-    """When the event of an `on` branch happened: its input becoming active, or its byte arriving."""
+@dataclass(frozen=True)
+class _Take:
+    """A select the run reached and the branch it took (times in µs from reset)."""
+    select: object
+    branch: object
+    waits: float                # the select began to wait (the first rise of the frame it was reached in)
+    begins: float               # the branch's first rise
+    frame: int                  # that frame, from the first pulse (1-based)
+    waited: int                 # frames of waiting
+
+
+def _takes(plan: Plan, choices: tuple, t1_us: float) -> list[_Take]:
+    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
+    return [_Take(select, select.branches[choice.branch], t1_us + (start - lead) * plan.period_us,
+                  t1_us + (start + choice.frames - lead) * plan.period_us, start + choice.frames - lead + 1, choice.frames)
+            for (start, select), choice in zip(reached, choices) if choice.frames < UNDECIDED]
+
+
+def _occurrences(branch, events: list, arrivals: list) -> list[float]:
+    """Each time the event of an `on` branch happened: its input becoming active, or its byte arriving."""
     ev = branch.event
     if ev.input is not None:
         active = ev.edge != "release"
         return [float(e.time_us) for e in events if e.input == ev.input and e.active == active]
     return [at for at, b in arrivals if ev.other or b == ev.byte]
+
+
+def _event_times(take: _Take, events: list, arrivals: list, bytes_taken: dict) -> list[float]:
+    """When the event of an `on` branch taken happened before it began: its input becoming active,
+    or the byte it took arriving."""
+    if take.branch.event.input is not None:
+        return [at for at in _occurrences(take.branch, events, arrivals) if at <= take.begins]
+    return [arrivals[bytes_taken[id(take)]][0]] if id(take) in bytes_taken else []
+
+
+def _bytes_taken(takes: list[_Take], arrivals: list) -> dict[int, int]:
+    """id(take) -> index in `arrivals` of the byte each `on "x"` or `on other` taken took. The queue
+    is first in, first out, and a byte a select looked at and did not take is gone: each take took
+    the first byte after the one taken before it that it names (`on other`: that its select's other
+    `on`s do not name)."""
+    out: dict[int, int] = {}
+    first = 0
+    for take in takes:
+        ev = getattr(take.branch, "event", None)
+        if ev is None or ev.input is not None:
+            continue
+        named = {b.event.byte for b in take.select.branches if not isinstance(b, AfterBranch) and not b.event.other}
+        k = next((k for k in range(first, len(arrivals)) if arrivals[k][0] <= take.begins
+                  and (arrivals[k][1] not in named if ev.other else arrivals[k][1] == ev.byte)), None)
+        if k is not None:
+            out[id(take)] = k
+            first = k + 1
+    return out
 
 
 def event_delays(plan: Plan, choices: tuple, events: list, t1_us: float) -> list[tuple[str, float, float | None]]:
@@ -473,19 +519,14 @@ def event_delays(plan: Plan, choices: tuple, events: list, t1_us: float) -> list
     to wait if the event came before, to that rise; None when no event came before it).
     `t1_us`: the first frame's rise."""
     out = []
-    lead, reached = selects_reached(plan, choices, _waited(choices) + 10_000)
-    period = plan.period_us
     arrivals = _arrivals(plan, events)
-    for (start, select), choice in zip(reached, choices):
-        if choice.frames >= UNDECIDED:
+    takes = _takes(plan, choices, t1_us)
+    bytes_taken = _bytes_taken(takes, arrivals)
+    for take in takes:
+        if isinstance(take.branch, AfterBranch):
             continue
-        branch = select.branches[choice.branch]
-        if isinstance(branch, AfterBranch):
-            continue
-        begins = t1_us + (start + choice.frames - lead) * period     # the branch's first rise
-        waits = t1_us + (start - lead) * period                      # the select began to wait
-        active = [at for at in _event_times(branch, events, arrivals) if at <= begins]
-        out.append((branch.event.text, begins, begins - max(active[-1], waits) if active else None))
+        came = _event_times(take, events, arrivals, bytes_taken)
+        out.append((take.branch.event.text, take.begins, take.begins - max(came[-1], take.waits) if came else None))
     return out
 
 
@@ -526,24 +567,22 @@ def reactions(plan: Plan, choices: tuple, events: list, t1_us: float | None, lin
     """Each select the run reached, in order, with the branch it took and the event behind it."""
     if t1_us is None:
         return []
-    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
     arrivals = _arrivals(plan, events)
+    takes = _takes(plan, choices, t1_us)
+    bytes_taken = _bytes_taken(takes, arrivals)
     out = []
-    for (start, select), choice in zip(reached, choices):
-        if choice.frames >= UNDECIDED:
-            continue
-        branch = select.branches[choice.branch]
-        begins = t1_us + (start + choice.frames - lead) * plan.period_us
+    for take in takes:
+        branch = take.branch
         if isinstance(branch, AfterBranch):
             why = "no event came"
         else:
-            came = [at for at in _event_times(branch, events, arrivals) if at <= begins]
+            came = _event_times(take, events, arrivals, bytes_taken)
             ev = branch.event
             what = ("a byte no other `on` names arrived" if ev.other else f"byte {ev.text} arrived"
                     if ev.input is None else f"`{ev.input}` {'inactive' if ev.edge == 'release' else 'active'}")
             why = f"{what} at {came[-1] / 1e6:.4f} s" if came else "no event before it"
-        line = 0 if line_of is None else line_of(select.span)
-        out.append(Reaction(line, start + choice.frames - lead + 1, begins, branch_text(branch), why, choice.frames))
+        line = 0 if line_of is None else line_of(take.select.span)
+        out.append(Reaction(line, take.frame, take.begins, branch_text(branch), why, take.waited))
     return out
 
 
@@ -552,14 +591,7 @@ def unseen(plan: Plan, choices: tuple, events: list, t1_us: float | None, end_us
     byte no `on` took (dropped, or still queued at the end). Events after `end_us` are not counted."""
     if t1_us is None:
         return []
-    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
-    taken = []          # (the branch's first rise, its event) of each `on` taken
-    for (start, select), choice in zip(reached, choices):
-        if choice.frames >= UNDECIDED:
-            continue
-        branch = select.branches[choice.branch]
-        if not isinstance(branch, AfterBranch):
-            taken.append((t1_us + (start + choice.frames - lead) * plan.period_us, branch.event))
+    takes = [t for t in _takes(plan, choices, t1_us) if not isinstance(t.branch, AfterBranch)]
     out: list[str] = []
     window = 2 * plan.period_us
     for name in sorted({e.input for e in events if e.input is not None}):
@@ -568,17 +600,12 @@ def unseen(plan: Plan, choices: tuple, events: list, t1_us: float | None, end_us
             if not e.active or float(e.time_us) > end_us:
                 continue
             off = next((float(x.time_us) for x in changes[k + 1:] if not x.active), end_us)
-            if not any(ev.input == name and float(e.time_us) <= at <= off + window for at, ev in taken):
+            if not any(t.branch.event.input == name and float(e.time_us) <= t.begins <= off + window for t in takes):
                 out.append(f"`{name}` active from {float(e.time_us) / 1e6:.4f} s to {off / 1e6:.4f} s: "
                            "no select took it (none was waiting for it then)")
-    used: set[int] = set()
-    for at, ev in taken:
-        if ev.input is None:
-            k = next((k for k, (t, b) in enumerate(_arrivals(plan, events)) if k not in used and b == ev.byte and t <= at),
-                     None)
-            if k is not None:
-                used.add(k)
-    for k, (t, b) in enumerate(_arrivals(plan, events)):
+    arrivals = _arrivals(plan, events)
+    used = set(_bytes_taken(takes, arrivals).values())
+    for k, (t, b) in enumerate(arrivals):
         if k not in used and t <= end_us:
             out.append(f"byte {_show(b)} (arrived at {t / 1e6:.4f} s) was taken by no select: dropped (no `on` of the "
                        "select that looked at it named it, or the queue was full) or still queued when the run ended")

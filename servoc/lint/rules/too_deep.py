@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from ... import costs, walk
 from ...diagnostics import Reporter, Severity
-from ...plan import Plan, watches
+from ...plan import Plan, select_ram, watches
 from ...source import Span
 from .. import RULES, Report, rule
 from ..common import body_of
@@ -17,9 +17,9 @@ from ..common import body_of
 def too_deep(plan: Plan, report: Report) -> None:
     """Nested repeats and plays keep their counters and return addresses on a 32-byte stack."""
     serial = plan.program.serial is not None
-    watch = watches(plan)
-    if plan.nesting > costs.max_nesting(serial, watch):
-        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch)
+    watch, taken = watches(plan), select_ram(plan)
+    if plan.nesting > costs.max_nesting(serial, watch, taken):
+        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken)
 
 
 def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
@@ -28,12 +28,12 @@ def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.B
 
 
 def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span,
-            serial: bool = False, watch: bool = False) -> None:
+            serial: bool = False, watch: bool = False, taken: int = 0) -> None:
     """At the first repeat or play past the limit."""
-    limit = costs.max_nesting(serial, watch)
+    limit = costs.max_nesting(serial, watch, taken)
     st = walk.first_too_deep(main, body_of, limit)
     word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
-    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial)}-byte "
+    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial, taken)}-byte "
            f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
            st.span if st is not None else main_span, label=f"level {limit + 1}",
            help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
