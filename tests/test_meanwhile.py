@@ -10,6 +10,7 @@ from servoc import api, plan as plan_mod, printer, syntax
 from servoc.diagnostics import Reporter
 from servoc.plan import Choice, SelectStep, expand
 from servoc.source import SourceFile
+from servoc.speed import infeasible
 
 PAN = """\
 frame 10ms
@@ -194,3 +195,51 @@ def test_stagger_switches_servos_on_in_declaration_order():
     assert frames[0].n == (122, None) and frames[4].n == (122, None) and frames[5].n == (122, 122)
     # the program's first move starts after the last servo's first pulse
     assert frames[6].n[0] != 122
+
+
+_N = st.integers(min_value=0, max_value=250)      # a bare number in a pose is a raw N
+
+
+@st.composite
+def _cut_programs(draw):
+    """A select whose meanwhile body is a few moves and holds of two servos, and a branch moving
+    both to a pose in a drawn time: (text, the branch move's line)."""
+    poses = [draw(st.tuples(_N, _N)) for _ in range(4)]
+    lines = ["frame 10ms", "servo a = P1.0", "servo b = P1.1", "input button = P3.2"]
+    lines += [f"pose p{i} {{ a: {x}, b: {y} }}" for i, (x, y) in enumerate(poses)]
+    body = []
+    for _ in range(draw(st.integers(1, 3))):
+        if draw(st.booleans()):
+            ease = draw(st.sampled_from(["", " ease in-out", " ease out"]))
+            body.append(f"move p{draw(st.integers(1, 2))} in {draw(st.integers(1, 60)) * 10}ms{ease}")
+        else:
+            body.append(f"hold {draw(st.integers(1, 5)) * 10}ms")
+    branch_ms = draw(st.integers(1, 70)) * 10
+    lines += ["main {", "  move p0 in 1500ms", "  select {", f"    on button {{ move p3 in {branch_ms}ms }}",
+              "    meanwhile {", *(f"      {b}" for b in body), "    }", "  }", "}"]
+    return "\n".join(lines) + "\n", lines.index(f"    on button {{ move p3 in {branch_ms}ms }}") + 1
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(_cut_programs())
+def test_the_interruption_check_flags_exactly_the_moves_too_fast_from_some_frame(case):
+    """Brute force: cut the body after each of its frames (and before the first, and while the
+    select waits after it), take the positions from the golden frames, and test the branch's move
+    from each. The check (per servo the farthest position the body reaches) must flag the move
+    exactly when one of those starts is too fast."""
+    text, line = case
+    p = _plan(text)
+    assert p is not None
+    select = next(s for s in p.main if isinstance(s, SelectStep))
+    move = select.branches[0].body[0]
+    body_frames = sum(s.frames for s in select.meanwhile)
+    too_fast = False
+    for k in range(0, body_frames + 3):
+        frames = list(_take(expand(p, (Choice(0, k),)), 700))
+        i = next(i for i, f in enumerate(frames) if f.span == move.span)
+        start = frames[i - 1].curve
+        for ch, n1 in move.targets:
+            if infeasible(n1 - start[ch], move.frames, p.class_t_dav_us[p.channels[ch].speed_class], p.period_us):
+                too_fast = True
+    flagged = ("infeasible-speed", line) in lint_codes(text)
+    assert flagged == too_fast, text
