@@ -202,3 +202,14 @@ def test_sim_reports_all_port_writes_of_the_baselines():
     for hex_text in (baselines.build_hobby(), baselines.build_source_algorithm()):
         trace = api.simulate(hex_text, 30_000)
         assert {w.port for w in trace.writes} == {1}
+
+
+def test_meanwhile_benchmark_programs_lint_clean_and_scale():
+    """benchmarks/meanwhile.py's programs are valid at every size it measures (small ones here),
+    and the `repeat` body's program does not grow with its frames."""
+    meanwhile = _load("bench_meanwhile", "meanwhile.py")
+    for frames in (100, 1_000):
+        for make in (meanwhile.repeated, meanwhile.flat):
+            took, ok = meanwhile.lint_seconds(make(frames))
+            assert ok, make.__name__
+    assert abs(len(meanwhile.repeated(100_000)) - len(meanwhile.repeated(100))) <= 3

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import build_text, simulate_events
-from servoc import api, plan as plan_mod, printer, syntax
+from servoc import api, costs, plan as plan_mod, printer, syntax
 from servoc.diagnostics import Reporter
 from servoc.plan import Choice, SelectStep, expand
 from servoc.source import SourceFile
@@ -167,7 +167,9 @@ def test_on_other_answers_unknown_bytes():
 
 
 @pytest.mark.toolchain
-@pytest.mark.parametrize("stmt", ["move right in 2s", "hold 2s", "play sweep"])
+@pytest.mark.parametrize("stmt", ["move right in 2s", "hold 2s", "play sweep",
+                                  "repeat 3 {\n    move left in 600ms\n    move right in 600ms\n  }",
+                                  "loop {\n    move left in 600ms\n    hold 100ms\n    move right in 600ms\n  }"])
 def test_until_cuts_each_kind_of_statement(stmt):
     text = PAN + ("sequence sweep {\n  move left in 1s\n  move right in 1s\n}\nhome rest\nmain {\n  "
                   f"{stmt} until button\n  move rest in 500ms\n}}\n")
@@ -243,3 +245,33 @@ def test_the_interruption_check_flags_exactly_the_moves_too_fast_from_some_frame
                 too_fast = True
     flagged = ("infeasible-speed", line) in lint_codes(text)
     assert flagged == too_fast, text
+
+
+@pytest.mark.toolchain
+def test_on_release_starts_its_branch_within_two_frames_of_the_release():
+    text = PAN + "home rest\nmain {\n  select {\n    on release button { move left in 300ms }\n  }\n  move right in 1s\n}\n"
+    plan, choices, report = run(text, "0.3s button active\n0.72s button inactive\n", 200)
+    (taken,) = [r for r in report.reactions if r.branch == "on release button"]
+    assert 0 < taken.time_us - 720_000 <= 2 * plan.period_us, taken
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("serial", [False, True])
+def test_a_cut_at_the_deepest_nesting_the_stack_allows(serial):
+    """Repeats nested as deep as lint allows inside a meanwhile body (with an edge event, and with
+    the serial line's RAM and handler on the stack too) compile, one level more is `too-deep`, and
+    the program cut at the innermost level runs with every pulse exact."""
+    # on P0.0 and P0.1: their motion state is the first above the stack (0xA0..)
+    head = PAN.replace("P2.0", "P0.0").replace("P2.1", "P0.1") + ("serial 4800\n" if serial else "") + "home rest\n"
+    probe = _plan(head + "main {\n  select {\n    on press button { }\n    meanwhile {\n      hold 10ms\n    }\n  }\n}\n")
+    depth = costs.max_nesting(serial, True, plan_mod.select_ram(probe))
+    inner = "move left in 500ms\nmove right in 500ms\n"
+    for _ in range(depth - probe.nesting):          # the select's own frame is on the stack too
+        inner = f"repeat 2 {{\n{inner}}}\n"
+    text = head + f"main {{\n  select {{\n    on press button {{ move rest in 500ms }}\n    meanwhile {{\n{inner}}}\n  }}\n}}\n"
+    assert not [c for c, _ in lint_codes(text) if c == "too-deep"]
+    deeper = text.replace("meanwhile {\n", "meanwhile {\nrepeat 2 {\n", 1).replace("\n  }\n}\n", "\n}\n  }\n}\n")
+    assert ("too-deep" in [c for c, _ in lint_codes(deeper)])
+    bytes_in = '1.2s "z" "z"\n' if serial else ""            # the serial handler runs at the deepest level too
+    plan, choices, report = run(text, bytes_in + "1.5s button active\n1.7s button inactive\n", 260)
+    assert plan.nesting == depth and any(r.branch == "on press button" for r in report.reactions)
