@@ -653,7 +653,7 @@ def _plan_rows(plan: Plan, source) -> list:
         line, _ = source.line_col(inst.step.span.start)
         ms = Fraction(inst.frames * plan.period_us, 1000)
         cells = []
-        power_up = plan.startup and inst.step.span == plan.program.home_span
+        power_up = any(inst.step is st for st in plan.power_up)
         for m in inst.motions:
             if power_up:            # the home pose's first pulses set the servos
                 cells.append((plan.channels[m.channel].name, "set", None))
@@ -770,7 +770,9 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
     out += [text for _, _, text in sorted(lines, key=lambda x: (x[0], x[1]))]
     if plan.startup:
         frames = startup_frames(plan)
-        out.append(f"power-up: `home {plan.program.home.name}`, {frames} frame{'s' if frames != 1 else ''} = "
+        how = (f"`home {plan.program.home.name}`" if plan.program.home is not None
+               else f"`stagger` at the first move's pose `{plan.power_up[0].pose}`")
+        out.append(f"power-up: {how}, {frames} frame{'s' if frames != 1 else ''} = "
                    f"{fmt_ms(frames * plan.period_us)} before the program's first frame: "
                    + ", ".join(f"{plan.channels[ch].name} at {fmt_ms((f - 1) * plan.period_us)}" for ch, f in plan.startup))
     for st, hull in plan.cuts:

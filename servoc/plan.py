@@ -266,6 +266,7 @@ class Plan:
     nesting: int = 0                        # deepest stack of repeats and plays around a statement
     cuts: tuple = ()                        # (select, per channel where an event can cut its meanwhile body)
     startup: tuple = ()                     # (channel, frame of its first pulse) of the power-up, in order
+    power_up: tuple = ()                    # the steps that make the power-up (the first of `main`)
     firmware_limit: tuple | None = None     # (code, message, help) of the resource limit the code generated
                                             # for this plan hits (layout.LayoutError), found without assembling
 
@@ -341,26 +342,48 @@ def startup_steps(program: model.Program, channels, period: int) -> tuple[tuple[
     With `home`, its servos get their first pulse in frame 1 (each set at once: a servo without a
     target jumps to its first one), or with `stagger` one after another in declaration order,
     S = floor(DUR / P + 1/2) frames apart: one-frame moves naming one servo each, with holds of
-    S - 1 frames between them. The program's first frame follows the last servo's first pulse."""
-    home = program.home
+    S - 1 frames between them. The program's first frame follows the last servo's first pulse.
+    Without `home`, `stagger` switches on the servos of the program's first move (its first
+    statement, in a repeat, loop or sequence it starts with) the same way, at that move's targets,
+    which it then holds for its frames; with neither, there is no power-up."""
+    home, span = program.home, program.home_span
+    if home is None and program.stagger_us is not None:
+        home = _first_move(program.main, program)
+        span = home.span if home is not None else span
     if home is None:
         return (), ()
     n_of = {t.servo: t.n for t in home.targets}
+    name = home.pose if isinstance(home, model.Move) else home.name
     order = [c for c in sorted(channels, key=lambda c: [s.name for s in program.servos].index(c.servo.name))
              if c.servo.name in n_of]
     gap = frames_for(program.stagger_us, period) if program.stagger_us is not None else 0
-    span = program.home_span
     if gap == 0 or len(order) < 2:
         targets = tuple(sorted((c.index, n_of[c.servo.name]) for c in order))
-        return (MoveStep(home.name, targets, 1, "linear", (), None, span),), tuple((c.index, 1) for c in order)
+        return (MoveStep(name, targets, 1, "linear", (), None, span),), tuple((c.index, 1) for c in order)
     out: list[Step] = []
     schedule = []
     for i, c in enumerate(order):
         if i:
             out.append(HoldStep(gap - 1, Fraction(program.stagger_us), span)) if gap > 1 else None
-        out.append(MoveStep(home.name, ((c.index, n_of[c.servo.name]),), 1, "linear", (), None, span))
+        out.append(MoveStep(name, ((c.index, n_of[c.servo.name]),), 1, "linear", (), None, span))
         schedule.append((c.index, 1 + i * gap))
     return tuple(out), tuple(schedule)
+
+
+def _first_move(body: tuple, program: model.Program) -> model.Move | None:
+    """The move the program runs first, if it starts with one (a repeat, loop or sequence it starts
+    with looked into); None if it starts with anything else."""
+    while body:
+        st = body[0]
+        if isinstance(st, model.Move):
+            return st
+        if isinstance(st, (model.Repeat, model.Loop)):
+            body = st.body
+        elif isinstance(st, model.Play):
+            body = program.sequence(st.sequence).body
+        else:
+            return None
+    return None
 
 
 def home_state(program: model.Program, channels) -> State:
@@ -547,6 +570,12 @@ class SendRun:
     def frames(self, n: int) -> "SendRun":
         return SendRun(None, 0, 0, 0) if n > 0 else SendRun(0)
 
+    def cut(self) -> "SendRun":
+        """A meanwhile body cut at a frame boundary (after none or some of its frames: nothing after
+        the last frame it ran), or run to its end."""
+        part = SendRun(0) if self.lead is None else SendRun(0).either(SendRun(None, self.lead, 0, self.most))
+        return part.either(self)
+
     def pad(self) -> "SendRun":
         """A loop's pass: one that took no frame waits for a frame before the next."""
         if self.zero is None:
@@ -582,7 +611,8 @@ def _fold_sends(plan: Plan, blank, send):
     byte, `blank.frames(n)` for n frames; summaries combine with `then` (one after the other),
     `either` (one or the other), `again` (repeated; None: forever) and `pad` (a loop's pass, which
     waits for a frame when it took none). A select may take no frame before an `on` branch (its
-    event already there) and takes its F before `after`."""
+    event already there) and takes its F before `after`; one with a meanwhile body runs a part of
+    it (`cut`) before either."""
     def step(acc, st: Step, inner):
         kind = walk.kind(st)
         if kind == "send":
@@ -593,8 +623,9 @@ def _fold_sends(plan: Plan, blank, send):
             one = blank.frames(st.frames)
         elif kind == "select":
             one = None
+            body = inner[len(st.branches)].cut() if st.meanwhile is not None else None
             for br, v in zip(st.branches, inner):
-                way = blank.frames(br.frames if isinstance(br, AfterBranch) else 0).then(v)
+                way = (body or blank.frames(br.frames if isinstance(br, AfterBranch) else 0)).then(v)
                 one = way if one is None else one.either(way)
             one = one or blank
         elif kind == "repeat":
@@ -644,6 +675,12 @@ class _Gaps:
 
     def frames(self, n: int) -> "_Gaps":
         return _Gaps(self.cap, frozenset({min(n, self.cap)}))
+
+    def cut(self) -> "_Gaps":
+        """A meanwhile body cut at a frame boundary (after none or some of its frames: at least one
+        frame after its last send), or run to its end."""
+        return self.either(_Gaps(self.cap, frozenset({0, 1}), self.head, frozenset({1}) if self.head else frozenset(),
+                                 self.gap))
 
     def pad(self) -> "_Gaps":
         """A loop's pass: one that took no frame waits for a frame before the next."""
@@ -734,7 +771,7 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
     used = [seq_bodies[s.name] for s in program.sequences if s.name in named]
     return Plan(program, tuple(channels), ports, period, is_default, period, tables, tuple(classes),
                 main, tuple(used), tuple(walker.instances.values()), None if infinite else total, depth,
-                cuts=tuple(walker.cuts.values()), startup=schedule)
+                cuts=tuple(walker.cuts.values()), startup=schedule, power_up=startup)
 
 
 def has_selects(plan: Plan) -> bool:

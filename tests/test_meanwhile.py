@@ -275,3 +275,43 @@ def test_a_cut_at_the_deepest_nesting_the_stack_allows(serial):
     bytes_in = '1.2s "z" "z"\n' if serial else ""            # the serial handler runs at the deepest level too
     plan, choices, report = run(text, bytes_in + "1.5s button active\n1.7s button inactive\n", 260)
     assert plan.nesting == depth and any(r.branch == "on press button" for r in report.reactions)
+
+
+def test_sends_of_a_meanwhile_body_count_with_the_branch_after_it():
+    """A body that ends with three bytes and no frame, then a branch sending two: five bytes with
+    no frame between them (seven when the next pass finds its byte queued), more than the queue."""
+    text = ("serial 4800\nframe 20ms\nservo a = P1.0\npose p { a: 100 }\nhome p\nmain {\n  loop {\n    select {\n"
+            '      on "x" { send "a"; send "b" }\n      meanwhile {\n        hold 100ms\n        send "1"\n'
+            '        send "2"\n        send "3"\n      }\n    }\n  }\n}\n')
+    assert plan_mod.send_run(_plan(text)) == 7 and ("send-overrun", 6) in lint_codes(text)
+    cut_early = text.replace('        hold 100ms\n        send "1"\n        send "2"\n        send "3"\n',
+                             '        send "1"\n        send "2"\n        hold 100ms\n')
+    assert plan_mod.send_run(_plan(cut_early)) == 4       # "1" "2" before the first frame, then "a" "b"
+
+
+@pytest.mark.toolchain
+def test_a_meanwhile_body_that_sends_verifies():
+    text = ("serial 4800\nframe 20ms\nservo a = P1.0\npose p { a: 100 }\npose q { a: 140 }\nhome p\nmain {\n  loop {\n"
+            '    select {\n      on "x" { send "a"; move p in 200ms }\n      meanwhile {\n        loop {\n'
+            '          move q in 200ms\n          send "1"\n          move p in 200ms\n          send "2"\n'
+            "        }\n      }\n    }\n  }\n}\n")
+    plan, evs, trace = simulate_events(text, '0.9s "x"\n1.95s "x"\n', 150)
+    choices, report = api.events_report(plan, trace, 150, evs)
+    assert report.ok, (report.summary(), [str(m) for m in report.mismatches[:5]])
+    sent = "".join(chr(b) for _, b in trace.sent)
+    assert sent.count("a") == 2 and set(sent) <= set("12a"), sent
+
+
+@pytest.mark.toolchain
+def test_stagger_without_home_switches_on_the_first_move_servos():
+    text = PAN + "stagger 50ms\nmain {\n  loop {\n    move rest in 300ms\n    move left in 1s\n  }\n}\n"
+    built = build_text(text)
+    p = built.plan
+    assert p.startup == ((0, 1), (1, 6)) and len(p.power_up) == 3       # pan, 4 frames' hold, tilt
+    frames = list(_take(expand(p), 40))
+    assert frames[0].n == (122, None) and frames[4].n == (122, None) and frames[5].n == (122, 122)
+    assert all(f.n == (122, 122) for f in frames[6:36])     # `move rest` then holds there for its 30 frames
+    assert frames[36].n != (122, 122)
+    report = api.verify(p, built.firmware, 60)
+    assert report.ok, report.summary()
+    assert build_text(PAN + "stagger 50ms\nmain {\n  hold 100ms\n  move rest in 300ms\n}\n").plan.startup == ()
