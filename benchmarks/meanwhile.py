@@ -20,13 +20,14 @@
 from __future__ import annotations
 
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))
 
+import serial_line  # noqa: E402
 from servoc import api, events, verify  # noqa: E402
 from servoc.diagnostics import Reporter  # noqa: E402
 from servoc.source import SourceFile  # noqa: E402
@@ -36,12 +37,7 @@ PHASES = 8
 
 
 def build(text: str):
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "bench.servo"
-        path.write_text(text, encoding="utf-8")
-        source = SourceFile(str(path), text)
-        reporter = Reporter(source)
-        fe, firmware = api.build(source, reporter)
+    fe, firmware, reporter = serial_line.build(text)
     assert firmware is not None, [d.message for d in reporter.diagnostics if d.is_error]
     return fe.plan, firmware
 

@@ -207,6 +207,7 @@ def test_sim_reports_all_port_writes_of_the_baselines():
 def test_meanwhile_benchmark_programs_lint_clean_and_scale():
     """benchmarks/meanwhile.py's programs are valid at every size it measures (small ones here),
     and the `repeat` body's program does not grow with its frames."""
+    _load("serial_line", "serial_line.py")
     meanwhile = _load("bench_meanwhile", "meanwhile.py")
     for frames in (100, 1_000):
         for make in (meanwhile.repeated, meanwhile.flat):
