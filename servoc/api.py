@@ -11,10 +11,12 @@ stage that reported errors. Internal bugs stay ordinary exceptions.
 
 from __future__ import annotations
 
+import dataclasses
 import gc
 import os
 from contextlib import contextmanager
 from dataclasses import dataclass
+from fractions import Fraction
 
 from . import check as _check
 from . import codegen, layout, lint as _lint, syntax, toolchain
@@ -281,3 +283,115 @@ def verify_hex(plan_: _plan.Plan, hex_text: str, frames: int) -> _verify.VerifyR
     """Simulate a HEX image (built from this plan, or given) and compare `frames` frames with the plan."""
     trace = simulate(hex_text, cycles_needed(plan_, frames), plan_.program.target, stimulus(plan_))
     return check_trace(plan_, trace, frames)
+
+
+# ---- import: motion from other tools -> .servo text ---------------------------------------
+
+IMPORT_FORMATS = ("maestro", "blender", "bottango", "csv")
+
+
+_READERS = {"maestro": "maestro", "blender": "blender", "bottango": "bottango", "csv": "csvfile"}
+
+
+def _reader(fmt: str):
+    """The reader module of a format (servoc.imports.<module>)."""
+    import importlib
+    return importlib.import_module(f".imports.{_READERS[fmt]}", __package__)
+
+
+def read_motion(path: str, fmt: str | None = None, options=None):
+    """A file made by another tool -> (its format, Keyframes). The format is recognised from the
+    content unless `fmt` names it. Raises UsageError for a file that cannot be read, is no known
+    format, or is broken."""
+    from .imports.keyframes import ImportError_, ReadOptions
+    if os.path.isdir(path):
+        raise UsageError(f"{path}: is a directory, not a file to import")
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as exc:
+        raise UsageError(f"{path}: {exc.strerror or exc}") from None
+    if fmt is None:
+        fmt = next((name for name in IMPORT_FORMATS if _reader(name).sniff(data, path)), None)
+        if fmt is None:
+            raise UsageError(f"{path}: not a format servoc imports (a Pololu Maestro settings file, a Blender "
+                             "servo-animation .json/.h/.bin, a Bottango code export, or a CSV whose header is "
+                             "`time_ms,NAME,...`); if it is one of them, name it with --from")
+    try:
+        return fmt, _reader(fmt).read(data, path, options or ReadOptions())
+    except ImportError_ as exc:
+        message = str(exc)
+        raise UsageError(message if message.startswith(path) else f"{path}: {message}") from None
+    except RecursionError:
+        raise UsageError(f"{path}: nested too deeply to be a {fmt} file") from None
+
+
+def import_pins(kf, given: dict) -> tuple[dict, tuple]:
+    """Each channel's pin: `given` (--pins CH=PIN) first, then the spec's rule (0-7 on P1, 8-15 on
+    P2, 16-23 on P0); a channel past 23 takes the first free pin in that order (a note says so).
+    Returns (channel -> pin text, notes). Raises UsageError when no pin is left or two channels
+    would share one."""
+    from .imports.write import default_pin
+    channels = [c.index for c in kf.channels]
+    unknown = sorted(set(given) - set(channels))
+    if unknown:
+        raise UsageError(f"--pins names channel {unknown[0]}, which the file does not have "
+                         f"(it has {', '.join(map(str, channels)) or 'none'})")
+    pins, notes = {}, []
+    for ch in channels:
+        pins[ch] = given.get(ch) or default_pin(ch)
+    used = [p for p in pins.values() if p is not None]
+    for pin in set(used):
+        if used.count(pin) > 1:
+            both = [str(ch) for ch, p in pins.items() if p == pin]
+            raise UsageError(f"channels {' and '.join(both[:2])} would both be on {pin}: map one elsewhere with "
+                             f"--pins {both[-1]}=PIN")
+    free = [default_pin(i) for i in range(24) if default_pin(i) not in used]
+    for ch in channels:
+        if pins[ch] is None:
+            if not free:
+                raise UsageError(f"channel {ch}: all 24 pins are taken; an 8051 has pins for 24 servos")
+            pins[ch] = free.pop(0)
+            notes.append(f"channel {ch} is past 23: it is on {pins[ch]} (map it with --pins {ch}=PIN)")
+    return pins, tuple(notes)
+
+
+def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, options=None):
+    """A file made by another tool -> servoc.imports.write.Imported (the .servo text and figures).
+    Sampled motion is fitted at the longest frame period that puts every source frame on a frame
+    and is no shorter than the default period of a program on the same pins."""
+    from .imports import write as _write
+    fmt, kf = read_motion(path, fmt, options)
+    if not kf.channels:
+        raise UsageError(f"{path}: the file has no servo channels to import")
+    pin_of, notes = import_pins(kf, pins or {})
+    timing = None
+    if any(t.sampled for t in kf.tracks):
+        floor_us = _default_period_on(sorted(set(pin_of.values())))
+        keyed = [t for t in kf.tracks if t.curve is None and len(t.keys) > 1]
+        if keyed:
+            interval = keyed[0].keys[1].at_ms - keyed[0].keys[0].at_ms
+            if interval <= 0:
+                raise UsageError(f"{path}: the frames are not 1/fps apart")
+            timing = _write.sampled_timing(Fraction(1000) / interval, floor_us)
+            if timing.step > 1:
+                notes += (f"1/fps is shorter than the shortest frame the firmware holds on these pins "
+                          f"({floor_us} us): every {timing.step}th source frame is met, those between are passed "
+                          "on the way",)
+        else:
+            timing = _write.Timing(floor_us)
+    try:
+        imported = _write.write(kf, pin_of, timing, os.path.basename(path))
+    except _write.ImportError_ as exc:
+        raise UsageError(f"{path}: {exc}") from None
+    return dataclasses.replace(imported, notes=notes + imported.notes)
+
+
+def _default_period_on(pins: list) -> int:
+    """The default frame period (µs at the default target) of a program with servos on `pins`."""
+    text = "".join(f"servo s{i} = {pin}\n" for i, pin in enumerate(pins))
+    text += "pose p { " + ", ".join(f"s{i}: 1500us" for i in range(len(pins))) + " }\nmain { move p }\n"
+    source = SourceFile("<pins>", text)
+    fe = front_end(source, Reporter(source))
+    assert fe.plan is not None, "a program of servos and one pose always plans"
+    return fe.plan.period_us

@@ -46,6 +46,8 @@ examples:
                                               the same with timed button presses and host bytes
   servoc flash prog.servo --port /dev/ttyUSB0 compile and write it to an STC89 board (needs servoc[flash]);
                                               for an AT89 chip, print the programmer's command
+  servoc import walk.json -o walk.servo       a program from a Blender servo-animation export (also Maestro
+                                              settings, Bottango code exports, CSV), then lint it
   servoc lint prog.servo --format json        diagnostics for editors and tools
   servoc verify prog.servo --format json      the check's figures and every mismatch as JSON
 
@@ -61,7 +63,7 @@ environment:
 """
 
 
-COMMANDS = ("init", "lint", "plan", "compile", "verify", "flash", "lsp")
+COMMANDS = ("init", "lint", "plan", "compile", "verify", "flash", "import", "lsp")
 LSP_MISSING = "the language server needs pygls: pip install 'servoc[lsp]'"
 
 
@@ -137,6 +139,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
     p.add_argument("--baud", type=int, metavar="N", default=None,
                    help="stcgal's transfer rate in baud (default: 115200)")
+    help_ = ("write a .servo program from motion made in another tool (Pololu Maestro Control Center "
+             "settings, Blender servo-animation .json/.h/.bin, Bottango code export, CSV), then lint it")
+    p = sub.add_parser("import", help=help_, description=help_ + ". Channels 0-7 go on P1.0-P1.7, 8-15 on "
+                       "P2.0-P2.7, 16-23 on P0.0-P0.7 unless --pins maps them. The exit status is lint's.")
+    p.add_argument("file", metavar="FILE", help="the file to import")
+    p.add_argument("-o", "--output", metavar="OUT.servo", help="the program to write (default: FILE with .servo)")
+    p.add_argument("--from", dest="source_format", choices=("maestro", "blender", "bottango", "csv"),
+                   help="the file's format (default: recognised from its content)")
+    p.add_argument("--pins", metavar="CH=PIN,...", help="put channels on other pins, e.g. `--pins 0=P0.0,1=P0.1`")
+    p.add_argument("--fps", metavar="N", help="frames per second (needed for a Blender .bin)")
+    p.add_argument("--ticks", metavar="HZ", help="positions are PCA9685 ticks (4096 per period) at a PWM "
+                   "rate of HZ, not µs")
+    fmt(p)
     help_ = "run the language server on stdin/stdout, for editors (needs servoc[lsp])"
     sub.add_parser("lsp", help=help_, description=help_)
     return parser
@@ -153,10 +168,11 @@ class _Run:
         self.diags: list = []
         self.source = None
         self.error: dict | None = None
+        self.extra: dict = {}        # more of the document (`servoc import`'s figures)
 
     @property
     def doc_on_stdout(self) -> bool:
-        return self.command == "lint" and not self.emit
+        return self.command in ("lint", "import") and not self.emit
 
     def stop(self, kind: str, message: str, parser: argparse.ArgumentParser | None = None) -> None:
         if self.json:
@@ -169,6 +185,7 @@ class _Run:
 
     def document(self) -> str:
         doc = to_dict(self.diags, self.source)
+        doc.update(self.extra)
         if self.error is not None:
             doc["error"] = self.error
         return json.dumps(doc, indent=2)
@@ -251,6 +268,8 @@ def _main(argv: list[str], run: _Run) -> int:
         return _lsp()
     if args.command == "init":
         return _init(args.name, run)
+    if args.command == "import":
+        return _import(args, run)
     run.emit = bool(getattr(args, "emit", None))
     if getattr(args, "frames", None) is not None and args.frames < 1:
         raise _Stop("--frames must be at least 1")
@@ -500,6 +519,60 @@ def _init(name: str, run: _Run) -> int:
     return 0
 
 
+def _import(args, run: _Run) -> int:
+    """`servoc import`: write the program, then report on it as `servoc lint OUT` does."""
+    from fractions import Fraction
+    from .imports.keyframes import ReadOptions
+    out = args.output or os.path.splitext(args.file)[0] + ".servo"
+    if out == args.file or os.path.splitext(out)[1] != ".servo" and args.output is None:
+        out = args.file + ".servo"
+    _check_output("-o" if args.output else "the program", out)
+    if os.path.exists(args.file) and _same_file(out, args.file):
+        raise _Stop(f"cannot write {out}: it is the file to import; name another with -o")
+    pins = {}
+    for item in filter(None, (args.pins or "").split(",")):
+        ch, eq, pin = item.strip().partition("=")
+        if not eq or not ch.strip().isdigit() or not re.fullmatch(r"P[0-2]\.[0-7]", pin.strip().upper()):
+            raise _Stop(f"--pins: `{item.strip()}` is not CHANNEL=PIN (e.g. 0=P1.0; pins P0.0-P2.7)")
+        pins[int(ch)] = pin.strip().upper()
+    numbers = {}
+    for option, value in (("--fps", args.fps), ("--ticks", args.ticks)):
+        if value is not None:
+            try:
+                numbers[option] = Fraction(value)
+            except (ValueError, ZeroDivisionError):
+                numbers[option] = Fraction(0)
+            if not 0 < numbers[option] <= 10_000:
+                raise _Stop(f"{option} {value}: give a positive number (frames per second, or the PWM rate in Hz)")
+    options = ReadOptions(numbers.get("--fps"), numbers.get("--ticks"))
+    try:
+        imported = api.import_motion(args.file, args.source_format, pins, options)
+    except api.UsageError as exc:
+        raise _Stop(str(exc)) from None
+    try:
+        api.write_atomic(out, imported.text)
+    except OSError as exc:
+        raise _Stop(f"cannot write {out}: {exc.strerror or exc}", "cannot-write") from None
+    figures = {"file": args.file, "servo": out, "frames_in": imported.frames_in, "moves_out": imported.moves_out,
+               "max_deviation_n": imported.deviation, "off_grid": imported.off_grid, "notes": list(imported.notes)}
+    if run.json:
+        run.extra["import"] = figures
+    else:
+        print(f"{out}: written from {args.file}: {imported.frames_in} source frames became "
+              f"{imported.moves_out} moves, every source position met within {imported.deviation} N")
+        for note in imported.notes:
+            print(f"  note: {note}")
+    source, reporter = api.load_source(out)
+    run.source = source
+    fe = api.front_end(source, reporter)
+    _diagnostics(reporter, args, run)
+    if reporter.has_errors:
+        return 1
+    if not run.json:
+        print(f"{source.path}: {_plan_line(fe.plan)}")
+    return 0
+
+
 # ---- outputs are checked before any work ---------------------------------------------
 
 def _hex_out(args) -> str:
@@ -579,7 +652,7 @@ def _check_inputs_and_outputs(args) -> str | None:
 def _diagnostics(reporter, args, run: _Run, quiet: bool = False) -> None:
     """Print the diagnostics as text (unless `quiet`), or keep them for the JSON document."""
     diags = reporter.sorted()
-    if args.command != "lint":      # notes are for `servoc lint`; the other commands show what matters
+    if args.command not in ("lint", "import"):      # notes are for `servoc lint`; the other commands show what matters
         diags = [d for d in diags if d.severity is not Severity.NOTE]
     if run.json:
         run.diags = diags

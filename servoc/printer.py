@@ -4,7 +4,8 @@ Input: a syntax tree (from `servoc.syntax.parse` or built by hand). Output:
 text in the canonical layout: one declaration per line, two-space indented
 blocks, `name: value` pose entries separated by `, `, and a blank line
 between declarations of different kinds and around every `sequence` and
-`main`. Comments are not kept. Parsing the output gives back the same tree
+`main`. Comments are not kept; a caller that makes a program (`servoc
+import`) may give a trailing comment for any statement. Parsing the output gives back the same tree
 apart from spans, so checking it gives an equal `model.Program`.
 """
 
@@ -63,12 +64,13 @@ def format_event(ev: nodes.Event) -> str:
     return format_quantity(ev)
 
 
-def format_program(tree: nodes.Program) -> str:
-    """The canonical text of a program (ends with one newline)."""
+def format_program(tree: nodes.Program, comments: dict | None = None) -> str:
+    """The canonical text of a program (ends with one newline). `comments`: `id(statement)` ->
+    a comment written at the end of that statement's (last) line."""
     chunks: list[list[str]] = []
     last_kind: str | None = None
     for item in tree.items:
-        lines = _item(item)
+        lines = _item(item, comments or {})
         kind = _KIND.get(type(item), "block")
         if chunks and (kind == "block" or kind != last_kind):
             chunks.append([])
@@ -86,7 +88,7 @@ _KIND = {nodes.SettingDecl: "setting", nodes.FrameDecl: "setting", nodes.TargetD
          nodes.GroupDecl: "group", nodes.PoseDecl: "pose"}
 
 
-def _item(item: nodes.Item) -> list[str]:
+def _item(item: nodes.Item, comments: dict) -> list[str]:
     if isinstance(item, nodes.FrameDecl):
         return [f"frame {format_quantity(item.period)}"]
     if isinstance(item, nodes.TargetDecl):
@@ -111,9 +113,9 @@ def _item(item: nodes.Item) -> list[str]:
         entries = ", ".join(f"{e.target.text}: {format_quantity(e.position)}" for e in item.entries)
         return [f"{head} {{ {entries} }}" if entries else f"{head} {{}}"]
     if isinstance(item, nodes.SequenceDecl):
-        return _block(f"sequence {item.name.text}", item.body, 0)
+        return _block(f"sequence {item.name.text}", item.body, 0, comments)
     if isinstance(item, nodes.MainDecl):
-        return _block("main", item.body, 0)
+        return _block("main", item.body, 0, comments)
     raise TypeError(f"not a declaration: {item!r}")
 
 
@@ -129,18 +131,20 @@ def _option(opt: nodes.ServoOption) -> str:
     raise TypeError(f"not a servo option: {opt!r}")
 
 
-def _block(head: str, body: tuple[nodes.Stmt, ...], depth: int) -> list[str]:
+def _block(head: str, body: tuple[nodes.Stmt, ...], depth: int, comments: dict) -> list[str]:
     pad = INDENT * depth
     if not body:
         return [f"{pad}{head} {{}}"]
     lines = [f"{pad}{head} {{"]
     for stmt in body:
-        lines.extend(_stmt(stmt, depth + 1))
+        lines.extend(_stmt(stmt, depth + 1, comments))
+        if id(stmt) in comments:
+            lines[-1] += "  # " + comments[id(stmt)].replace("\n", " ")
     lines.append(f"{pad}}}")
     return lines
 
 
-def _stmt(stmt: nodes.Stmt, depth: int) -> list[str]:
+def _stmt(stmt: nodes.Stmt, depth: int, comments: dict) -> list[str]:
     pad = INDENT * depth
     if isinstance(stmt, nodes.MoveStmt):
         text = f"move {stmt.pose.text}"
@@ -152,9 +156,9 @@ def _stmt(stmt: nodes.Stmt, depth: int) -> list[str]:
     if isinstance(stmt, nodes.HoldStmt):
         return [f"{pad}hold {format_quantity(stmt.duration)}"]
     if isinstance(stmt, nodes.RepeatStmt):
-        return _block(f"repeat {format_quantity(stmt.count)}", stmt.body, depth)
+        return _block(f"repeat {format_quantity(stmt.count)}", stmt.body, depth, comments)
     if isinstance(stmt, nodes.LoopStmt):
-        return _block("loop", stmt.body, depth)
+        return _block("loop", stmt.body, depth, comments)
     if isinstance(stmt, nodes.PlayStmt):
         return [f"{pad}play {stmt.name.text}"]
     if isinstance(stmt, nodes.SelectStmt):
@@ -162,13 +166,13 @@ def _stmt(stmt: nodes.Stmt, depth: int) -> list[str]:
         for b in stmt.branches:
             head = f"on {format_event(b.event)}" if isinstance(b, nodes.OnBranch) else \
                 "meanwhile" if isinstance(b, nodes.MeanwhileBranch) else f"after {format_quantity(b.duration)}"
-            lines.extend(_block(head, b.body, depth + 1))
+            lines.extend(_block(head, b.body, depth + 1, comments))
         lines.append(f"{pad}}}")
         return lines
     if isinstance(stmt, nodes.WaitStmt):
         return [f"{pad}wait {format_event(stmt.event)}"]
     if isinstance(stmt, nodes.UntilStmt):
-        lines = _stmt(stmt.stmt, depth)
+        lines = _stmt(stmt.stmt, depth, comments)
         lines[-1] += f" until {format_event(stmt.event)}"
         return lines
     if isinstance(stmt, nodes.SendStmt):

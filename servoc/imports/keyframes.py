@@ -1,0 +1,103 @@
+"""Keyframes: what every import reader produces, whatever the source format.
+
+A reader turns the bytes of one file (Maestro settings XML, a Blender
+servo-animation export, a Bottango code export, a CSV) into a `Keyframes`:
+the channels it names and one `Track` per source sequence or animation.
+Positions are pulse widths in microseconds (exact `Fraction`s), times are
+milliseconds from the start of the track. Nothing here knows of frame periods
+or N: `servoc.imports.write` makes the program from this.
+
+A file that is not of the reader's format, or is broken, raises `ImportError_`
+with a message a user can act on (it becomes a usage error, exit 2, and
+nothing is written).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Callable, Optional
+
+
+class ImportError_(Exception):
+    """The file cannot be imported: not this format, truncated, or values out of range."""
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One source channel: it becomes one servo."""
+    index: int                              # source channel number (0-7 -> P1, 8-15 -> P2, 16-23 -> P0 unless --pins)
+    name: Optional[str] = None              # as the source names it (made a valid identifier later)
+    min_us: Optional[Fraction] = None       # the source's range of the channel, µs (becomes `limit`)
+    max_us: Optional[Fraction] = None
+    home_us: Optional[Fraction] = None      # where the source parks it at power-up, if it says
+
+
+@dataclass(frozen=True)
+class Key:
+    """One keyframe: the channels it sets (others keep their target) at `at_ms` from the track's start."""
+    at_ms: Fraction
+    targets: dict                            # channel index -> width in µs (Fraction)
+    source: str                              # what the source calls it, for the comment: "frame 3", "row 7", "t=1.250 s"
+
+
+@dataclass(frozen=True)
+class Track:
+    """One source sequence or animation: it becomes one `sequence`.
+
+    Two kinds:
+    - `sampled=False` (Maestro, CSV): each key is one linear move that arrives
+      at `at_ms` (from the previous key's time; the first from time 0).
+    - `sampled=True` (Blender): the keys are samples the motion must meet, within
+      ±1 N, at their times; the writer fits as few moves as it can through them.
+    A track given as a `curve` (Bottango) is sampled by the writer at every frame
+    of the firmware: `curve(t_ms)` gives each channel's width at a time from
+    0 to `length_ms`.
+    """
+    name: str
+    keys: tuple = ()
+    sampled: bool = False
+    curve: Optional[Callable[[Fraction], dict]] = None
+    length_ms: Fraction = Fraction(0)
+
+
+@dataclass(frozen=True)
+class Keyframes:
+    format: str                              # "maestro", "blender", "bottango", "csv"
+    channels: tuple                          # Channel, in channel order
+    tracks: tuple                            # Track, in file order (main plays them once, in this order)
+    notes: tuple = field(default=())         # things the reader wants the user to know (plain sentences)
+
+
+def identifier(text: str, fallback: str, taken: set) -> str:
+    """`text` made a valid .servo name that is not in `taken` (which it joins).
+
+    Letters, digits and `_` stay, anything else becomes `_`, a leading digit gets
+    `fallback` before it; a name already taken gets `_2`, `_3`, ...
+    """
+    from ..syntax import keywords
+    name = re.sub(r"[^A-Za-z0-9_]+", "_", text.strip()).strip("_") if text else ""
+    if not name:
+        name = fallback
+    elif name[0].isdigit():
+        name = f"{fallback}_{name}"
+    if name in keywords() or re.fullmatch(r"[Pp][0-3]", name):     # reserved, or a port's name
+        name += "_"
+    base, n = name, 2
+    while name in taken:
+        name, n = f"{base}_{n}", n + 1
+    taken.add(name)
+    return name
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """What the user told `servoc import` that a reader may need."""
+    fps: Optional[Fraction] = None           # `--fps`: frames per second (Blender `.bin` has no header)
+    ticks_hz: Optional[Fraction] = None      # `--ticks HZ`: positions are PCA9685 ticks (0..4095) at HZ, not µs
+
+
+def ticks_to_us(ticks: Fraction, hz: Fraction) -> Fraction:
+    """A PCA9685 count (4096 per period) as a width in µs at a PWM rate of `hz`."""
+    return Fraction(ticks) * 1_000_000 / (4096 * Fraction(hz))

@@ -1,0 +1,245 @@
+"""Keyframes -> .servo text: channels become servos, tracks sequences, keys moves.
+
+Input: a `Keyframes` (servoc.imports.keyframes), the pin of each channel, and
+for sampled tracks the frame period they are fitted at. Output: `Imported`,
+the program's text (laid out by servoc.printer, with a comment on every move
+naming its source) and the import's figures.
+
+- Positions become N by the Positions rule (widths rounded half up to the
+  8 µs grid) and are written as widths on the grid; `Imported.off_grid`
+  counts those that were not on it.
+- A keyed track (Maestro, CSV): each key is one linear move that arrives at
+  its time, `move KEY in (time - previous time)`; a key at the time of the one
+  before is `move KEY` (as fast as the servos allow), a key that sets nothing
+  is a `hold`.
+- A sampled track (Blender; a Bottango curve sampled at every frame): the
+  first sample is a `move` without a duration, then as few linear moves as
+  meet every sample within ±1 N. A run of samples i..j becomes one move when,
+  for every servo, the straight line from N_i to N_j passes within 1/2 N of
+  the exact source value at every sample between: the firmware's rounding of
+  that line adds at most 1/2 more, so every sample is met within 1 N. Each
+  servo keeps the interval of slopes that passes all the samples so far, so
+  the fit is one pass over the samples (linear in frames x servos).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+
+from .. import nodes
+from ..printer import format_number, format_program
+from ..source import NO_SPAN
+from ..units import BASE_US, DIV_US, N_MAX, round_half_up, width_on_grid, width_to_n
+from .keyframes import ImportError_, Keyframes, Track, identifier
+
+MAX_MOVE_FRAMES = 65535        # the firmware's frame counters are 16 bits
+_SLACK = 0.5 - 1e-9            # 1/2 N, less a float's error
+
+
+def default_pin(channel: int) -> str | None:
+    """The spec's channel rule: 0-7 on P1.0-P1.7, 8-15 on P2.0-P2.7, 16-23 on P0.0-P0.7."""
+    if 0 <= channel < 24:
+        return f"P{(1, 2, 0)[channel // 8]}.{channel % 8}"
+    return None
+
+
+@dataclass(frozen=True)
+class Imported:
+    text: str                   # the .servo program
+    frames_in: int              # source keyframes or samples
+    moves_out: int              # moves and holds written
+    deviation: int              # largest |N commanded - N of the source| at a source sample (sampled tracks)
+    off_grid: int               # source widths that were not on the 8 µs grid
+    positions: int              # source widths read
+    notes: tuple = ()
+
+
+@dataclass(frozen=True)
+class Timing:
+    """How sampled tracks meet the firmware's frames: sample i is kept when i % step == 0, and the
+    k-th kept one lands `frames` x k frames after the first."""
+    period_us: int
+    step: int = 1
+    frames: int = 1
+
+
+def sampled_timing(fps: Fraction, floor_us: int) -> Timing:
+    """The frame period for samples 1/fps apart: the longest P = (1/fps) / k that is at least
+    `floor_us` (so every sample falls on a frame); for an fps faster than that, every
+    `step`-th sample at P = step / fps."""
+    interval = Fraction(1_000_000) / fps
+    k = int(interval // floor_us)
+    if k >= 1:
+        return Timing(round_half_up(interval / k), 1, k)
+    step = math.ceil(floor_us / interval)
+    return Timing(round_half_up(interval * step), step, 1)
+
+
+class _Writer:
+    def __init__(self, kf: Keyframes, pins: dict):
+        self.kf = kf
+        self.taken: set = set()
+        self.names = {c.index: identifier(c.name or f"ch{c.index}", "ch", self.taken) for c in kf.channels}
+        self.pins = pins
+        self.poses: list = []
+        self.comments: dict = {}
+        self.positions = self.off_grid = self.moves = self.frames_in = self.deviation = 0
+
+    # ---- positions
+    def n(self, width: Fraction) -> int:
+        self.positions += 1
+        if not width_on_grid(width):
+            self.off_grid += 1
+        return width_to_n(width)
+
+    def pose(self, name: str, values: dict) -> nodes.Name:
+        pose = identifier(name, "pose", self.taken)
+        entries = tuple(nodes.Entry(_name(self.names[ch]), _width(n), NO_SPAN) for ch, n in sorted(values.items()))
+        self.poses.append(nodes.PoseDecl(_name(pose), None, entries, NO_SPAN))
+        return _name(pose)
+
+    def statement(self, stmt, comment: str):
+        self.comments[id(stmt)] = comment
+        self.moves += 1
+        return stmt
+
+    # ---- tracks
+    def keyed(self, track: Track, prefix: str) -> list:
+        body, last = [], Fraction(0)
+        for i, key in enumerate(track.keys):
+            self.frames_in += 1
+            values = {ch: self.n(w) for ch, w in sorted(key.targets.items()) if ch in self.names}
+            duration = max(Fraction(0), key.at_ms - last)
+            last = key.at_ms
+            if not values:
+                if duration > 0:
+                    body.append(self.statement(nodes.HoldStmt(_ms(duration), NO_SPAN), key.source))
+                continue
+            pose = self.pose(f"{prefix}_{i}", values)
+            body.append(self.statement(
+                nodes.MoveStmt(pose, _ms(duration) if duration > 0 else None, None, NO_SPAN), key.source))
+        return body
+
+    def sampled(self, track: Track, prefix: str, timing: Timing) -> list:
+        channels = [c.index for c in self.kf.channels]
+        if track.curve is not None:     # a curve: sampled at every frame
+            count = int(track.length_ms * 1000 // timing.period_us) + 1
+            frames = [(j, track.curve(Fraction(j * timing.period_us, 1000))) for j in range(count)]
+            labels = [f"{j * timing.period_us / 1000:.1f} ms" for j in range(count)]
+        else:
+            kept = track.keys[::timing.step]
+            frames = [(i * timing.frames, k.targets) for i, k in enumerate(kept)]
+            labels = [k.source for k in kept]
+        self.frames_in += len(frames)
+        if not frames:
+            return []
+        for i, (_, t) in enumerate(frames):
+            missing = [self.names[ch] for ch in channels if ch not in t]
+            if missing:
+                raise ImportError_(f"{track.name}, {labels[i]}: no position for `{missing[0]}`")
+        at = [f for f, _ in frames]
+        exact = {ch: [float((Fraction(t[ch]) - BASE_US) / DIV_US) for _, t in frames] for ch in channels}
+        ns = {ch: [self.n(t[ch]) for _, t in frames] for ch in channels}
+        first = self.pose(f"{prefix}_0", {ch: ns[ch][0] for ch in channels})
+        body = [self.statement(nodes.MoveStmt(first, None, None, NO_SPAN), f"{track.name}: {labels[0]}, the start")]
+        i = 0
+        while i < len(frames) - 1:
+            j = _longest_run(at, exact, ns, i)
+            duration = _ms(Fraction((at[j] - at[i]) * timing.period_us, 1000))
+            changed = {ch: ns[ch][j] for ch in channels if ns[ch][j] != ns[ch][i]}
+            stmt = nodes.MoveStmt(self.pose(f"{prefix}_{j}", changed), duration, None, NO_SPAN) if changed \
+                else nodes.HoldStmt(duration, NO_SPAN)
+            body.append(self.statement(stmt, f"{track.name}: {labels[i]} to {labels[j]}"))
+            self.deviation = max(self.deviation, _deviation(at, ns, i, j))
+            i = j
+        return body
+
+
+def _longest_run(at: list, exact: dict, ns: dict, i: int) -> int:
+    """The last sample j > i such that a linear move from i to j meets every sample between
+    within 1 N (see the module's docstring), at most MAX_MOVE_FRAMES frames on."""
+    lo = {ch: -math.inf for ch in exact}
+    hi = {ch: math.inf for ch in exact}
+    best, k = i + 1, i + 1
+    while k < len(at) and at[k] - at[i] <= MAX_MOVE_FRAMES:
+        t = at[k] - at[i]
+        if t > 0:
+            if all(lo[ch] <= (ns[ch][k] - ns[ch][i]) / t <= hi[ch] for ch in exact):
+                best = k
+            for ch, ys in exact.items():
+                lo[ch] = max(lo[ch], (ys[k] - ns[ch][i] - _SLACK) / t)
+                hi[ch] = min(hi[ch], (ys[k] - ns[ch][i] + _SLACK) / t)
+                if lo[ch] > hi[ch]:
+                    return best
+        k += 1
+    return best
+
+
+def _deviation(at: list, ns: dict, i: int, j: int) -> int:
+    """Largest |firmware N - source N| at the samples i..j of one linear move (the Statements rule)."""
+    worst, frames = 0, at[j] - at[i]
+    for ys in ns.values():
+        n0, d = ys[i], ys[j] - ys[i]
+        for k in range(i + 1, j):
+            step = (2 * abs(d) * (at[k] - at[i]) + frames) // (2 * frames)
+            worst = max(worst, abs(n0 + (step if d >= 0 else -step) - ys[k]))
+    return worst
+
+
+def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) -> Imported:
+    """The program for `kf`: `pins` maps each channel to its pin (`P1.0`); `timing` is how sampled
+    tracks meet the frames (None when there are none)."""
+    w = _Writer(kf, pins)
+    servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _limit(c), NO_SPAN)
+              for c in kf.channels]
+    sequences = []
+    for track in kf.tracks:
+        seq = identifier(track.name, "seq", w.taken)
+        body = w.sampled(track, seq, timing) if track.sampled else w.keyed(track, seq)
+        sequences.append(nodes.SequenceDecl(_name(seq), tuple(body), NO_SPAN))
+    items: list = []
+    homes = {c.index: w.n(c.home_us) for c in kf.channels if c.home_us is not None}
+    if homes:
+        home = w.pose("home", homes)
+        items.append(nodes.SettingDecl(_name("home"), home, NO_SPAN))
+    if timing is not None and any(t.sampled for t in kf.tracks):
+        items.append(nodes.FrameDecl(_ms(Fraction(timing.period_us, 1000)), NO_SPAN))
+    main = tuple(nodes.PlayStmt(s.name, NO_SPAN) for s in sequences)
+    items += servos + w.poses + sequences + [nodes.MainDecl(main, NO_SPAN, NO_SPAN)]
+    header = [f"# {source_name}: imported by `servoc import` from {_FORMATS[kf.format]}",
+              f"# {w.frames_in} source frames became {w.moves} moves"
+              + (f"; every source frame met within {w.deviation} N" if timing is not None else "")]
+    text = "\n".join(header) + "\n\n" + format_program(nodes.Program(tuple(items), NO_SPAN), w.comments)
+    notes = tuple(kf.notes)
+    if w.off_grid:
+        notes += (f"{w.off_grid} of {w.positions} positions were off the 8 µs grid and were rounded to the "
+                  f"nearest N (500 us + 8 us x N)",)
+    return Imported(text, w.frames_in, w.moves, w.deviation, w.off_grid, w.positions, notes)
+
+
+_FORMATS = {"maestro": "a Pololu Maestro Control Center settings file", "blender": "a Blender servo-animation export",
+            "bottango": "a Bottango code export", "csv": "a CSV of keyframes"}
+
+
+def _name(text: str) -> nodes.Name:
+    return nodes.Name(text, NO_SPAN)
+
+
+def _ms(value: Fraction) -> nodes.Quantity:
+    return nodes.Quantity(Fraction(value), "ms", NO_SPAN)
+
+
+def _width(n: int) -> nodes.Quantity:
+    return nodes.Quantity(Fraction(BASE_US + DIV_US * n), "us", NO_SPAN)
+
+
+def _limit(channel) -> tuple:
+    if channel.min_us is None or channel.max_us is None:
+        return ()
+    lo = min(max(width_to_n(channel.min_us), 0), N_MAX)
+    hi = min(max(width_to_n(channel.max_us), 0), N_MAX)
+    if lo > hi:
+        return ()
+    return (nodes.LimitOption(_width(lo), _width(hi), NO_SPAN),)
