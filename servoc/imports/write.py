@@ -24,6 +24,7 @@ naming its source) and the import's figures.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from fractions import Fraction
@@ -191,6 +192,12 @@ def _deviation(at: list, ns: dict, i: int, j: int) -> int:
 def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) -> Imported:
     """The program for `kf`: `pins` maps each channel to its pin (`P1.0`); `timing` is how sampled
     tracks meet the frames (None when there are none)."""
+    used = {c.index for c in kf.channels if c.home_us is not None}
+    for track in kf.tracks:
+        used |= {c.index for c in kf.channels} if track.curve is not None else \
+            {ch for key in track.keys for ch in key.targets}
+    unused = [c for c in kf.channels if c.index not in used]
+    kf = dataclasses.replace(kf, channels=tuple(c for c in kf.channels if c.index in used))
     w = _Writer(kf, pins)
     servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _limit(c), NO_SPAN)
               for c in kf.channels]
@@ -213,6 +220,9 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
               + (f"; every source frame met within {w.deviation} N" if timing is not None else "")]
     text = "\n".join(header) + "\n\n" + format_program(nodes.Program(tuple(items), NO_SPAN), w.comments)
     notes = tuple(kf.notes)
+    if unused:
+        notes += (f"channel{'s' * (len(unused) > 1)} {', '.join(str(c.index) for c in unused)} never move"
+                  f"{'s' * (len(unused) == 1)} and {'have' if len(unused) > 1 else 'has'} no home: left out",)
     if w.off_grid:
         notes += (f"{w.off_grid} of {w.positions} positions were off the 8 µs grid and were rounded to the "
                   f"nearest N (500 us + 8 us x N)",)

@@ -1,0 +1,332 @@
+"""servoc.imports.maestro: Pololu Maestro Control Center settings files -> Keyframes.
+
+Fixtures in tests/fixtures/import/maestro/ are hand-written files laid out as the Control
+Center writes them: wave_plain.xml (Mini Maestro 12, targets only) and wave_speeds.xml
+(the same sequences in the newer 'targets s speeds a accelerations' form, CRLF lines),
+micro6.xml (Micro Maestro 6), no_sequences.xml, and three broken or hostile files.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from fractions import Fraction
+
+import pytest
+from hypothesis import given, settings as hsettings, strategies as st
+
+from servoc.imports import maestro
+from servoc.imports.keyframes import Channel, ImportError_, ReadOptions
+
+HERE = os.path.join(os.path.dirname(__file__), "fixtures", "import", "maestro")
+
+
+def fixture(name: str) -> bytes:
+    with open(os.path.join(HERE, name), "rb") as f:
+        return f.read()
+
+
+def read_fixture(name: str):
+    return maestro.read(fixture(name), name, ReadOptions())
+
+
+def settings(sequences: str, channels: str | None = None) -> bytes:
+    """A small Micro Maestro 6 settings file with the given <Sequences> content."""
+    if channels is None:
+        channels = "".join(f'<Channel name="c{i}" mode="Servo" min="3968" max="8000" homemode="Off" '
+                           f'home="0" speed="0" acceleration="0" neutral="6000" range="1905" />' for i in range(6))
+    return (f'<!--Pololu Maestro servo controller settings file, http://www.pololu.com/catalog/product/1350-->\n'
+            f'<UscSettings version="1"><Channels ServosAvailable="6" ServoPeriod="156">{channels}</Channels>'
+            f'<Sequences>{sequences}</Sequences><Script ScriptDone="false" /></UscSettings>').encode()
+
+
+def read_text(sequences: str, channels: str | None = None, path: str = "robot.xml"):
+    return maestro.read(settings(sequences, channels), path, ReadOptions())
+
+
+def error(sequences: str, channels: str | None = None) -> str:
+    with pytest.raises(ImportError_) as info:
+        read_text(sequences, channels)
+    return str(info.value)
+
+
+def at_ms(track) -> list:
+    return [k.at_ms for k in track.keys]
+
+
+# ---- the two frame forms ---------------------------------------------------------
+
+def test_both_frame_text_forms_give_the_same_keys():
+    plain, speeds = read_fixture("wave_plain.xml"), read_fixture("wave_speeds.xml")
+    assert plain.format == speeds.format == "maestro"
+    assert plain.channels == speeds.channels
+    assert plain.tracks == speeds.tracks
+    assert [t.name for t in plain.tracks] == ["Wave", "Blink twice"]
+    assert plain.tracks[0].keys[0].targets == {0: 1500, 3: 1750}
+
+
+def test_new_form_reads_only_the_part_before_s_as_targets():
+    kf = read_text('<Sequence name="S"><Frame name="Frame 0" duration="100">'
+                   '4000 5000 0 0 0 0 s 7 8 0 0 0 0 a 1 2 0 0 0 0</Frame></Sequence>')
+    assert kf.tracks[0].keys[0].targets == {0: 1000, 1: 1250}
+    assert any("speeds and accelerations" in n for n in kf.notes)
+
+
+def test_all_zero_frame_speeds_give_no_note():
+    kf = read_text('<Sequence name="S"><Frame name="Frame 0" duration="100">'
+                   '4000 0 0 0 0 0 s 0 0 0 0 0 0 a 0 0 0 0 0 0</Frame></Sequence>')
+    assert not any("speeds and accelerations" in n for n in kf.notes)
+
+
+# ---- channels ----------------------------------------------------------------------
+
+def test_non_servo_channels_are_left_out_with_their_targets():
+    kf = read_fixture("wave_plain.xml")
+    assert [c.index for c in kf.channels] == [0, 1, 3, 5, 6, 7, 8, 9, 10, 11]
+    for track in kf.tracks:
+        for key in track.keys:
+            assert not {2, 4} & set(key.targets)
+    # Frame 0 sets the Output channel 2 to 8000, frame 1 the Input channel 4 to 1023: both dropped.
+    assert kf.tracks[0].keys[0].targets == {0: 1500, 3: 1750}
+    assert kf.tracks[0].keys[1].targets == {0: 1000, 1: 1250}
+    assert any("2 (Output)" in n and "4 (Input)" in n for n in kf.notes)
+
+
+def test_servo_multiplied_is_a_servo():
+    kf = read_fixture("wave_plain.xml")
+    eye = next(c for c in kf.channels if c.index == 3)
+    assert eye == Channel(3, "eye lr", Fraction(1100), Fraction(1900), Fraction(1250))
+    assert any("ServoMultiplied" in n and "3" in n for n in kf.notes)
+
+
+def test_channel_names_limits_and_home():
+    by_index = {c.index: c for c in read_fixture("wave_plain.xml").channels}
+    assert by_index[0] == Channel(0, "jaw", Fraction(992), Fraction(2000), Fraction(1500))   # Goto 6000
+    assert by_index[1] == Channel(1, None, Fraction(1000), Fraction(2000), None)             # blank name, Off
+    assert by_index[5].home_us is None                                                      # Ignore
+    assert by_index[10] == Channel(10, "eyelid", Fraction(1000), Fraction(2000), Fraction(2000))
+    assert by_index[11].min_us == 750 and by_index[11].max_us == 2250
+
+
+def test_quarter_microseconds_are_kept_exact():
+    key = read_fixture("wave_plain.xml").tracks[0].keys[3]
+    assert key.targets[11] == Fraction(6001, 4)
+    assert isinstance(key.targets[0], Fraction)
+
+
+def test_missing_mode_is_servo_and_mode_case_is_ignored():
+    channels = ('<Channel name="x" min="4000" max="8000" homemode="goto" home="6000" />'
+                '<Channel name="y" mode="OUTPUT" min="4000" max="8000" homemode="Off" home="0" />')
+    kf = read_text('<Sequence name="S"><Frame name="Frame 0" duration="10">5000 6000</Frame></Sequence>', channels)
+    assert kf.channels == (Channel(0, "x", Fraction(1000), Fraction(2000), Fraction(1500)),)
+    assert kf.tracks[0].keys[0].targets == {0: 1250}
+
+
+def test_channel_speed_limits_get_a_note():
+    assert any("speed and acceleration limits" in n for n in read_fixture("micro6.xml").notes)
+    assert not any("speed and acceleration limits" in n for n in read_fixture("wave_plain.xml").notes)
+
+
+# ---- keys --------------------------------------------------------------------------
+
+def test_zero_means_keep_and_an_all_zero_frame_is_a_pause():
+    wave = read_fixture("wave_plain.xml").tracks[0]
+    assert 1 not in wave.keys[0].targets          # channel 1 is 0 in frame 0
+    assert wave.keys[2].targets == {}             # Frame 2: all zero
+    assert read_fixture("wave_plain.xml").tracks[1].keys[0].targets == {10: 1000}
+
+
+def test_durations_are_summed_into_at_ms():
+    kf = read_fixture("wave_plain.xml")
+    assert at_ms(kf.tracks[0]) == [500, 750, 1750, 2500]
+    assert at_ms(kf.tracks[1]) == [100, 200]
+    assert all(not t.sampled for t in kf.tracks)
+
+
+def test_a_zero_duration_frame_arrives_at_once():
+    kf = read_fixture("micro6.xml")
+    assert at_ms(kf.tracks[1]) == [0]
+    assert kf.tracks[1].keys[0].targets == {0: 500, 1: 1750}
+
+
+def test_fewer_targets_than_channels_keep_the_rest():
+    nod = read_fixture("micro6.xml").tracks[0]
+    assert nod.keys[0].targets == {0: 1500, 1: 2000}
+    assert at_ms(nod) == [400, 800]
+
+
+def test_key_source_names_the_sequence_and_frame():
+    kf = read_fixture("wave_plain.xml")
+    assert kf.tracks[0].keys[1].source == "Wave frame 1"
+    assert [k.source for k in kf.tracks[1].keys] == ["Blink twice frame 0 (closed)", "Blink twice frame 1 (open)"]
+
+
+def test_source_has_no_line_breaks():
+    kf = read_text('<Sequence name="two&#10;lines"><Frame name="a&#13;&#10;b" duration="10">4000</Frame></Sequence>')
+    assert kf.tracks[0].keys[0].source == "two lines frame 0 (a b)"
+    assert kf.tracks[0].name == "two\nlines"                       # the name itself is kept as written
+
+
+# ---- sequences ---------------------------------------------------------------------
+
+def test_repeated_sequence_names_are_made_distinct_and_empty_ones_skipped():
+    kf = read_fixture("micro6.xml")
+    assert [t.name for t in kf.tracks] == ["Nod", "Nod (2)"]
+    assert any("'Empty'" in n and "skipped" in n for n in kf.notes)
+
+
+def test_unnamed_sequence_gets_a_number():
+    kf = read_text('<Sequence><Frame name="Frame 0" duration="10">4000</Frame></Sequence>')
+    assert kf.tracks[0].name == "Sequence 1"
+
+
+def test_no_sequences_gives_no_tracks():
+    kf = read_fixture("no_sequences.xml")
+    assert kf.tracks == ()
+    assert len(kf.channels) == 6
+    assert any("no sequences" in n for n in kf.notes)
+
+
+def test_script_is_mentioned_only_when_there_is_one():
+    assert any("<Script>" in n for n in read_fixture("wave_speeds.xml").notes)
+    assert not any("<Script>" in n for n in read_fixture("wave_plain.xml").notes)
+
+
+def test_bom_and_utf16_files_are_read():
+    data = fixture("micro6.xml")
+    expected = maestro.read(data, "a.xml", ReadOptions())
+    assert maestro.read(b"\xef\xbb\xbf" + data, "a.xml", ReadOptions()) == expected
+    utf16 = ('<?xml version="1.0" encoding="utf-16"?>\r\n' + data.decode()).encode("utf-16")
+    assert maestro.read(utf16, "a.xml", ReadOptions()) == expected
+
+
+# ---- hostile XML -------------------------------------------------------------------
+
+def test_billion_laughs_fails_fast_with_import_error():
+    start = time.perf_counter()
+    with pytest.raises(ImportError_, match="DOCTYPE") as info:
+        maestro.read(fixture("billion_laughs.xml"), "billion_laughs.xml", ReadOptions())
+    assert time.perf_counter() - start < 1.0
+    assert "billion_laughs.xml" in str(info.value)
+
+
+def test_external_entity_is_refused():
+    with pytest.raises(ImportError_, match="DOCTYPE") as info:
+        maestro.read(fixture("external_entity.xml"), "external_entity.xml", ReadOptions())
+    assert "root:" not in str(info.value)
+
+
+@pytest.mark.parametrize("doctype", [
+    '<!DOCTYPE UscSettings SYSTEM "http://127.0.0.1:9/evil.dtd">',
+    '<!DOCTYPE UscSettings [<!ENTITY % p SYSTEM "file:///etc/passwd"> %p;]>',
+    '<!DOCTYPE UscSettings>',
+])
+def test_any_doctype_is_refused(doctype):
+    data = settings('<Sequence name="S"><Frame name="Frame 0" duration="10">4000</Frame></Sequence>')
+    data = data.replace(b"<UscSettings", doctype.encode() + b"<UscSettings", 1)
+    with pytest.raises(ImportError_, match="DOCTYPE"):
+        maestro.read(data, "evil.xml", ReadOptions())
+
+
+def test_undeclared_entity_is_an_xml_error():
+    with pytest.raises(ImportError_, match="evil.xml"):
+        maestro.read(settings('<Sequence name="&xxe;" />'), "evil.xml", ReadOptions())
+
+
+# ---- broken files ------------------------------------------------------------------
+
+@pytest.mark.parametrize("data", [fixture("truncated.xml"), b"", b"not xml at all <<<", b"<UscSettings>",
+                                  b'{"fps": 24}', b"\x00\x01\x02\xff"])
+def test_unreadable_xml_is_an_import_error(data):
+    with pytest.raises(ImportError_, match="truncated.xml"):
+        maestro.read(data, "truncated.xml", ReadOptions())
+
+
+def test_wrong_root_is_an_import_error():
+    with pytest.raises(ImportError_, match="<Settings>"):
+        maestro.read(b"<Settings><Channels /></Settings>", "x.xml", ReadOptions())
+
+
+@pytest.mark.parametrize("channels", [None, "", "<Foo />"])
+def test_no_channels_is_an_import_error(channels):
+    body = (b'<UscSettings version="1"><Sequences /></UscSettings>' if channels is None
+            else f'<UscSettings version="1"><Channels>{channels}</Channels></UscSettings>'.encode())
+    with pytest.raises(ImportError_, match="Channel"):
+        maestro.read(body, "x.xml", ReadOptions())
+
+
+@pytest.mark.parametrize("frame, what", [
+    ('<Frame name="Frame 0" duration="100">4000 abc</Frame>', "'abc'"),
+    ('<Frame name="Frame 0" duration="100">4000 -4000</Frame>', "'-4000'"),
+    ('<Frame name="Frame 0" duration="100">4000 65536</Frame>', "'65536'"),
+    ('<Frame name="Frame 0" duration="100">4000 4000.5</Frame>', "'4000.5'"),
+    ('<Frame name="Frame 0" duration="100">4000 4000 4000 4000 4000 4000 4000</Frame>', "only 6 channels"),
+    ('<Frame name="Frame 0">4000</Frame>', "no duration"),
+    ('<Frame name="Frame 0" duration="-5">4000</Frame>', "'-5'"),
+    ('<Frame name="Frame 0" duration="12.5">4000</Frame>', "'12.5'"),
+    ('<Frame name="Frame 0" duration="soon">4000</Frame>', "'soon'"),
+    ('<Frame name="Frame 0" duration="70000">4000</Frame>', "'70000'"),
+    ('<Frame name="Frame 0" duration="100">4000 a 0 s 0</Frame>', "targets s speeds"),
+    ('<Frame name="Frame 0" duration="100">4000 s 0 s 0</Frame>', "targets s speeds"),
+    ('<Frame name="Frame 0" duration="100">4000 s fast a 0</Frame>', "'fast'"),
+])
+def test_broken_frame_names_file_sequence_and_frame(frame, what):
+    ok = '<Frame name="Frame 0" duration="100">4000</Frame>'
+    message = error(f'<Sequence name="Wave">{ok}{frame.replace("Frame 0", "Frame 1")}</Sequence>')
+    assert message.startswith("robot.xml: sequence 'Wave', frame 1 ('Frame 1')")
+    assert what in message
+
+
+@pytest.mark.parametrize("attributes, what", [
+    ('mode="Stepper" homemode="Off"', "mode"),
+    ('mode="Servo" homemode="Later"', "homemode"),
+    ('mode="Servo" homemode="Off" min="abc"', "min"),
+    ('mode="Servo" homemode="Goto" home="-1"', "home"),
+    ('mode="Servo" homemode="Off" min="8000" max="4000"', "above max"),
+])
+def test_broken_channel_is_an_import_error(attributes, what):
+    message = error("", f'<Channel name="a" {attributes} />')
+    assert message.startswith("robot.xml: channel 0") and what in message
+
+
+def test_errors_never_escape_as_other_exception_types():
+    for data in [fixture("truncated.xml")[:n] for n in range(0, 1600, 37)]:
+        with pytest.raises(ImportError_):
+            maestro.read(data, "t.xml", ReadOptions())
+
+
+# ---- sniff -------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["wave_plain.xml", "wave_speeds.xml", "micro6.xml", "no_sequences.xml"])
+def test_sniff_knows_settings_files(name):
+    assert maestro.sniff(fixture(name), name)
+
+
+@pytest.mark.parametrize("data", [
+    b'<UscSettings version="1"></UscSettings>',
+    b'\xef\xbb\xbf  \r\n<?xml version="1.0" encoding="utf-8"?>\r\n<!--a comment-->\r\n<UscSettings version="1">',
+    '<?xml version="1.0" encoding="utf-16"?><UscSettings version="1">'.encode("utf-16"),
+    b"\n\n<UscSettings/>",
+])
+def test_sniff_true(data):
+    assert maestro.sniff(data, "x.xml") is True
+
+
+@pytest.mark.parametrize("data", [
+    b'{"fps": 24, "frames": 48, "servos": {"0": {"name": "Bone", "positions": [1500, 1510]}}}',
+    b"time_ms,ch0,ch1\n0,1500,1500\n20,1510,1490\n",
+    b"<Settings><Channels/></Settings>",
+    b"<UscSettingsOld/>",
+    b"<!-- <UscSettings> -->\n<Other/>",
+    b"",
+    b"\x00\x01\xfe\xff",
+    b"uscsettings",
+])
+def test_sniff_false(data):
+    assert maestro.sniff(data, "x") is False
+
+
+@hsettings(max_examples=200, deadline=None)
+@given(st.binary(max_size=300))
+def test_sniff_never_raises(data):
+    assert maestro.sniff(data, "x") in (True, False)
