@@ -370,7 +370,10 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
         floor_us = _default_period_on(sorted(set(pin_of.values())))
         keyed = [t for t in kf.tracks if t.curve is None and len(t.keys) > 1]
         if keyed:
-            interval = keyed[0].keys[1].at_ms - keyed[0].keys[0].at_ms
+            intervals = {t.keys[1].at_ms - t.keys[0].at_ms for t in keyed}
+            if len(intervals) > 1:
+                raise UsageError(f"{path}: its animations run at different frame rates; import them one at a time")
+            interval = intervals.pop()
             if interval <= 0:
                 raise UsageError(f"{path}: the frames are not 1/fps apart")
             timing = _write.sampled_timing(Fraction(1000) / interval, floor_us)

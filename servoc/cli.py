@@ -524,7 +524,7 @@ def _import(args, run: _Run) -> int:
     from fractions import Fraction
     from .imports.keyframes import ReadOptions
     out = args.output or os.path.splitext(args.file)[0] + ".servo"
-    if out == args.file or os.path.splitext(out)[1] != ".servo" and args.output is None:
+    if args.output is None and _same_file(out, args.file):      # importing a .servo file: never over it
         out = args.file + ".servo"
     _check_output("-o" if args.output else "the program", out)
     if os.path.exists(args.file) and _same_file(out, args.file):

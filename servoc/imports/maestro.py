@@ -47,7 +47,8 @@ from xml.parsers import expat
 
 from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track
 
-_HEAD = re.compile(r"\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*)*<UscSettings[\s/>]", re.S)
+_HEAD = re.compile(r"\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*|<!DOCTYPE[^\[>]*(\[.*?\])?\s*>\s*)*<UscSettings[\s/>]",
+                   re.S)     # a DOCTYPE is recognised here so that `read` can refuse it by name
 _NOT_SERVO = {"input": "Input", "output": "Output"}
 
 

@@ -1,0 +1,88 @@
+"""servoc import, end to end: one file of each format becomes a program that compiles and whose
+firmware, run in ucsim, sends exactly the planned pulses; broken and hostile files are usage errors
+that write nothing."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+
+from servoc import api, cli
+from servoc.plan import verify_frames
+
+ROOT = Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "examples" / "import"
+FIXTURES = ROOT / "tests" / "fixtures" / "import"
+SOURCES = sorted(p for p in EXAMPLES.iterdir() if p.suffix in (".csv", ".xml", ".json", ".cpp"))
+
+
+def test_there_is_an_import_example_of_each_format():
+    formats = {api.read_motion(str(p))[0] for p in SOURCES}
+    assert formats == set(api.IMPORT_FORMATS)
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("path", SOURCES, ids=[p.name for p in SOURCES])
+def test_import_compile_verify(path, tmp_path, capsys):
+    out = tmp_path / (path.stem + ".servo")
+    assert cli.main(["import", str(path), "-o", str(out)]) == 0, capsys.readouterr().err
+    source, reporter = api.load_source(str(out))
+    fe, firmware = api.build(source, reporter)
+    assert firmware is not None, [d.message for d in reporter.diagnostics if d.is_error]
+    report = api.verify(fe.plan, firmware, verify_frames(fe.plan))
+    assert report.ok, report.mismatches[:5]
+    assert report.frames >= fe.plan.total_frames
+
+
+def test_the_three_blender_exports_give_one_program(tmp_path, capsys):
+    texts = []
+    for name in ("anim.json", "anim.h", "anim.bin"):
+        out = tmp_path / (name + ".servo")
+        cli.main(["import", str(FIXTURES / "blender" / name), "-o", str(out), "--fps", "30"])
+        texts.append(out.read_text().split("\n", 2)[2])      # the same below the header
+    assert texts[0] == texts[1] == texts[2] and "move " in texts[0]
+
+
+@pytest.mark.parametrize("name, content, words", [
+    ("laughs.xml", b'<?xml version="1.0"?><!DOCTYPE lolz [<!ENTITY lol "lol"><!ENTITY lol2 "&lol;&lol;&lol;">]>'
+                   b"<UscSettings><Channels/></UscSettings>", "DOCTYPE"),
+    ("cut.xml", (FIXTURES / "maestro" / "wave_plain.xml").read_bytes()[:700], "XML"),
+    ("cut.bin", (FIXTURES / "blender" / "anim.bin").read_bytes()[:31], "cut short"),
+    ("types.json", b'{"fps": "thirty", "frames": 1, "positions": [{"0": 1500}]}', "fps"),
+    ("cut.cpp", b'const char SETUP_DATA_0[] PROGMEM = "rSVPin,9,1000,2000,3000,1500\\n";\n'
+                b'const char ANIM_0_DATA0[] PROGMEM = "sC,9,0,500\\n";\n', "truncated"),
+    ("empty.csv", b"time_ms,a\n", "no keyframe rows"),
+])
+def test_broken_and_hostile_files_are_usage_errors(tmp_path, capsys, name, content, words):
+    src = tmp_path / name
+    src.write_bytes(content)
+    started = time.perf_counter()
+    rc = cli.main(["import", str(src), "--fps", "30"] if name.endswith(".bin") else ["import", str(src)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "Traceback" not in err and "internal error" not in err
+    assert words.lower() in err.lower(), err
+    assert os.listdir(tmp_path) == [name]
+    assert time.perf_counter() - started < 5
+
+
+def test_a_million_frames_is_a_clear_error_in_moments(tmp_path, capsys):
+    src = tmp_path / "long.bin"
+    src.write_bytes(b"<\x00\x05\xdc>\n" * 1_000_000)
+    started = time.perf_counter()
+    rc = cli.main(["import", str(src), "--fps", "30"])
+    err = capsys.readouterr().err
+    assert rc == 2 and "frames" in err and "Traceback" not in err
+    assert not (tmp_path / "long.servo").exists()
+    assert time.perf_counter() - started < 10
+
+
+def test_import_overwrites_nothing_it_reads(tmp_path, capsys):
+    src = tmp_path / "a.csv"
+    shutil.copy(EXAMPLES / "pan_tilt.csv", src)
+    assert cli.main(["import", str(src), "-o", str(src)]) == 2
+    assert "is the file to import" in capsys.readouterr().err
+    assert src.read_bytes() == (EXAMPLES / "pan_tilt.csv").read_bytes()
