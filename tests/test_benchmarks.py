@@ -214,3 +214,17 @@ def test_meanwhile_benchmark_programs_lint_clean_and_scale():
             took, ok = meanwhile.lint_seconds(make(frames))
             assert ok, make.__name__
     assert abs(len(meanwhile.repeated(100_000)) - len(meanwhile.repeated(100))) <= 3
+
+
+def test_import_benchmark_files_are_read_as_their_format_and_import_clean(tmp_path):
+    """benchmarks/import_scale.py's generated animations (300 frames here): each is recognised as
+    its format, imports without an error, and the sampled ones meet every frame within 1 N."""
+    bench = _load("bench_import", "import_scale.py")
+    bench.FRAMES = 300
+    for make, name, fmt in ((bench.maestro, "a.xml", "maestro"), (bench.blender, "a.json", "blender"),
+                            (bench.bottango, "a.cpp", "bottango"), (bench.csv, "a.csv", "csv")):
+        path = tmp_path / name
+        make(path)
+        row = bench.measure(path)
+        assert row["format"] == fmt and row["errors"] == 0 and row["deviation"] <= 1
+        assert row["moves_out"] <= row["frames_in"] and row["frames_in"] >= 300

@@ -102,3 +102,15 @@ def test_events_sessions_match(capsys):
         args = [a if not a.startswith("examples/") else str(ROOT / a) for a in command.split()]
         code, out, err = run_cli(args, capsys)
         assert code == 0 and out.replace(str(ROOT) + "/", "") == shown, (out, err)
+
+
+def test_import_session_matches(tmp_path, monkeypatch, capsys):
+    """The README's `servoc import` session: what it prints, and the program it writes lints clean."""
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    (command, shown), = re.findall(r"```text\n\$ servoc (import [^\n]*)\n(.*?)```", README, re.S)
+    code, out, err = run_cli(command.split(), capsys)
+    assert code == 0 and out == shown, (out, err)
+    out_file = command.split()[command.split().index("-o") + 1]
+    code, out, err = run_cli(["lint", out_file], capsys)
+    assert code == 0 and err.endswith("0 errors, 0 warnings, 1 note\n") and "[no-home]" in err
