@@ -237,3 +237,29 @@ def test_import_json_document(tmp_path, capsys):
     doc = json.loads(out)
     assert rc == 0 and doc["import"]["frames_in"] == 2 and doc["import"]["moves_out"] == 2
     assert doc["import"]["off_grid"] == 1
+
+
+# ---- any bytes: a clear error or a program, never a traceback --------------------------
+
+FRAGMENTS = [b"time_ms,a,b\n", b"0,1500,1500\n", b"<UscSettings>", b"<Channels>", b'<Channel mode="Servo"/>',
+             b"</Channels>", b'<Sequence name="s">', b'<Frame duration="100">', b"6000 0 s 1 a 2", b"</Frame>",
+             b'{"fps": 30, "frames": 1, "positions": [{"0": 1500}]}', b"<\x00\x05\xdc>", b"\n", b"<", b">",
+             b'const byte FPS = 30; const int FRAMES = 1; const byte ANIMATION_DATA[] = {0x3c, 0x00, 0x05, 0xdc, 0x3e, 0x0a};',
+             b"rSVPin,9,1000,2000,3000,1500\\n", b'const char ANIM_0_DATA0[] PROGMEM = "sC,9,0,500,0,1,0,8192,-1,0\\n";',
+             b"\xff\xfe", b"-1", b"1e999", b"NaN", b","]
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.sampled_from(FRAGMENTS) | st.binary(max_size=12), max_size=14),
+       st.sampled_from(["x.csv", "x.xml", "x.json", "x.h", "x.bin", "x.cpp"]),
+       st.sampled_from([None] + list(api.IMPORT_FORMATS)))
+def test_any_bytes_import_or_fail_clearly(tmp_path_factory, parts, name, fmt):
+    path = tmp_path_factory.mktemp("fuzz") / name
+    path.write_bytes(b"".join(parts))
+    try:
+        imported = api.import_motion(str(path), fmt, {}, ReadOptions(fps=Fraction(30)))
+    except api.UsageError as exc:
+        assert str(exc)
+        return
+    fe, rep = front(imported.text)
+    assert fe.tree is not None, [d.message for d in rep.diagnostics]     # what the import writes always parses
