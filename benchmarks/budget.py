@@ -28,7 +28,7 @@ import time
 from baselines import POSITIONS, BuildError
 from servoc import api, codegen, costs
 from servoc.diagnostics import Reporter
-from servoc.plan import Plan
+from servoc.steps import Plan
 from servoc.source import SourceFile
 from servoc.units import DEFAULT_PERIOD_FLOOR_US
 

@@ -1,6 +1,7 @@
 """One function per stage boundary; the CLI and the tests call only these.
 
     SourceFile --parse--> nodes.Program --check--> model.Program --plan--> Plan
+    Plan --period (the shortest P read from the code generated for it)--> Plan, its period fixed
     Plan --lint--> diagnostics              (lint only reads)
     Plan --generate--> AsmUnit --assemble--> Firmware --simulate--> SimTrace
     Plan x SimTrace --verify--> VerifyReport
@@ -19,12 +20,13 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 from . import check as _check
-from . import codegen, layout, lint as _lint, syntax, toolchain
+from . import codegen, costs, layout, lint as _lint, syntax, toolchain
 from . import plan as _plan
 from . import sim as _sim
 from . import verify as _verify
 from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
+from .steps import Plan
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
 
 SimError = _sim.SimError
@@ -42,7 +44,7 @@ class FrontEnd:
     source: SourceFile
     tree: object | None
     program: object | None
-    plan: _plan.Plan | None
+    plan: Plan | None
 
 
 @dataclass(frozen=True)
@@ -88,12 +90,41 @@ def check(tree, reporter: Reporter):
     return _check.check(tree, reporter, reporter.source.path)
 
 
-def plan(program, reporter: Reporter) -> _plan.Plan:
-    """model.Program -> Plan (frame period, steps with frame counts, move instances)."""
-    return _plan.plan(program, reporter)
+def plan(program, reporter: Reporter) -> Plan:
+    """model.Program -> Plan (frame period, steps with frame counts, move instances), its period
+    fixed by the period stage (`choose_period`)."""
+    return choose_period(program, _plan.plan(program, reporter))
 
 
-def lint(plan_: _plan.Plan, reporter: Reporter) -> None:
+def choose_period(program, first: Plan) -> Plan:
+    """The period stage: the plan with `min_period_us`, the shortest period the code generated for
+    it holds (costs.py, read by wcet.py). Without `frame`, P is the default: the plan is made again
+    at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
+    depends on P."""
+    result = _budgeted(first)
+    if not first.period_is_default:
+        return result
+    seen = set()
+    while True:
+        want = costs.default_period_us(result.min_period_us)
+        if want == result.period_us or (result.period_us in seen and want <= result.period_us):
+            return result
+        seen.add(result.period_us)
+        period = max(want, result.period_us) if len(seen) > 4 else want
+        result = _budgeted(_plan.plan(program, None, period))
+
+
+def _budgeted(p: Plan) -> Plan:
+    """`p` with `min_period_us` read from the firmware generated for it; when no firmware can be
+    generated (a resource limit, reported later), P itself and the limit."""
+    try:
+        unit = codegen.generate(p)
+    except layout.LayoutError as exc:
+        return dataclasses.replace(p, min_period_us=p.period_us, firmware_limit=(exc.code, str(exc), exc.help))
+    return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us)
+
+
+def lint(plan_: Plan, reporter: Reporter) -> None:
     """Report every lint rule's findings on a plan."""
     _lint.lint(plan_, reporter)
 
@@ -136,7 +167,7 @@ def _front_end(source: SourceFile, reporter: Reporter) -> FrontEnd:
     return FrontEnd(source, tree, program, p)
 
 
-def generate(plan_: _plan.Plan, source: SourceFile, reporter: Reporter) -> codegen.AsmUnit | None:
+def generate(plan_: Plan, source: SourceFile, reporter: Reporter) -> codegen.AsmUnit | None:
     """Plan -> assembly text. Resource limits become diagnostics."""
     try:
         unit = codegen.generate(plan_, source)
@@ -206,7 +237,7 @@ class Stimulus:
         return max([at for at, *_ in self.pins] + [at for at, _ in self.uart or ()], default=0)
 
 
-def stimulus(plan_: _plan.Plan, events: list = ()) -> Stimulus:
+def stimulus(plan_: Plan, events: list = ()) -> Stimulus:
     """The run `events` (of servoc.events) describe: every input inactive from the first cycle (an
     active-high input's pin held low), then each change; each line of bytes sent to the UART."""
     from . import events as _events
@@ -238,7 +269,7 @@ def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
     raise AssertionError("unreachable")
 
 
-def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list,
+def check_events(plan_: Plan, trace: _sim.SimTrace, frames: int, events: list,
                  line_of=None) -> _verify.VerifyReport:
     """Compare a run driven by `events` with the plan: the branch taken at each select is read from
     the trace (`verify.infer_choices`), then each `on` must start within 2 P of its event, and
@@ -247,7 +278,7 @@ def check_events(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: l
     return events_report(plan_, trace, frames, events, line_of)[1]
 
 
-def events_report(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: list,
+def events_report(plan_: Plan, trace: _sim.SimTrace, frames: int, events: list,
                   line_of=None) -> tuple[tuple, _verify.VerifyReport]:
     """(the choices found, the report) of `check_events`."""
     import dataclasses
@@ -263,23 +294,23 @@ def events_report(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int, events: 
         warnings=() if end is None else tuple(_verify.unseen(plan_, choices, events, t1, end)))
 
 
-def cycles_needed(plan_: _plan.Plan, frames: int) -> int:
+def cycles_needed(plan_: Plan, frames: int) -> int:
     """Machine cycles to simulate so that `frames` frames from the first pulse are complete."""
     return _verify.cycles_needed(plan_, frames)
 
 
-def check_trace(plan_: _plan.Plan, trace: _sim.SimTrace, frames: int) -> _verify.VerifyReport:
+def check_trace(plan_: Plan, trace: _sim.SimTrace, frames: int) -> _verify.VerifyReport:
     """Compare `frames` frames of a simulation (run with `stimulus(plan_)`: every input inactive),
     from the first pulse, with the plan's golden frames."""
     return _verify.verify(plan_, trace, frames, driven=stimulus(plan_).pins)
 
 
-def verify(plan_: _plan.Plan, firmware: Firmware, frames: int) -> _verify.VerifyReport:
+def verify(plan_: Plan, firmware: Firmware, frames: int) -> _verify.VerifyReport:
     """Simulate and compare `frames` frames, from the first pulse, with the plan's golden frames."""
     return verify_hex(plan_, firmware.hex_text, frames)
 
 
-def verify_hex(plan_: _plan.Plan, hex_text: str, frames: int) -> _verify.VerifyReport:
+def verify_hex(plan_: Plan, hex_text: str, frames: int) -> _verify.VerifyReport:
     """Simulate a HEX image (built from this plan, or given) and compare `frames` frames with the plan."""
     trace = simulate(hex_text, cycles_needed(plan_, frames), plan_.program.target, stimulus(plan_))
     return check_trace(plan_, trace, frames)

@@ -28,7 +28,8 @@ from fractions import Fraction
 
 from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_dict
-from .plan import AfterBranch, Plan, SelectStep, SendStep, branch_text, has_selects, steps, verify_frames
+from .plan import has_selects
+from .steps import AfterBranch, branch_text, Plan, SelectStep, SendStep, steps
 from .starter import starter
 from .verify import SETTLE_MARGIN, verify_settle, verify_span
 from .target import fmt_us
@@ -807,7 +808,7 @@ def startup_frames(plan: Plan) -> int:
 
 def _ranges(plan: Plan, hull) -> list:
     """(channel, (low N, high N, may have no target yet)) of each servo a meanwhile body can leave anywhere."""
-    from .plan import Reach
+    from .steps import Reach
     out = []
     for c, v in zip(plan.channels, hull):
         if v is None:

@@ -29,9 +29,11 @@ from . import costs
 from . import walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .plan import (UNBOUNDED, watches, AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
-                   edge_ports, fewest_frames, select_ram, select_slots, send_gap, send_run, sends, steps, takes_frames)
+from .flow import (UNBOUNDED, edge_ports, fewest_frames, select_ram, select_slots, send_gap, send_run, sends,
+                   takes_frames, watches)
 from .source import SourceFile
+from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
+                    steps)
 from .units import N_MAX
 
 # Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19).

@@ -35,7 +35,7 @@ from .check import quantities
 from .check.context import PORTS
 from .diagnostics import Diagnostic, Reporter, Severity
 from .model import EASES
-from .plan import MoveInstance, Plan
+from .steps import MoveInstance, Plan
 from .printer import format_quantity
 from .source import NO_SPAN, SourceFile, Span
 from .syntax import keywords

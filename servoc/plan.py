@@ -28,13 +28,17 @@ At a select it follows `choices` (see `expand`); without one it waits forever.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Iterable, Iterator, Union
 
-from . import costs, model, walk
+from . import model, walk
 from .diagnostics import Reporter
+from .flow import sends, takes_frames
 from .source import NO_SPAN, Span
+from .steps import (AfterBranch, Branch, Channel, HoldStep, LoopStep, MoveInstance, MoveStep, OnBranch, Origin, Plan,
+                    PlayStep, Reach, RepeatStep, SelectStep, SendStep, SequencePlan, ServoMotion, Step, at_statement,
+                    far, far_from, join, steps)
 from .units import DEFAULT_PERIOD_FLOOR_US, N_MAX, frames_for, frames_needed, move_frames, round_half_up
 
 EASE_SCALE = 256     # eased curves are stored as e(k/F) x 256, rounded, clamped to 255
@@ -42,249 +46,6 @@ MAX_TABLE_FRAMES = 65535   # the firmware's frame counters are 16 bits; longer m
                            # lint error (too-long), so their curve tables are not built
 
 
-# ----------------------------------------------------------------- plan types
-
-@dataclass(frozen=True)
-class Channel:
-    """A servo that gets pulses, as the firmware sees it."""
-    servo: model.Servo
-    index: int            # position in Plan.channels
-    speed_class: int      # index into Plan.speed_tables
-
-    @property
-    def port(self) -> int:
-        return self.servo.port
-
-    @property
-    def bit(self) -> int:
-        return self.servo.bit
-
-    @property
-    def name(self) -> str:
-        return self.servo.name
-
-
-@dataclass(frozen=True)
-class MoveStep:
-    pose: str
-    targets: tuple[tuple[int, int], ...]    # (channel index, N1), channel order
-    frames: int | None                      # F; None = as fast as the slowest servo allows
-    ease: str
-    ease_table: tuple[int, ...]             # eased: round(256 e(k/F)) for k = 1..F-1, else ()
-    duration_us: Fraction | None
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class HoldStep:
-    frames: int
-    duration_us: Fraction
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class RepeatStep:
-    count: int
-    body: tuple["Step", ...]
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class LoopStep:
-    body: tuple["Step", ...]
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class PlayStep:
-    sequence: str
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class OnBranch:
-    """`on EVENT { ... }` of a select."""
-    event: model.Event
-    body: tuple["Step", ...]
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class AfterBranch:
-    """`after DUR { ... }`: taken when no event was taken for `frames` = floor(DUR / P + 1/2) frames."""
-    frames: int
-    duration_us: Fraction
-    body: tuple["Step", ...]
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class SelectStep:
-    """`select { ... }` (or `wait EVENT`, `wait` True): its branches in the order written, an
-    `AfterBranch` only last. While it waits, the current targets repeat frame after frame, or its
-    `meanwhile` body runs (`until` True: it was written `STATEMENT until EVENT`)."""
-    branches: tuple[Union[OnBranch, AfterBranch], ...]
-    wait: bool = False
-    span: Span = field(default=NO_SPAN, compare=False)
-    meanwhile: tuple["Step", ...] | None = None
-    until: bool = False
-
-    @property
-    def after(self) -> AfterBranch | None:
-        return next((b for b in self.branches if isinstance(b, AfterBranch)), None)
-
-
-@dataclass(frozen=True)
-class SendStep:
-    """`send BYTE`: takes no frame."""
-    byte: int
-    text: str                               # as written: `"w"` or `119`
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep, SelectStep, SendStep]
-Branch = Union[OnBranch, AfterBranch]
-
-
-def branch_head(branch: Branch) -> Span:
-    """The span of a branch's head: `on "w"` or `after` (not its body)."""
-    if isinstance(branch, OnBranch):
-        return Span(branch.span.start, branch.event.span.end)
-    return Span(branch.span.start, branch.span.start + len("after"))
-
-
-def branch_text(branch: Branch) -> str:
-    """A branch as written at its head: `on "w"`, `on button`, `after 2s`."""
-    if isinstance(branch, OnBranch):
-        return f"on {branch.event.text}"
-    from .units import fmt_ms
-    return f"after {fmt_ms(branch.duration_us)}"
-
-
-@dataclass(frozen=True)
-class SequencePlan:
-    name: str
-    body: tuple[Step, ...]
-    span: Span = field(default=NO_SPAN, compare=False)
-
-
-@dataclass(frozen=True)
-class Reach:
-    """Where a servo can be after an interruption: any N in lo..hi (and, if `unset`, still without a
-    target). `lo_at` / `hi_at`: the statement in whose frames it can be at lo / hi (for messages)."""
-    lo: int
-    hi: int
-    unset: bool = False
-    lo_at: Span = field(default=NO_SPAN, compare=False)
-    hi_at: Span = field(default=NO_SPAN, compare=False)
-
-
-def join(a, b):
-    """The positions of one servo in either of two states (an N, None: no target, or a Reach)."""
-    if a == b and not isinstance(a, Reach):
-        return a
-    if a is None or b is None:
-        other = b if a is None else a
-        if isinstance(other, Reach):
-            return replace(other, unset=True)
-        return Reach(other, other, True)
-    ra = a if isinstance(a, Reach) else Reach(a, a)
-    rb = b if isinstance(b, Reach) else Reach(b, b)
-    lo = ra if ra.lo <= rb.lo else rb
-    hi = ra if ra.hi >= rb.hi else rb
-    out = Reach(lo.lo, hi.hi, ra.unset or rb.unset, lo.lo_at, hi.hi_at)
-    return out.lo if out.lo == out.hi and not out.unset else out
-
-
-def far(value, n1: int) -> int | None:
-    """The position farthest from n1 a servo can be at (None: it has no target yet)."""
-    if isinstance(value, Reach):
-        return value.lo if n1 - value.lo >= value.hi - n1 else value.hi
-    return value
-
-
-def far_from(value, n1: int) -> Span:
-    """The statement in whose frames a servo can be at its position farthest from n1 (NO_SPAN: none)."""
-    if not isinstance(value, Reach):
-        return NO_SPAN
-    return value.lo_at if n1 - value.lo >= value.hi - n1 else value.hi_at
-
-
-def at_statement(value, span: Span):
-    """`value` with the extremes not credited yet credited to the statement at `span` (for messages)."""
-    if value is None:
-        return None
-    r = value if isinstance(value, Reach) else Reach(value, value)
-    return replace(r, lo_at=r.lo_at if r.lo_at != NO_SPAN else span, hi_at=r.hi_at if r.hi_at != NO_SPAN else span)
-
-
-@dataclass(frozen=True)
-class ServoMotion:
-    channel: int
-    n0: int | None        # None: the servo had no target yet (set at once); after an interruption
-    n1: int               # the position farthest from n1 it can start from
-    cut: Span = field(default=NO_SPAN, compare=False)   # after an interruption: the statement whose frames
-                                                        # hold n0 (NO_SPAN: not after one)
-
-    @property
-    def delta(self) -> int:
-        return 0 if self.n0 is None else self.n1 - self.n0
-
-
-# Where a state comes from, for messages: ("start",) the start of `main`; ("move", POSE, span) the
-# end of a move; ("play", SEQUENCE, span) the end of a sequence.
-Origin = tuple
-
-
-@dataclass(frozen=True)
-class MoveInstance:
-    """One move in one context the program can reach. `origin` and `branch` say (for messages) where
-    the state it starts from was made and the innermost select branch it runs in (None: none);
-    the first context found of those that give the same instance."""
-    step: MoveStep
-    frames: int
-    motions: tuple[ServoMotion, ...]
-    origin: Origin = field(default=("start",), compare=False)
-    branch: Branch | None = field(default=None, compare=False)
-    cut: bool = field(default=False, compare=False)     # it can start after an interruption
-
-
-@dataclass(frozen=True)
-class Plan:
-    program: model.Program
-    channels: tuple[Channel, ...]           # servos that are moved somewhere, by (port, bit)
-    ports: tuple[int, ...]                  # ports with channels, ascending
-    period_us: int                          # frame period P in machine cycles (1 us)
-    period_is_default: bool
-    min_period_us: int                      # shortest P the firmware generated for this plan holds
-    speed_tables: tuple[tuple[int, ...], ...]   # per speed class: frames needed for |delta| = 0..250
-    class_t_dav_us: tuple[Fraction, ...]    # per speed class: t_DAV
-    main: tuple[Step, ...]
-    sequences: tuple[SequencePlan, ...]     # those main can play (directly or not), in declaration order
-    moves: tuple[MoveInstance, ...]         # every distinct move instance the program reaches
-    total_frames: int | None                # frames until main ends; None if it loops forever
-    nesting: int = 0                        # deepest stack of repeats and plays around a statement
-    cuts: tuple = ()                        # (select, per channel where an event can cut its meanwhile body)
-    startup: tuple = ()                     # (channel, frame of its first pulse) of the power-up, in order
-    power_up: tuple = ()                    # the steps that make the power-up (the first of `main`)
-    firmware_limit: tuple | None = None     # (code, message, help) of the resource limit the code generated
-                                            # for this plan hits (layout.LayoutError), found without assembling
-
-    def channel_of(self, servo: str) -> Channel:
-        return next(c for c in self.channels if c.servo.name == servo)
-
-    def sequence(self, name: str) -> SequencePlan:
-        return next(s for s in self.sequences if s.name == name)
-
-
-def bodies(plan: Plan) -> Iterator[tuple[Step, ...]]:
-    """Every statement list of the program: main, each sequence, and every nested body."""
-    return walk.bodies([plan.main, *(seq.body for seq in plan.sequences)])
-
-
-def steps(plan: Plan) -> Iterator[Step]:
-    """Every statement of the program, nested ones included."""
-    return walk.statements([plan.main, *(seq.body for seq in plan.sequences)])
 
 
 # ----------------------------------------------------------------- easing
@@ -392,312 +153,19 @@ def home_state(program: model.Program, channels) -> State:
     return tuple(home.get(c.servo.name) for c in channels)
 
 
-def plan(program: model.Program, reporter: Reporter | None = None) -> Plan:
-    """Plan a checked program. Checks on the result are the linter's job.
+def plan(program: model.Program, reporter: Reporter | None = None, period_us: int | None = None) -> Plan:
+    """Plan a checked program at one frame period: its `frame`, else `period_us` (a default P the
+    period stage chose; at first the 5.3 ms floor). Checks on the result are the linter's job.
 
-    The shortest period the firmware holds comes from the code generated for
-    the plan (`budget`); the default P is found by planning again at it until
-    it no longer changes (F, and with it the code, depends on P)."""
+    The plan's `min_period_us` is its own P until the period stage (`servoc.api.plan`) reads the
+    shortest period from the code generated for it."""
     moved = _moved_servos(program)
     servos = sorted((s for s in program.servos if s.name in moved), key=lambda s: s.channel)
     ports = tuple(sorted({s.port for s in servos}))
     depth = walk.nesting(program.main, {q.name: q.body for q in program.sequences}.__getitem__)
     if program.frame_us is not None:
-        period = max(1, round_half_up(program.frame_us))
-        return budget(_plan_at(program, servos, ports, period, False, depth))
-    period, seen = DEFAULT_PERIOD_FLOOR_US, set()
-    while True:
-        result = budget(_plan_at(program, servos, ports, period, True, depth))
-        want = costs.default_period_us(result.min_period_us)
-        if want == period or (period in seen and want <= period):
-            return result
-        seen.add(period)
-        period = max(want, period) if len(seen) > 4 else want
-
-
-def budget(p: Plan) -> Plan:
-    """The plan with `min_period_us` read from the firmware generated for it (see costs.py).
-    When no firmware can be generated (a resource limit, reported later), P itself."""
-    from . import codegen, layout    # codegen builds on the plan types
-    try:
-        unit = codegen.generate(p)
-    except layout.LayoutError as exc:
-        return replace(p, min_period_us=p.period_us, firmware_limit=(exc.code, str(exc), exc.help))
-    return replace(p, min_period_us=unit.min_period_us or p.period_us)
-
-
-def _any_frame(acc: bool, st: Step, inner) -> bool:
-    kind = walk.kind(st)
-    if kind == "select":
-        return True
-    return acc or kind == "move" or (kind == "hold" and st.frames > 0) or bool(inner)
-
-
-def watches(plan: Plan) -> bool:
-    """True when a select of the program has a meanwhile body (the firmware's frame_w looks)."""
-    return any(isinstance(st, SelectStep) and st.meanwhile is not None for st in steps(plan))
-
-
-def select_slots(plan: Plan) -> dict[int, int]:
-    """id(select) -> its level: the most meanwhile bodies around it in any context it runs in. A
-    select inside another's meanwhile body has a higher level than it, so selects that wait at the
-    same time (an outer one running its body, inner ones in it) never share a level."""
-    slots: dict[int, int] = {}
-    seen: set = set()
-    work: list = [(plan.main, 0)]
-    while work:
-        body, depth = work.pop()
-        if (id(body), depth) in seen:
-            continue
-        seen.add((id(body), depth))
-        for st in body:
-            if isinstance(st, SelectStep):
-                slots[id(st)] = max(slots.get(id(st), 0), depth)
-                work.extend((b.body, depth) for b in st.branches)
-                if st.meanwhile is not None:
-                    work.append((st.meanwhile, depth + 1))
-            elif isinstance(st, (RepeatStep, LoopStep)):
-                work.append((st.body, depth))
-            elif isinstance(st, PlayStep):
-                work.append((plan.sequence(st.sequence).body, depth))
-    return slots
-
-
-def edge_ports(plan: Plan) -> tuple[int, ...]:
-    """The ports of the inputs some `on press` / `on release` watches, ascending (a look samples each)."""
-    inputs = {i.name: i for i in plan.program.inputs}
-    return tuple(sorted({inputs[b.event.input].port for st in steps(plan) if isinstance(st, SelectStep)
-                         for b in st.branches if not isinstance(b, AfterBranch) and b.event.edge}))
-
-
-def select_ram(plan: Plan) -> int:
-    """Bytes of RAM the selects take from the stack: a look's sample of each port in `edge_ports`,
-    and per level of `select_slots` with a meanwhile body, the select running it and its stack pointer."""
-    slots = select_slots(plan)
-    levels = {slots[id(st)] for st in steps(plan) if isinstance(st, SelectStep) and st.meanwhile is not None}
-    return len(edge_ports(plan)) + 2 * len(levels)
-
-
-def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
-    """Whether `body` has anything that can take a frame (a move; a hold of at least half a
-    frame; a select, which waits while no event is there; repeat, loop and play of those): a
-    body without can only send. Pass one `memo` to calls on the same plan so each sequence is
-    looked at once."""
-    return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_frame, memo)
-
-
-def _fewest(acc: int, st: Step, inner) -> int:
-    kind = walk.kind(st)
-    if kind == "send":
-        return acc
-    if kind == "select":
-        # an event already there is taken at once: an `on` branch may take no frame before it,
-        # `after` comes after its F
-        return acc + min((v + (b.frames if isinstance(b, AfterBranch) else 0)
-                          for b, v in zip(st.branches, inner)), default=0)
-    if kind == "move":
-        return acc + (st.frames or 1)
-    if kind == "hold":
-        return acc + st.frames
-    if kind == "repeat":
-        return acc + st.count * inner
-    if kind == "loop":
-        return acc + max(1, inner)      # a pass that took no frame waits for one before the next
-    return acc + inner
-
-
-def fewest_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> int:
-    """The fewest frames one pass of `body` can take (0: it can run through without one, e.g. a
-    select whose event is already there, or only sends)."""
-    return walk.fold(body, lambda name: plan.sequence(name).body, 0, _fewest, memo)
-
-
-def _any_send(acc: bool, st: Step, inner) -> bool:
-    return acc or walk.kind(st) == "send" or (any(inner) if isinstance(inner, tuple) else bool(inner))
-
-
-def sends(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
-    """Whether `body` has a `send` anywhere in it, or in a sequence it plays."""
-    return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_send, memo)
-
-
-def frameless_repeats(plan: Plan) -> Iterator[tuple[RepeatStep, int]]:
-    """Each repeat that can take frames but whose pass can run through without one (a select
-    whose event is already there), with the passes the firmware writes out for it: its count
-    times that of the repeats of this kind around it in the same body (codegen writes such a
-    repeat out pass by pass, so that the work between two frames stays bounded)."""
-    frames_memo: dict = {}
-    fewest_memo: dict = {}
-    work = [(body, 1) for body in [plan.main] + [q.body for q in plan.sequences]]
-    while work:
-        body, times = work.pop()
-        for st in body:
-            inner = times
-            if (isinstance(st, RepeatStep) and takes_frames(st.body, plan, frames_memo)
-                    and fewest_frames(st.body, plan, fewest_memo) == 0):
-                inner = times * st.count
-                yield st, inner
-            work.extend((b, inner if isinstance(st, RepeatStep) else times) for b in walk.blocks(st))
-
-
-@dataclass(frozen=True)
-class SendRun:
-    """The bytes `send` gives with no frame between them, over the ways one pass of a body can
-    go: `zero` the most bytes of a way that takes no frame (None: every way takes a frame); of
-    the ways that take frames, the most bytes before the first frame (`lead`) and after the last
-    (`tail`) (None: no way takes a frame); `most` the most anywhere."""
-    zero: int | None = 0
-    lead: int | None = None
-    tail: int | None = None
-    most: int = 0
-
-    def then(self, nxt: "SendRun") -> "SendRun":
-        zero = None if self.zero is None or nxt.zero is None else self.zero + nxt.zero
-        leads = ([] if self.lead is None else [self.lead]) + (
-            [] if self.zero is None or nxt.lead is None else [self.zero + nxt.lead])
-        tails = ([] if nxt.tail is None else [nxt.tail]) + (
-            [] if nxt.zero is None or self.tail is None else [self.tail + nxt.zero])
-        join = [] if self.tail is None or nxt.lead is None else [self.tail + nxt.lead]
-        lead, tail = max(leads, default=None), max(tails, default=None)
-        return SendRun(zero, lead, tail, max([self.most, nxt.most, zero or 0] + leads + tails + join))
-
-    def either(self, other: "SendRun") -> "SendRun":
-        def top(a, b):
-            return b if a is None else a if b is None else max(a, b)
-        return SendRun(top(self.zero, other.zero), top(self.lead, other.lead), top(self.tail, other.tail),
-                       max(self.most, other.most))
-
-    def frames(self, n: int) -> "SendRun":
-        return SendRun(None, 0, 0, 0) if n > 0 else SendRun(0)
-
-    def cut(self) -> "SendRun":
-        """A meanwhile body cut at a frame boundary (after none or some of its frames: nothing after
-        the last frame it ran), or run to its end."""
-        part = SendRun(0) if self.lead is None else SendRun(0).either(SendRun(None, self.lead, 0, self.most))
-        return part.either(self)
-
-    def pad(self) -> "SendRun":
-        """A loop's pass: one that took no frame waits for a frame before the next."""
-        if self.zero is None:
-            return self
-        return SendRun(None, max(self.zero, self.lead or 0), self.tail or 0, self.most)
-
-    def again(self, count: int | None) -> "SendRun":
-        """`count` passes one after another (None: forever)."""
-        if count == 0:
-            return SendRun(0)
-        if count is None:
-            if self.zero:
-                return SendRun(UNBOUNDED, UNBOUNDED, UNBOUNDED, UNBOUNDED)
-            join = [] if self.tail is None or self.lead is None else [self.tail + self.lead]
-            return SendRun(None, self.lead, self.tail, max([self.most] + join))
-        z = self.zero
-        if z is None:
-            twice = [] if count < 2 or self.tail is None or self.lead is None else [self.tail + self.lead]
-            return SendRun(None, self.lead, self.tail, max([self.most] + twice))
-        lead = None if self.lead is None else z * (count - 1) + self.lead
-        tail = None if self.tail is None else self.tail + z * (count - 1)
-        span = ([] if count < 2 or self.tail is None or self.lead is None
-                else [self.tail + z * (count - 2) + self.lead])
-        return SendRun(z * count, lead, tail,
-                       max([self.most, z * count] + [v for v in (lead, tail) if v is not None] + span))
-
-
-UNBOUNDED = 1 << 30     # sends repeated forever with no frame between them
-
-
-def _fold_sends(plan: Plan, blank, send):
-    """The program folded into a summary of its sends: `blank` stands for nothing, `send` for one
-    byte, `blank.frames(n)` for n frames; summaries combine with `then` (one after the other),
-    `either` (one or the other), `again` (repeated; None: forever) and `pad` (a loop's pass, which
-    waits for a frame when it took none). A select may take no frame before an `on` branch (its
-    event already there) and takes its F before `after`; one with a meanwhile body runs a part of
-    it (`cut`) before either."""
-    def step(acc, st: Step, inner):
-        kind = walk.kind(st)
-        if kind == "send":
-            one = send
-        elif kind == "move":
-            one = blank.frames(st.frames or 1)
-        elif kind == "hold":
-            one = blank.frames(st.frames)
-        elif kind == "select":
-            one = None
-            body = inner[len(st.branches)].cut() if st.meanwhile is not None else None
-            for br, v in zip(st.branches, inner):
-                way = (body or blank.frames(br.frames if isinstance(br, AfterBranch) else 0)).then(v)
-                one = way if one is None else one.either(way)
-            one = one or blank
-        elif kind == "repeat":
-            one = inner.again(st.count)
-        elif kind == "loop":
-            one = inner.pad().again(None)
-        else:
-            one = inner
-        return acc.then(one)
-    return walk.fold(plan.main, lambda name: plan.sequence(name).body, blank, step, {})
-
-
-def send_run(plan: Plan) -> int:
-    """The most bytes the program can `send` with no frame between them."""
-    return _fold_sends(plan, SendRun(0), SendRun(1, None, None, 1)).most
-
-
-@dataclass(frozen=True)
-class _Gaps:
-    """Frames around the sends of one pass of a body, each count clipped at `cap`: the frames of
-    passes that send nothing (`quiet`), before the first send and after the last of those that do
-    (`head`, `tail`), the fewest frames (at least one) between two sends inside (`gap`), and
-    whether a pass can send and take no frame at all (`zsend`)."""
-    cap: int
-    quiet: frozenset = frozenset({0})
-    head: frozenset = frozenset()
-    tail: frozenset = frozenset()
-    gap: int | None = None
-    zsend: bool = False
-
-    def clip(self, values) -> frozenset:
-        return frozenset(min(v, self.cap) for v in values)
-
-    def then(self, nxt: "_Gaps") -> "_Gaps":
-        joins = [a + b for a in self.tail for b in nxt.head if a + b > 0]
-        gaps = [g for g in (self.gap, nxt.gap, min(joins, default=None)) if g is not None]
-        zsend = (self.zsend and (nxt.zsend or 0 in nxt.quiet)) or (0 in self.quiet and nxt.zsend)
-        return _Gaps(self.cap, self.clip(a + b for a in self.quiet for b in nxt.quiet),
-                     self.head | self.clip(a + b for a in self.quiet for b in nxt.head),
-                     nxt.tail | self.clip(a + b for a in self.tail for b in nxt.quiet),
-                     min(gaps, default=None), zsend)
-
-    def either(self, other: "_Gaps") -> "_Gaps":
-        gaps = [g for g in (self.gap, other.gap) if g is not None]
-        return _Gaps(self.cap, self.quiet | other.quiet, self.head | other.head, self.tail | other.tail,
-                     min(gaps, default=None), self.zsend or other.zsend)
-
-    def frames(self, n: int) -> "_Gaps":
-        return _Gaps(self.cap, frozenset({min(n, self.cap)}))
-
-    def cut(self) -> "_Gaps":
-        """A meanwhile body cut at a frame boundary (after none or some of its frames: at least one
-        frame after its last send), or run to its end."""
-        return self.either(_Gaps(self.cap, frozenset({0, 1}), self.head, frozenset({1}) if self.head else frozenset(),
-                                 self.gap))
-
-    def pad(self) -> "_Gaps":
-        """A loop's pass: one that took no frame waits for a frame before the next."""
-        return _Gaps(self.cap, self.clip(max(q, 1) for q in self.quiet), self.head,
-                     self.tail | (frozenset({1}) if self.zsend else frozenset()), self.gap)
-
-    def again(self, count: int | None) -> "_Gaps":
-        out = _Gaps(self.cap)
-        for _ in range(self.cap + 2 if count is None else min(count, self.cap + 2)):
-            out = out.then(self)
-        return _Gaps(self.cap, frozenset(), out.head, frozenset(), out.gap) if count is None else out
-
-
-def send_gap(plan: Plan, cap: int) -> int:
-    """The fewest frames between two sends that are not in one run (`cap` if never fewer)."""
-    found = _fold_sends(plan, _Gaps(cap), _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}), zsend=True)).gap
-    return cap if found is None else min(found, cap)
+        return _plan_at(program, servos, ports, max(1, round_half_up(program.frame_us)), False, depth)
+    return _plan_at(program, servos, ports, period_us or DEFAULT_PERIOD_FLOOR_US, True, depth)
 
 
 def _model_steps(body: tuple, index: dict[str, int], period: int) -> tuple[Step, ...]:
@@ -859,6 +327,7 @@ class _Walker:
         self.instances: dict[tuple, MoveInstance] = {}
         self.played: set[str] = set()
         self.memo: dict[tuple, tuple[Exits, int | None, State]] = {}
+        self.alive: dict[int, tuple] = {}     # the bodies `memo` has seen, by id: kept, so that no id is reused
         self.cuts: dict[int, State] = {}      # id(select) -> the join of its cut states (for `servoc plan`)
 
     def start(self, main: tuple[Step, ...], channels: int, home: State | None = None) -> tuple[Exits, int | None]:
@@ -945,6 +414,7 @@ class _Walker:
             if not cur:
                 break
         self.memo[key] = (cur, total, hull)
+        self.alive[id(body)] = body     # a body made for one call, `(st,)`, must not lend its id to another
         return self.memo[key]
 
     def _meanwhile(self, st: SelectStep, state: State, origin: Origin, branch: Branch | None) -> State:

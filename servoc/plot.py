@@ -43,7 +43,8 @@ from fractions import Fraction
 from typing import Sequence
 
 from . import model
-from .plan import GoldenFrame, MoveStep, Plan, expand, move_frames_at, steps
+from .plan import expand, GoldenFrame, move_frames_at
+from .steps import MoveStep, Plan, steps
 from .source import SourceFile
 from .speed import frames_over, motion_frames_over, t_dav_of
 from .toolchain import write_atomic

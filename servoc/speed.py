@@ -22,7 +22,9 @@ from __future__ import annotations
 
 from fractions import Fraction
 
-from .plan import MoveInstance, Plan, ServoMotion, frame_value
+from .plan import frame_value
+
+from .steps import MoveInstance, Plan, ServoMotion
 
 __all__ = ["curve_steps", "excess_us", "frames_over", "infeasible", "motion_frames_over", "peak_step",
            "step_too_fast", "t_dav_of", "too_fast"]

@@ -37,7 +37,7 @@ from __future__ import annotations
 import io
 from fractions import Fraction
 
-from .plan import Plan
+from .steps import Plan
 from .plot import MissingExtra
 from .sim import SimTrace
 from .toolchain import write_atomic

@@ -16,7 +16,9 @@ from __future__ import annotations
 import itertools
 from dataclasses import dataclass, field
 
-from .plan import UNDECIDED, AfterBranch, Choice, Decider, Plan, branch_text, expand
+from .plan import Choice, Decider, expand, UNDECIDED
+
+from .steps import AfterBranch, branch_text, Plan
 from .sim import SimTrace
 from .costs import QUEUE, rise_offsets
 from .target import byte_cycles

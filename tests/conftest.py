@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from servoc import api
 from servoc.diagnostics import render_short
-from servoc.plan import Plan
+from servoc.steps import Plan
 from servoc.source import SourceFile
 
 

@@ -11,7 +11,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from servoc import api, cli, nodes, syntax
-from servoc.plan import AfterBranch, Choice, OnBranch, SelectStep, SendStep, expand, steps
+from servoc.plan import Choice, expand
+from servoc.steps import AfterBranch, OnBranch, SelectStep, SendStep, steps
 from servoc.printer import format_program
 from servoc.source import SourceFile
 from servoc.target import CHIPS, DEFAULT, MHZ, Target, timer1_baud, working_bauds

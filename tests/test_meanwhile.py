@@ -6,9 +6,10 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 from conftest import build_text, simulate_events
-from servoc import api, costs, plan as plan_mod, printer, syntax
+from servoc import api, costs, flow, plan as plan_mod, printer, syntax
 from servoc.diagnostics import Reporter
-from servoc.plan import Choice, SelectStep, expand
+from servoc.plan import Choice, expand
+from servoc.steps import SelectStep
 from servoc.source import SourceFile
 from servoc.speed import infeasible
 
@@ -264,7 +265,7 @@ def test_a_cut_at_the_deepest_nesting_the_stack_allows(serial):
     # on P0.0 and P0.1: their motion state is the first above the stack (0xA0..)
     head = PAN.replace("P2.0", "P0.0").replace("P2.1", "P0.1") + ("serial 4800\n" if serial else "") + "home rest\n"
     probe = _plan(head + "main {\n  select {\n    on press button { }\n    meanwhile {\n      hold 10ms\n    }\n  }\n}\n")
-    depth = costs.max_nesting(serial, True, plan_mod.select_ram(probe))
+    depth = costs.max_nesting(serial, True, flow.select_ram(probe))
     inner = "move left in 500ms\nmove right in 500ms\n"
     for _ in range(depth - probe.nesting):          # the select's own frame is on the stack too
         inner = f"repeat 2 {{\n{inner}}}\n"
@@ -283,10 +284,10 @@ def test_sends_of_a_meanwhile_body_count_with_the_branch_after_it():
     text = ("serial 4800\nframe 20ms\nservo a = P1.0\npose p { a: 100 }\nhome p\nmain {\n  loop {\n    select {\n"
             '      on "x" { send "a"; send "b" }\n      meanwhile {\n        hold 100ms\n        send "1"\n'
             '        send "2"\n        send "3"\n      }\n    }\n  }\n}\n')
-    assert plan_mod.send_run(_plan(text)) == 7 and ("send-overrun", 6) in lint_codes(text)
+    assert flow.send_run(_plan(text)) == 7 and ("send-overrun", 6) in lint_codes(text)
     cut_early = text.replace('        hold 100ms\n        send "1"\n        send "2"\n        send "3"\n',
                              '        send "1"\n        send "2"\n        hold 100ms\n')
-    assert plan_mod.send_run(_plan(cut_early)) == 4       # "1" "2" before the first frame, then "a" "b"
+    assert flow.send_run(_plan(cut_early)) == 4       # "1" "2" before the first frame, then "a" "b"
 
 
 @pytest.mark.toolchain
@@ -315,3 +316,30 @@ def test_stagger_without_home_switches_on_the_first_move_servos():
     report = api.verify(p, built.firmware, 60)
     assert report.ok, report.summary()
     assert build_text(PAN + "stagger 50ms\nmain {\n  hold 100ms\n  move rest in 300ms\n}\n").plan.startup == ()
+
+
+@pytest.mark.parametrize("holds", [1, 2, 3, 5])
+def test_every_statement_of_a_meanwhile_body_is_walked_after_equal_holds(holds):
+    """The planner walks a meanwhile body statement by statement; each must be walked, however
+    many statements before it leave the servos where they were (a walk once answered a later
+    statement with an earlier one's result, and its moves went unchecked)."""
+    text = ("frame 10ms\nservo a = P1.0\nservo b = P1.1\ninput button = P3.2\n"
+            "pose p0 { a: 0, b: 0 }\npose p1 { a: 0, b: 5 }\npose p3 { a: 0, b: 0 }\n"
+            "main {\n  move p0 in 1500ms\n  select {\n    on button { move p3 in 10ms }\n"
+            f"    meanwhile {{ {'; '.join(['hold 10ms'] * holds)}; move p1 in 10ms }}\n  }}\n}}\n")
+    codes = lint_codes(text)
+    assert ("infeasible-speed", 12) in codes            # the body's own move, too fast from p0
+    assert ("infeasible-speed", 11) in codes            # and the branch's, from where it leaves `b`
+    p = _plan(text)
+    select = next(s for s in p.main if isinstance(s, SelectStep))
+    assert any(m.step is select.meanwhile[-1] for m in p.moves)
+
+
+def test_verify_frames_counts_each_statement_of_main():
+    """Statements of main that leave the state as it was are each counted (holds of 3 s and 5 s),
+    up to the select, and 20 frames more."""
+    from servoc.plan import verify_frames
+    text = ("frame 10ms\nservo a = P1.0\nservo b = P1.1\ninput button = P3.2\npose p0 { a: 0, b: 0 }\n"
+            "main {\n  move p0 in 100ms\n  hold 3s\n  hold 5s\n  select { on button { hold 10ms } }\n"
+            "  loop { hold 1s }\n}\n")
+    assert verify_frames(_plan(text)) == 10 + 300 + 500 + 20

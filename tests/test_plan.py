@@ -16,7 +16,8 @@ from hypothesis import strategies as st
 
 from servoc import codegen, api, costs
 from servoc.diagnostics import render_short
-from servoc.plan import HoldStep, MoveStep, Plan, expand, steps, verify_frames
+from servoc.plan import expand, verify_frames
+from servoc.steps import HoldStep, MoveStep, Plan, steps
 from servoc.source import SourceFile
 
 

@@ -17,7 +17,7 @@ import pytest
 
 from conftest import build_text, front_end_text, simulate_events
 from servoc import api, cli, costs, events, layout, verify
-from servoc.plan import send_gap, send_run
+from servoc.flow import send_gap, send_run
 from servoc.target import byte_cycles, timer1_baud, working_bauds
 
 pytestmark = pytest.mark.toolchain

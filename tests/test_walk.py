@@ -7,7 +7,7 @@ import sys
 import pytest
 
 from servoc import model, nodes, walk
-from servoc.plan import HoldStep, LoopStep, PlayStep, RepeatStep
+from servoc.steps import HoldStep, LoopStep, PlayStep, RepeatStep
 from servoc.source import Span
 
 H = model.Hold(1000)

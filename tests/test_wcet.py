@@ -88,7 +88,7 @@ def test_counted_pad_loops_are_bounded():
 
 
 def test_generated_code_budget_names_its_start():
-    from servoc.plan import plan as make_plan
+    from servoc.api import plan as make_plan
     from conftest import front_end_text
     fe, _ = front_end_text(servo_decls([(1, 0), (1, 1)]) + pose("a", {"s1_0": 1, "s1_1": 2})
                            + pose("b", {"s1_0": 100, "s1_1": 3}) + "main { loop { move a in 1s; move b in 1s } }\n")
@@ -99,4 +99,4 @@ def test_generated_code_budget_names_its_start():
     load = b.rises[0] + costs.SPLIT * 2
     assert unit.min_period_us == max(costs.port_span(fe.plan.program.target), b.sorts[0] + b.work + load)
     assert unit.work_from
-    assert make_plan(fe.plan.program).min_period_us == unit.min_period_us
+    assert make_plan(fe.plan.program, None).min_period_us == unit.min_period_us

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from ..diagnostics import Diagnostic, Label, Reporter, Severity
-from ..plan import Plan
+from ..steps import Plan
 from ..source import NO_SPAN, Span
 
 

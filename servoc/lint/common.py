@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from fractions import Fraction
 
-from ..plan import Plan
+from ..steps import Plan
 
 
 def fmt_duration(us: int) -> str:
@@ -71,6 +71,6 @@ def origin_text(origin: tuple, source) -> str:
 def context_text(inst, source) -> str:
     """The branch a move instance runs in and where its state comes from: `after `on "w"` from the
     end of `walk``; without a branch, `from the end of `walk``."""
-    from ..plan import branch_text
+    from ..steps import branch_text
     where = f"from {origin_text(inst.origin, source)}"
     return where if inst.branch is None else f"after `{branch_text(inst.branch)}` {where}"

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ...diagnostics import Label, Severity
-from ...plan import OnBranch, Plan, SelectStep, steps
+from ...steps import OnBranch, Plan, SelectStep, steps
 from .. import Report, rule
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...steps import Plan
 from ...speed import peak_step, step_too_fast, t_dav_of, too_fast
 from ...units import DAV_DEG, fmt_deg, fmt_ms
 from .. import Report, rule

@@ -4,7 +4,8 @@ repeats the current targets (and sends, once a frame) forever."""
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import LoopStep, Plan, steps, takes_frames
+from ...flow import takes_frames
+from ...steps import LoopStep, Plan, steps
 from .. import Report, rule
 
 

@@ -6,7 +6,7 @@ Only the ROM (rom-overflow) needs the assembler: `servoc compile` reports it."""
 from __future__ import annotations
 
 from ...diagnostics import Diagnostic, Severity
-from ...plan import Plan
+from ...steps import Plan
 from .. import Report, rule
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...steps import Plan
 from ...units import DAV_DEG, deg_on_grid, fmt_deg
 from .. import Report, rule
 from ..common import num, positions

@@ -5,7 +5,8 @@ from __future__ import annotations
 from ...diagnostics import Severity
 from ...diagnostics import Label
 from ...source import NO_SPAN
-from ...plan import Plan, branch_head, branch_text, has_selects
+from ...plan import has_selects
+from ...steps import branch_head, branch_text, Plan
 from ...speed import t_dav_of, too_fast
 from ...units import DAV_DEG, fmt_deg, fmt_ms
 from .. import Report, rule

@@ -4,7 +4,7 @@ a button still held is taken again on every pass; `on press NAME` is taken once 
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import AfterBranch, LoopStep, Plan, SelectStep, bodies
+from ...steps import AfterBranch, bodies, LoopStep, Plan, SelectStep
 from ... import walk
 from .. import Report, rule
 

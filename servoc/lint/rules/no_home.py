@@ -4,7 +4,7 @@ said once, at that move, naming `home`."""
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...steps import Plan
 from .. import Report, rule
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...steps import Plan
 from ...units import n_to_width_us, width_on_grid
 from .. import Report, rule
 from ..common import num, positions

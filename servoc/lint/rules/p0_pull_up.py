@@ -5,7 +5,7 @@ verify, flash) and the language server show it, not only lint."""
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...steps import Plan
 from .. import Report, rule
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...steps import Plan
 from ...units import fmt_ms
 from .. import Report, rule
 from ..common import fmt_duration

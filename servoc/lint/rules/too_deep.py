@@ -7,7 +7,8 @@ from __future__ import annotations
 
 from ... import costs, walk
 from ...diagnostics import Reporter, Severity
-from ...plan import Plan, select_ram, watches
+from ...flow import select_ram, watches
+from ...steps import Plan
 from ...source import Span
 from .. import RULES, Report, rule
 from ..common import body_of

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from ...diagnostics import Severity
 from ...layout import MAX_AFTER_FRAMES, MAX_FRAMELESS_PASSES
-from ...plan import MoveStep, Plan, RepeatStep, SelectStep, frameless_repeats, steps
+from ...flow import frameless_repeats
+from ...steps import MoveStep, Plan, RepeatStep, SelectStep, steps
 from .. import Report, rule
 
 MAX_FRAMES = 65535           # frames of one move or hold, and passes of one repeat

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from ... import walk
 from ...diagnostics import Severity
-from ...plan import LoopStep, Plan, SelectStep, Step, bodies
+from ...steps import bodies, LoopStep, Plan, SelectStep, Step
 from .. import Report, rule
 from ..common import body_of
 

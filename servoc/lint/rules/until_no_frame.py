@@ -4,7 +4,8 @@ nothing for the event to cut short."""
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan, SelectStep, bodies, takes_frames
+from ...flow import takes_frames
+from ...steps import bodies, Plan, SelectStep
 from .. import Report, rule
 
 

@@ -7,7 +7,7 @@ first of them, that counts them and names the first few."""
 from __future__ import annotations
 
 from ...diagnostics import Severity
-from ...plan import Plan
+from ...steps import Plan
 from .. import Report, rule
 
 EACH = 5        # unused declarations of one kind reported one by one; beyond, one warning for all

@@ -1,0 +1,292 @@
+"""The plan's control flow, folded: Plan -> facts the planner, the linter and codegen read.
+
+Which bodies can take a frame (`takes_frames`, `fewest_frames`), which send
+(`sends`), the most bytes sent with no frame between them (`send_run`) and the
+fewest frames between two runs of sends (`send_gap`), the repeats whose pass
+can run through without a frame (`frameless_repeats`), and what the selects
+need (`watches`, `select_slots`, `edge_ports`, `select_ram`). Each is a fold
+over the steps (servoc.walk): linear in the program's size, each sequence
+looked at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Iterator
+
+from . import walk
+from .steps import AfterBranch, LoopStep, Plan, PlayStep, RepeatStep, SelectStep, Step, steps
+
+
+def _any_frame(acc: bool, st: Step, inner) -> bool:
+    kind = walk.kind(st)
+    if kind == "select":
+        return True
+    return acc or kind == "move" or (kind == "hold" and st.frames > 0) or bool(inner)
+
+
+def watches(plan: Plan) -> bool:
+    """True when a select of the program has a meanwhile body (the firmware's frame_w looks)."""
+    return any(isinstance(st, SelectStep) and st.meanwhile is not None for st in steps(plan))
+
+
+def select_slots(plan: Plan) -> dict[int, int]:
+    """id(select) -> its level: the most meanwhile bodies around it in any context it runs in. A
+    select inside another's meanwhile body has a higher level than it, so selects that wait at the
+    same time (an outer one running its body, inner ones in it) never share a level."""
+    slots: dict[int, int] = {}
+    seen: set = set()
+    work: list = [(plan.main, 0)]
+    while work:
+        body, depth = work.pop()
+        if (id(body), depth) in seen:
+            continue
+        seen.add((id(body), depth))
+        for st in body:
+            if isinstance(st, SelectStep):
+                slots[id(st)] = max(slots.get(id(st), 0), depth)
+                work.extend((b.body, depth) for b in st.branches)
+                if st.meanwhile is not None:
+                    work.append((st.meanwhile, depth + 1))
+            elif isinstance(st, (RepeatStep, LoopStep)):
+                work.append((st.body, depth))
+            elif isinstance(st, PlayStep):
+                work.append((plan.sequence(st.sequence).body, depth))
+    return slots
+
+
+def edge_ports(plan: Plan) -> tuple[int, ...]:
+    """The ports of the inputs some `on press` / `on release` watches, ascending (a look samples each)."""
+    inputs = {i.name: i for i in plan.program.inputs}
+    return tuple(sorted({inputs[b.event.input].port for st in steps(plan) if isinstance(st, SelectStep)
+                         for b in st.branches if not isinstance(b, AfterBranch) and b.event.edge}))
+
+
+def select_ram(plan: Plan) -> int:
+    """Bytes of RAM the selects take from the stack: a look's sample of each port in `edge_ports`,
+    and per level of `select_slots` with a meanwhile body, the select running it and its stack pointer."""
+    slots = select_slots(plan)
+    levels = {slots[id(st)] for st in steps(plan) if isinstance(st, SelectStep) and st.meanwhile is not None}
+    return len(edge_ports(plan)) + 2 * len(levels)
+
+
+def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
+    """Whether `body` has anything that can take a frame (a move; a hold of at least half a
+    frame; a select, which waits while no event is there; repeat, loop and play of those): a
+    body without can only send. Pass one `memo` to calls on the same plan so each sequence is
+    looked at once."""
+    return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_frame, memo)
+
+
+def _fewest(acc: int, st: Step, inner) -> int:
+    kind = walk.kind(st)
+    if kind == "send":
+        return acc
+    if kind == "select":
+        # an event already there is taken at once: an `on` branch may take no frame before it,
+        # `after` comes after its F
+        return acc + min((v + (b.frames if isinstance(b, AfterBranch) else 0)
+                          for b, v in zip(st.branches, inner)), default=0)
+    if kind == "move":
+        return acc + (st.frames or 1)
+    if kind == "hold":
+        return acc + st.frames
+    if kind == "repeat":
+        return acc + st.count * inner
+    if kind == "loop":
+        return acc + max(1, inner)      # a pass that took no frame waits for one before the next
+    return acc + inner
+
+
+def fewest_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> int:
+    """The fewest frames one pass of `body` can take (0: it can run through without one, e.g. a
+    select whose event is already there, or only sends)."""
+    return walk.fold(body, lambda name: plan.sequence(name).body, 0, _fewest, memo)
+
+
+def _any_send(acc: bool, st: Step, inner) -> bool:
+    return acc or walk.kind(st) == "send" or (any(inner) if isinstance(inner, tuple) else bool(inner))
+
+
+def sends(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
+    """Whether `body` has a `send` anywhere in it, or in a sequence it plays."""
+    return walk.fold(body, lambda name: plan.sequence(name).body, False, _any_send, memo)
+
+
+def frameless_repeats(plan: Plan) -> Iterator[tuple[RepeatStep, int]]:
+    """Each repeat that can take frames but whose pass can run through without one (a select
+    whose event is already there), with the passes the firmware writes out for it: its count
+    times that of the repeats of this kind around it in the same body (codegen writes such a
+    repeat out pass by pass, so that the work between two frames stays bounded)."""
+    frames_memo: dict = {}
+    fewest_memo: dict = {}
+    work = [(body, 1) for body in [plan.main] + [q.body for q in plan.sequences]]
+    while work:
+        body, times = work.pop()
+        for st in body:
+            inner = times
+            if (isinstance(st, RepeatStep) and takes_frames(st.body, plan, frames_memo)
+                    and fewest_frames(st.body, plan, fewest_memo) == 0):
+                inner = times * st.count
+                yield st, inner
+            work.extend((b, inner if isinstance(st, RepeatStep) else times) for b in walk.blocks(st))
+
+
+@dataclass(frozen=True)
+class SendRun:
+    """The bytes `send` gives with no frame between them, over the ways one pass of a body can
+    go: `zero` the most bytes of a way that takes no frame (None: every way takes a frame); of
+    the ways that take frames, the most bytes before the first frame (`lead`) and after the last
+    (`tail`) (None: no way takes a frame); `most` the most anywhere."""
+    zero: int | None = 0
+    lead: int | None = None
+    tail: int | None = None
+    most: int = 0
+
+    def then(self, nxt: "SendRun") -> "SendRun":
+        zero = None if self.zero is None or nxt.zero is None else self.zero + nxt.zero
+        leads = ([] if self.lead is None else [self.lead]) + (
+            [] if self.zero is None or nxt.lead is None else [self.zero + nxt.lead])
+        tails = ([] if nxt.tail is None else [nxt.tail]) + (
+            [] if nxt.zero is None or self.tail is None else [self.tail + nxt.zero])
+        join = [] if self.tail is None or nxt.lead is None else [self.tail + nxt.lead]
+        lead, tail = max(leads, default=None), max(tails, default=None)
+        return SendRun(zero, lead, tail, max([self.most, nxt.most, zero or 0] + leads + tails + join))
+
+    def either(self, other: "SendRun") -> "SendRun":
+        def top(a, b):
+            return b if a is None else a if b is None else max(a, b)
+        return SendRun(top(self.zero, other.zero), top(self.lead, other.lead), top(self.tail, other.tail),
+                       max(self.most, other.most))
+
+    def frames(self, n: int) -> "SendRun":
+        return SendRun(None, 0, 0, 0) if n > 0 else SendRun(0)
+
+    def cut(self) -> "SendRun":
+        """A meanwhile body cut at a frame boundary (after none or some of its frames: nothing after
+        the last frame it ran), or run to its end."""
+        part = SendRun(0) if self.lead is None else SendRun(0).either(SendRun(None, self.lead, 0, self.most))
+        return part.either(self)
+
+    def pad(self) -> "SendRun":
+        """A loop's pass: one that took no frame waits for a frame before the next."""
+        if self.zero is None:
+            return self
+        return SendRun(None, max(self.zero, self.lead or 0), self.tail or 0, self.most)
+
+    def again(self, count: int | None) -> "SendRun":
+        """`count` passes one after another (None: forever)."""
+        if count == 0:
+            return SendRun(0)
+        if count is None:
+            if self.zero:
+                return SendRun(UNBOUNDED, UNBOUNDED, UNBOUNDED, UNBOUNDED)
+            join = [] if self.tail is None or self.lead is None else [self.tail + self.lead]
+            return SendRun(None, self.lead, self.tail, max([self.most] + join))
+        z = self.zero
+        if z is None:
+            twice = [] if count < 2 or self.tail is None or self.lead is None else [self.tail + self.lead]
+            return SendRun(None, self.lead, self.tail, max([self.most] + twice))
+        lead = None if self.lead is None else z * (count - 1) + self.lead
+        tail = None if self.tail is None else self.tail + z * (count - 1)
+        span = ([] if count < 2 or self.tail is None or self.lead is None
+                else [self.tail + z * (count - 2) + self.lead])
+        return SendRun(z * count, lead, tail,
+                       max([self.most, z * count] + [v for v in (lead, tail) if v is not None] + span))
+
+
+UNBOUNDED = 1 << 30     # sends repeated forever with no frame between them
+
+
+def _fold_sends(plan: Plan, blank, send):
+    """The program folded into a summary of its sends: `blank` stands for nothing, `send` for one
+    byte, `blank.frames(n)` for n frames; summaries combine with `then` (one after the other),
+    `either` (one or the other), `again` (repeated; None: forever) and `pad` (a loop's pass, which
+    waits for a frame when it took none). A select may take no frame before an `on` branch (its
+    event already there) and takes its F before `after`; one with a meanwhile body runs a part of
+    it (`cut`) before either."""
+    def step(acc, st: Step, inner):
+        kind = walk.kind(st)
+        if kind == "send":
+            one = send
+        elif kind == "move":
+            one = blank.frames(st.frames or 1)
+        elif kind == "hold":
+            one = blank.frames(st.frames)
+        elif kind == "select":
+            one = None
+            body = inner[len(st.branches)].cut() if st.meanwhile is not None else None
+            for br, v in zip(st.branches, inner):
+                way = (body or blank.frames(br.frames if isinstance(br, AfterBranch) else 0)).then(v)
+                one = way if one is None else one.either(way)
+            one = one or blank
+        elif kind == "repeat":
+            one = inner.again(st.count)
+        elif kind == "loop":
+            one = inner.pad().again(None)
+        else:
+            one = inner
+        return acc.then(one)
+    return walk.fold(plan.main, lambda name: plan.sequence(name).body, blank, step, {})
+
+
+def send_run(plan: Plan) -> int:
+    """The most bytes the program can `send` with no frame between them."""
+    return _fold_sends(plan, SendRun(0), SendRun(1, None, None, 1)).most
+
+
+@dataclass(frozen=True)
+class _Gaps:
+    """Frames around the sends of one pass of a body, each count clipped at `cap`: the frames of
+    passes that send nothing (`quiet`), before the first send and after the last of those that do
+    (`head`, `tail`), the fewest frames (at least one) between two sends inside (`gap`), and
+    whether a pass can send and take no frame at all (`zsend`)."""
+    cap: int
+    quiet: frozenset = frozenset({0})
+    head: frozenset = frozenset()
+    tail: frozenset = frozenset()
+    gap: int | None = None
+    zsend: bool = False
+
+    def clip(self, values) -> frozenset:
+        return frozenset(min(v, self.cap) for v in values)
+
+    def then(self, nxt: "_Gaps") -> "_Gaps":
+        joins = [a + b for a in self.tail for b in nxt.head if a + b > 0]
+        gaps = [g for g in (self.gap, nxt.gap, min(joins, default=None)) if g is not None]
+        zsend = (self.zsend and (nxt.zsend or 0 in nxt.quiet)) or (0 in self.quiet and nxt.zsend)
+        return _Gaps(self.cap, self.clip(a + b for a in self.quiet for b in nxt.quiet),
+                     self.head | self.clip(a + b for a in self.quiet for b in nxt.head),
+                     nxt.tail | self.clip(a + b for a in self.tail for b in nxt.quiet),
+                     min(gaps, default=None), zsend)
+
+    def either(self, other: "_Gaps") -> "_Gaps":
+        gaps = [g for g in (self.gap, other.gap) if g is not None]
+        return _Gaps(self.cap, self.quiet | other.quiet, self.head | other.head, self.tail | other.tail,
+                     min(gaps, default=None), self.zsend or other.zsend)
+
+    def frames(self, n: int) -> "_Gaps":
+        return _Gaps(self.cap, frozenset({min(n, self.cap)}))
+
+    def cut(self) -> "_Gaps":
+        """A meanwhile body cut at a frame boundary (after none or some of its frames: at least one
+        frame after its last send), or run to its end."""
+        return self.either(_Gaps(self.cap, frozenset({0, 1}), self.head, frozenset({1}) if self.head else frozenset(),
+                                 self.gap))
+
+    def pad(self) -> "_Gaps":
+        """A loop's pass: one that took no frame waits for a frame before the next."""
+        return _Gaps(self.cap, self.clip(max(q, 1) for q in self.quiet), self.head,
+                     self.tail | (frozenset({1}) if self.zsend else frozenset()), self.gap)
+
+    def again(self, count: int | None) -> "_Gaps":
+        out = _Gaps(self.cap)
+        for _ in range(self.cap + 2 if count is None else min(count, self.cap + 2)):
+            out = out.then(self)
+        return _Gaps(self.cap, frozenset(), out.head, frozenset(), out.gap) if count is None else out
+
+
+def send_gap(plan: Plan, cap: int) -> int:
+    """The fewest frames between two sends that are not in one run (`cap` if never fewer)."""
+    found = _fold_sends(plan, _Gaps(cap), _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}), zsend=True)).gap
+    return cap if found is None else min(found, cap)
