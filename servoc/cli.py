@@ -272,6 +272,33 @@ def _main(argv: list[str], run: _Run) -> int:
     if args.command == "import":
         return _import(args, run)
     run.emit = bool(getattr(args, "emit", None))
+    _check_options(args)
+    source, reporter, hex_text, fe, firmware = _front(args, run)
+    if run.emit:
+        _diagnostics(reporter, args, run, quiet=not reporter.has_errors)
+        if reporter.has_errors:
+            return 1
+        from .dump import dump
+        print(dump({"ast": fe.tree, "model": fe.program, "plan": fe.plan}[args.emit], source))
+        return 0
+    _diagnostics(reporter, args, run)
+    if reporter.has_errors:
+        return 1
+    assert fe.plan is not None
+    if args.command == "lint":
+        return _lint(run, source, fe.plan)
+    if args.command == "plan":
+        return _plan(args, run, source, fe.plan)
+    assert firmware is not None
+    if args.command == "flash":
+        return _flash(args, run, source, fe.plan, firmware)
+    if args.command == "compile":
+        return _compile(args, run, source, fe.plan, firmware)
+    return _verify(args, run, source, fe.plan, hex_text or firmware.hex_text)
+
+
+def _check_options(args) -> None:
+    """Option values argparse cannot check: usage errors before any work."""
     if getattr(args, "frames", None) is not None and args.frames < 1:
         raise _Stop("--frames must be at least 1")
     if args.command == "flash":
@@ -279,13 +306,18 @@ def _main(argv: list[str], run: _Run) -> int:
         if args.baud is not None and args.baud not in BAUDS:
             raise _Stop(f"--baud {args.baud} is not a rate stcgal can ask for: use one of "
                         + ", ".join(map(str, BAUDS)))
+
+
+def _front(args, run: _Run):
+    """Read the program, check the outputs, and run the front end (and, for compile, verify and
+    flash, code generation and assembly): (source, reporter, the --hex text or None, front end,
+    firmware or None)."""
     try:
         source, reporter = api.load_source(args.file)
     except api.UsageError as exc:
         raise _Stop(str(exc)) from None
     run.source = source
     hex_text = _check_inputs_and_outputs(args)
-
     firmware = None
     # The program's tree, model and plan (up to two million objects for a 1 MB
     # program, benchmarks/lint_scale.py) live until the command ends: the cyclic collector is paused while they are
@@ -302,64 +334,60 @@ def _main(argv: list[str], run: _Run) -> int:
     finally:
         gc.freeze()
         gc.enable()
+    return source, reporter, hex_text, fe, firmware
 
-    if run.emit:
-        _diagnostics(reporter, args, run, quiet=not reporter.has_errors)
-        if reporter.has_errors:
-            return 1
-        from .dump import dump
-        print(dump({"ast": fe.tree, "model": fe.program, "plan": fe.plan}[args.emit], source))
-        return 0
 
-    _diagnostics(reporter, args, run)
-    if reporter.has_errors:
-        return 1
-    plan = fe.plan
-    assert plan is not None
-    if args.command == "lint":
-        if not run.json:
-            print(f"{source.path}: {_plan_line(plan)}")
-        return 0
-    if args.command == "plan":
-        if args.json or (run.json and not args.csv):     # `--format json` gives the table as JSON too
-            print(json.dumps(plan_data(plan, source), indent=2))
-        else:
-            sys.stdout.write(plan_table(plan, source, csv_out=args.csv))
-        if args.plot:
-            from .plot import MissingExtra, plot_plan
+def _lint(run: _Run, source, plan: Plan) -> int:
+    """`servoc lint`: the diagnostics (printed already), then the plan's summary line."""
+    if not run.json:
+        print(f"{source.path}: {_plan_line(plan)}")
+    return 0
+
+
+def _plan(args, run: _Run, source, plan: Plan) -> int:
+    """`servoc plan`: the table of every move (text, CSV or JSON), and the plot."""
+    if args.json or (run.json and not args.csv):     # `--format json` gives the table as JSON too
+        print(json.dumps(plan_data(plan, source), indent=2))
+    else:
+        sys.stdout.write(plan_table(plan, source, csv_out=args.csv))
+    if args.plot:
+        from .plot import MissingExtra, plot_plan
+        try:
+            plot_plan(plan, args.plot, source)
+        except MissingExtra as exc:
+            raise _Stop(str(exc), "missing-extra") from None
+        except OSError as exc:
+            raise _Stop(f"cannot write {args.plot}: {exc.strerror or exc}", "cannot-write") from None
+    return 0
+
+
+def _compile(args, run: _Run, source, plan: Plan, firmware) -> int:
+    """`servoc compile`: the HEX (and --asm) written atomically, and what it uses."""
+    out = _hex_out(args)
+    for path, text in ((args.asm, firmware.unit.text), (out, firmware.hex_text)):
+        if path:
             try:
-                plot_plan(plan, args.plot, source)
-            except MissingExtra as exc:
-                raise _Stop(str(exc), "missing-extra") from None
+                api.write_atomic(path, text)
             except OSError as exc:
-                raise _Stop(f"cannot write {args.plot}: {exc.strerror or exc}", "cannot-write") from None
-        return 0
-    assert firmware is not None
-    if args.command == "flash":
-        return _flash(args, run, source, plan, firmware)
-    if args.command == "compile":
-        out = _hex_out(args)
-        for path, text in ((args.asm, firmware.unit.text), (out, firmware.hex_text)):
-            if path:
-                try:
-                    api.write_atomic(path, text)
-                except OSError as exc:
-                    raise _Stop(f"cannot write {path}: {exc.strerror or exc}", "cannot-write") from None
-        if run.json:
-            print(json.dumps(_compile_data(source, out, args.asm, plan, firmware), indent=2))
-        else:
-            target = firmware.unit.target
-            chip = target.chip
-            print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{chip.code_bytes} bytes "
-                  f"(start-up {firmware.startup_bytes}, runtime {firmware.runtime_bytes}, program "
-                  f"{firmware.program_bytes}, data {firmware.data_bytes}), "
-                  f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes}); "
-                  f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, "
-                  + ("every width exactly 500 + 8 N µs" if not target.width_error_us()
-                     else f"widths within {fmt_us(target.width_error_us())} of 500 + 8 N µs"))
-        return 0
-    if hex_text is None:
-        hex_text = firmware.hex_text
+                raise _Stop(f"cannot write {path}: {exc.strerror or exc}", "cannot-write") from None
+    if run.json:
+        print(json.dumps(_compile_data(source, out, args.asm, plan, firmware), indent=2))
+    else:
+        target = firmware.unit.target
+        chip = target.chip
+        print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{chip.code_bytes} bytes "
+              f"(start-up {firmware.startup_bytes}, runtime {firmware.runtime_bytes}, program "
+              f"{firmware.program_bytes}, data {firmware.data_bytes}), "
+              f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes}); "
+              f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, "
+              + ("every width exactly 500 + 8 N µs" if not target.width_error_us()
+                 else f"widths within {fmt_us(target.width_error_us())} of 500 + 8 N µs"))
+    return 0
+
+
+def _verify(args, run: _Run, source, plan: Plan, hex_text: str) -> int:
+    """`servoc verify`: run the HEX in ucsim (with --events, as they say) and compare every pulse
+    and every byte sent with the plan."""
     events = None
     if getattr(args, "events", None):
         from . import events as _events
