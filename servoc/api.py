@@ -62,15 +62,20 @@ class Firmware:
         return self.image.hex_text
 
 
-def load_source(path: str) -> tuple[SourceFile, Reporter]:
-    """Read a .servo file. Raises UsageError when it cannot be read at all."""
+def read_bytes(path: str, what: str) -> bytes:
+    """A file's bytes. Raises UsageError (naming `what` it should have been) when it cannot be read."""
     if os.path.isdir(path):
-        raise UsageError(f"{path}: is a directory, not a .servo file")
+        raise UsageError(f"{path}: is a directory, not {what}")
     try:
         with open(path, "rb") as f:
-            data = f.read()
+            return f.read()
     except OSError as exc:
         raise UsageError(f"{path}: {exc.strerror or exc}") from None
+
+
+def load_source(path: str) -> tuple[SourceFile, Reporter]:
+    """Read a .servo file. Raises UsageError when it cannot be read at all."""
+    data = read_bytes(path, "a .servo file")
     source, bad = SourceFile.from_bytes(path, data)
     reporter = Reporter(source)
     if bad is not None:
@@ -335,13 +340,7 @@ def read_motion(path: str, fmt: str | None = None, options=None):
     content unless `fmt` names it. Raises UsageError for a file that cannot be read, is no known
     format, or is broken."""
     from .imports.keyframes import ImportError_, ReadOptions
-    if os.path.isdir(path):
-        raise UsageError(f"{path}: is a directory, not a file to import")
-    try:
-        with open(path, "rb") as f:
-            data = f.read()
-    except OSError as exc:
-        raise UsageError(f"{path}: {exc.strerror or exc}") from None
+    data = read_bytes(path, "a file to import")
     if fmt is None:
         fmt = next((name for name in IMPORT_FORMATS if _reader(name).sniff(data, path)), None)
         if fmt is None:
