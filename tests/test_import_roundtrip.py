@@ -86,3 +86,22 @@ def test_import_overwrites_nothing_it_reads(tmp_path, capsys):
     assert cli.main(["import", str(src), "-o", str(src)]) == 2
     assert "is the file to import" in capsys.readouterr().err
     assert src.read_bytes() == (EXAMPLES / "pan_tilt.csv").read_bytes()
+
+
+@pytest.mark.parametrize("name, make", [
+    ("long.csv", lambda n: b"time_ms,a\n" + b"".join(b"%d,1500\n" % k for k in range(n))),
+    ("long.xml", lambda n: b'<UscSettings version="1"><Channels><Channel name="a" mode="Servo" min="3968" max="8000"/>'
+                           b'</Channels><Sequences><Sequence name="s">'
+                           + b'<Frame name="f" duration="20">6000</Frame>' * n + b"</Sequence></Sequences></UscSettings>"),
+    ("long.cpp", lambda n: b'const char SETUP_DATA_0[] PROGMEM = "rSVPin,9,1000,2000,3000,1500\\n";\n'
+                           b'const char ANIM_0_DATA0[] PROGMEM = "sC,9,0,%d,0,1,0,8192,-1,0\\n";\n' % (n * 6)),
+])
+def test_a_million_frames_in_any_format_is_a_clear_error(tmp_path, capsys, name, make):
+    src = tmp_path / name
+    src.write_bytes(make(1_000_000))
+    started = time.perf_counter()
+    rc = cli.main(["import", str(src)])
+    err = capsys.readouterr().err
+    assert rc == 2 and "more than the 100,000" in err and "Traceback" not in err, err
+    assert os.listdir(tmp_path) == [name]
+    assert time.perf_counter() - started < 20

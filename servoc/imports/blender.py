@@ -39,7 +39,7 @@ import os
 import re
 from fractions import Fraction
 
-from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track, ticks_to_us
+from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track, check_frames, ticks_to_us
 
 _COMMENT = re.compile(r"/\*.*?\*/|//[^\n]*", re.S)
 _ARRAY_START = re.compile(r"ANIMATION_DATA\s*\[")
@@ -47,7 +47,6 @@ _ARRAY = re.compile(r"ANIMATION_DATA\s*\[[^\]]*\][^={};]*=\s*\{([^}]*)\}")
 _CONST = re.compile(r"\b(FPS|FRAMES|LENGTH)\s*=\s*([0-9]+)\s*;")
 _BYTE = re.compile(r"0[xX][0-9a-fA-F]{1,2}|0|[1-9][0-9]{0,2}")
 _NAMESPACE = re.compile(r"\bnamespace\s+(\w+)\s*\{")
-MAX_FRAMES = 100_000        # 55 minutes at 30 fps; reading 10^6 frames would take too long
 
 
 def sniff(data: bytes, path: str) -> bool:
@@ -177,8 +176,7 @@ def _read_header(text: str, path: str, stem: str, options: ReadOptions):
 
 
 def _limit(frames: int, where: str) -> None:
-    if frames > MAX_FRAMES:
-        raise ImportError_(f"{where}: more than {MAX_FRAMES} frames; cut the animation into shorter scenes")
+    check_frames(frames, where)
 
 
 def _frames(data: bytes, where: str) -> list:

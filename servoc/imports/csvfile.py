@@ -16,7 +16,7 @@ import os
 import re
 from fractions import Fraction
 
-from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track, ticks_to_us
+from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track, check_frames, ticks_to_us
 
 _NUMBER = re.compile(r"[+-]?(\d+(\.\d*)?|\.\d+)$")
 
@@ -38,6 +38,7 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise ImportError_(f"{path}: not UTF-8 text") from None
+    check_frames(text.count("\n") - 1, path)
     delimiter = ";" if text.lstrip().lower().startswith("time_ms;") else ","
     rows = [r for r in csv.reader(io.StringIO(text), delimiter=delimiter) if any(c.strip() for c in r)]
     if not rows or rows[0][0].strip().lower() != "time_ms":

@@ -24,6 +24,18 @@ class ImportError_(Exception):
     """The file cannot be imported: not this format, truncated, or values out of range."""
 
 
+MAX_FRAMES = 100_000    # source frames (keyframes, samples) one import takes: 55 minutes at 30 fps, far
+                        # more than any 8051's code memory holds as moves; a file with more is refused
+                        # as soon as they are counted, before they are read
+
+
+def check_frames(count: int, where: str) -> None:
+    """Refuse more than MAX_FRAMES source frames (`where`: the file or the part that has them)."""
+    if count > MAX_FRAMES:
+        raise ImportError_(f"{where}: {count:,} frames, more than the {MAX_FRAMES:,} servoc imports at once; "
+                           "cut the animation into shorter parts")
+
+
 @dataclass(frozen=True)
 class Channel:
     """One source channel: it becomes one servo."""

@@ -45,7 +45,7 @@ import xml.etree.ElementTree as ET
 from fractions import Fraction
 from xml.parsers import expat
 
-from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track
+from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track, check_frames
 
 _HEAD = re.compile(r"\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*|<!DOCTYPE[^\[>]*(\[.*?\])?\s*>\s*)*<UscSettings[\s/>]",
                    re.S)     # a DOCTYPE is recognised here so that `read` can refuse it by name
@@ -143,6 +143,7 @@ def _targets(text: str, where: str, count: int):
 def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
     """The Maestro settings file `data` (read from `path`) as Keyframes; see the module docstring."""
     root = _parse(data, path)
+    check_frames(sum(1 for _ in root.iter("Frame")), path)
     if root.tag != "UscSettings":
         raise ImportError_(f"{path}: the root element is <{root.tag}>, not <UscSettings>: not a Maestro settings file")
     notes = []

@@ -30,10 +30,10 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 from .. import nodes
-from ..printer import format_number, format_program
+from ..printer import format_program
 from ..source import NO_SPAN
 from ..units import BASE_US, DIV_US, N_MAX, round_half_up, width_on_grid, width_to_n
-from .keyframes import ImportError_, Keyframes, Track, identifier
+from .keyframes import ImportError_, Keyframes, Track, check_frames, identifier
 
 MAX_MOVE_FRAMES = 65535        # the firmware's frame counters are 16 bits
 _SLACK = 0.5 - 1e-9            # 1/2 N, less a float's error
@@ -127,6 +127,7 @@ class _Writer:
         channels = [c.index for c in self.kf.channels]
         if track.curve is not None:     # a curve: sampled at every frame
             count = int(track.length_ms * 1000 // timing.period_us) + 1
+            check_frames(count, f"{track.name} (one sample a frame)")
             frames = [(j, track.curve(Fraction(j * timing.period_us, 1000))) for j in range(count)]
             labels = [f"{j * timing.period_us / 1000:.1f} ms" for j in range(count)]
         else:
