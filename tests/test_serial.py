@@ -318,3 +318,26 @@ def test_the_variables_named_directly_stay_below_0x80():
     ram = layout.RamAllocator(0x90)
     ram.next = 0x7E
     assert ram.alloc("C", 8, "a buffer", direct=False) == 0x7E and ram.next == 0x86
+
+
+@pytest.mark.toolchain
+def test_the_serial_hexapod_at_its_own_shortest_period_under_bursts():
+    """The serial handler is charged once per window it can run in (a frame for the frame's whole
+    work, a port's span for one sort), so the shortest period is what the firmware holds: the
+    24-servo serial hexapod at that period, walking while bursts of four unknown bytes come at 12
+    phases of the frame (the walk drops them), then stopped, then answering bursts of four with
+    four "?" each: every pulse exact, every byte in order."""
+    text = (ROOT / "examples" / "hexapod_serial.servo").read_text()
+    shortest = build_text(text).plan.min_period_us
+    text = text.replace("frame 20ms", f"frame {shortest}us")
+    built = build_text(text)
+    assert built.plan.period_us == built.plan.min_period_us == shortest
+    p = shortest
+    lines = ['2200ms "w"']
+    lines += [f'{2_600_000 + 150_000 * k + k * p // 12}us "x" "x" "x" "x"' for k in range(12)]
+    lines += ['4600ms "s"']
+    lines += [f'{6_000_000 + 150_000 * k + k * p // 12 + p // 24}us "x" "x" "x" "x"' for k in range(12)]
+    frames = int(8_200_000 / p)
+    plan, trace, evs, report = run(text, "\n".join(lines) + "\n", frames)
+    assert report.ok, [str(m) for m in report.mismatches[:5]]
+    assert sent(trace) == "RWS" + "????" * 12
