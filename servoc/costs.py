@@ -29,15 +29,6 @@ SPLIT for each line) must fit the frame, and so must the pulses themselves:
 (the last two: W runs after the last port's sort, and each port's sort must
 be there before its rise). `tests/test_costs.py` runs adversarial programs in
 ucsim at their own minimum.
-
-With a serial line, the serial handler's runs come on top, counted once per
-window a bound covers: the bounds on a frame's whole work (the second and the
-fourth) add the runs that bytes coming and going can make in one frame, a sort
-that must fit in one port's span (the third, and each later port's sort
-between the rise before it and its own) those of one span. No run is counted
-twice: a run that falls in a sort falls in the frame that holds it, not once
-more for the frame (`tests/test_serial.py` runs the serial hexapod at its own
-minimum under bursts of bytes).
 """
 
 from __future__ import annotations
@@ -94,36 +85,33 @@ class Budget:
 
 def frame_cycles(target, budget: Budget) -> int:
     """The shortest frame period in machine cycles this code holds. The serial handler's runs
-    come on top: as many as bytes can come and go in the window each bound covers (a frame for
-    the bounds on the frame's whole work, a port's span for a sort that must fit in one)."""
+    come on top of the background's work: as many as bytes can come and go in a frame."""
     period = _frame_cycles(target, budget)
     if not budget.byte_cycles:
         return period
     near = serial_load(budget, port_span(target))      # what can come while a port is sorted
     while True:
-        more = _frame_cycles(target, budget, serial_load(budget, period), near)
+        more = _frame_cycles(target, replace(budget, work=budget.work + serial_load(budget, period),
+                                             sorts=tuple(s + near for s in budget.sorts)))
         if more <= period:
             return period
         period = more
 
 
-def _frame_cycles(target, budget: Budget, frame_serial: int = 0, span_serial: int = 0) -> int:
-    """The bounds of the module's docstring; `frame_serial`: the serial handler's most cycles in a
-    frame, `span_serial`: in a port's span."""
+def _frame_cycles(target, budget: Budget) -> int:
     m = len(budget.lines)
     if m == 0:
-        return budget.work + frame_serial
+        return budget.work
     span = port_span(target)
-    sorts = budget.sorts
     load = [handler_load(r, s) for r, s in zip(budget.rises, budget.lines)]
-    need = [m * span, sum(sorts) + budget.work + sum(load) + frame_serial,
-            (m - 1) * span + sorts[0] + span_serial + load[-1]]
+    need = [m * span, sum(budget.sorts) + budget.work + sum(load),
+            (m - 1) * span + budget.sorts[0] + load[-1]]
     if m >= 2:
-        need.append((m - 2) * span + sorts[-1] + budget.work + sorts[0] + load[-2] + load[-1] + frame_serial)
+        need.append((m - 2) * span + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1])
     for j in range(1, m):       # each later port's sort fits between the rise before and its own
-        if sorts[j] + span_serial + load[j - 1] > span:
-            raise TooSlow(f"the sort of the port pulsed {j + 1}. ({sorts[j] + span_serial} machine cycles, with the "
-                          f"serial handler's) does not fit between the rise before it and its own")
+        if budget.sorts[j] + load[j - 1] > span:
+            raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, with the serial "
+                          f"handler's) does not fit between the rise before it and its own")
     return max(need)
 
 
