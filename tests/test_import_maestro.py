@@ -62,7 +62,7 @@ def test_both_frame_text_forms_give_the_same_keys():
     assert plain.channels == speeds.channels
     assert plain.tracks == speeds.tracks
     assert [t.name for t in plain.tracks] == ["Wave", "Blink twice"]
-    assert plain.tracks[0].keys[0].targets == {0: 1500, 3: 1750}
+    assert plain.tracks[0].keys[0].targets == {0: 1500}          # 3 is ServoMultiplied: not a servo
 
 
 def test_new_form_reads_only_the_part_before_s_as_targets():
@@ -82,21 +82,21 @@ def test_all_zero_frame_speeds_give_no_note():
 
 def test_non_servo_channels_are_left_out_with_their_targets():
     kf = read_fixture("wave_plain.xml")
-    assert [c.index for c in kf.channels] == [0, 1, 3, 5, 6, 7, 8, 9, 10, 11]
+    assert [c.index for c in kf.channels] == [0, 1, 5, 6, 7, 8, 9, 10, 11]
     for track in kf.tracks:
         for key in track.keys:
-            assert not {2, 4} & set(key.targets)
+            assert not {2, 3, 4} & set(key.targets)
     # Frame 0 sets the Output channel 2 to 8000, frame 1 the Input channel 4 to 1023: both dropped.
-    assert kf.tracks[0].keys[0].targets == {0: 1500, 3: 1750}
+    assert kf.tracks[0].keys[0].targets == {0: 1500}
     assert kf.tracks[0].keys[1].targets == {0: 1000, 1: 1250}
     assert any("2 (Output)" in n and "4 (Input)" in n for n in kf.notes)
 
 
-def test_servo_multiplied_is_a_servo():
+def test_only_servo_mode_channels_are_servos():
+    """The spec: channels whose mode is not `Servo` are not servos; ServoMultiplied is one of them."""
     kf = read_fixture("wave_plain.xml")
-    eye = next(c for c in kf.channels if c.index == 3)
-    assert eye == Channel(3, "eye lr", Fraction(1100), Fraction(1900), Fraction(1250))
-    assert any("ServoMultiplied" in n and "3" in n for n in kf.notes)
+    assert 3 not in {c.index for c in kf.channels}
+    assert any("3 (ServoMultiplied)" in n for n in kf.notes)
 
 
 def test_channel_names_limits_and_home():

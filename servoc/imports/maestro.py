@@ -18,9 +18,9 @@ with `s` and a speed per channel, then `a` and an acceleration per channel. Only
 targets (the part before `s`) are used.
 
 Output: `Keyframes(format="maestro")`:
-- channels: each `<Channel>` whose mode is `Servo` or `ServoMultiplied` (a servo pulsed at
-  the Maestro's slower, multiplied rate: still a servo, with a note). `Output` and `Input`
-  channels are no servos: left out, their targets dropped from every key. No mode = `Servo`
+- channels: each `<Channel>` whose mode is `Servo`. The others (`ServoMultiplied`, a servo
+  the Maestro pulses at a slower, multiplied rate; `Output`; `Input`) are not servos: left
+  out, their targets dropped from every key, with a note. No mode = `Servo`
   (the Maestro's default). index = position in `<Channels>`; name = `name` unless blank;
   min_us/max_us from `min`/`max`; home_us from `home` only when `homemode` is `Goto`.
 - tracks: one per `<Sequence>` (sampled=False), named as written ("Sequence N" when
@@ -49,7 +49,7 @@ from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track
 
 _HEAD = re.compile(r"\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*|<!DOCTYPE[^\[>]*(\[.*?\])?\s*>\s*)*<UscSettings[\s/>]",
                    re.S)     # a DOCTYPE is recognised here so that `read` can refuse it by name
-_NOT_SERVO = {"input": "Input", "output": "Output"}
+_NOT_SERVO = {"input": "Input", "output": "Output", "servomultiplied": "ServoMultiplied"}
 
 
 def sniff(data: bytes, path: str) -> bool:
@@ -98,16 +98,14 @@ def _channels(root: ET.Element, path: str, notes: list):
     items = [] if element is None else element.findall("Channel")
     if not items:
         raise ImportError_(f"{path}: no <Channel> in <Channels>: not a complete Maestro settings file")
-    servos, others, multiplied = [], [], []
+    servos, others = [], []
     for index, ch in enumerate(items):
         where, mode = f"{path}: channel {index}", (ch.get("mode") or "Servo").strip().lower()
         if mode in _NOT_SERVO:
             others.append(f"{index} ({_NOT_SERVO[mode]})")
             continue
-        if mode not in ("servo", "servomultiplied"):
+        if mode != "servo":
             raise ImportError_(f"{where}: unknown mode {ch.get('mode')!r} (Servo, ServoMultiplied, Input, Output)")
-        if mode == "servomultiplied":
-            multiplied.append(str(index))
         homemode = (ch.get("homemode") or "Off").strip().lower()
         if homemode not in ("goto", "off", "ignore"):
             raise ImportError_(f"{where}: unknown homemode {ch.get('homemode')!r} (Goto, Off, Ignore)")
@@ -117,10 +115,7 @@ def _channels(root: ET.Element, path: str, notes: list):
         home = us["home"] if homemode == "goto" and us["home"] else None
         servos.append(Channel(index, (ch.get("name") or "").strip() or None, us["min"], us["max"], home))
     if others:
-        notes.append(f"Channels that are no servos, left out with their targets: {', '.join(others)}.")
-    if multiplied:
-        notes.append(f"ServoMultiplied channels, imported as servos (the Maestro pulses them at a slower "
-                     f"rate; that is not carried over): {', '.join(multiplied)}.")
+        notes.append(f"Channels whose mode is not Servo, left out with their targets: {', '.join(others)}.")
     if any(ch.get(k, "0").strip() not in ("", "0") for ch in items for k in ("speed", "acceleration")):
         notes.append("The channels' speed and acceleration limits are not imported: each frame is a linear move.")
     return servos, len(items)
