@@ -86,14 +86,16 @@ def test_each_key_is_a_move_that_arrives_at_its_time():
                Key(Fraction(600), {1: 2004}, "row 4"), Key(Fraction(900), {}, "row 5"))
     imp = W.write(kf, {0: "P1.0", 1: "P1.1"}, None, "x.csv")
     body = imp.text[imp.text.index("sequence seq {"):]
-    assert "  move seq_0  # row 2\n" in body
+    assert "  move seq_0 in 0ms  # row 2\n" in body      # arrives at time 0: its first frame
     assert "  move seq_1 in 600ms  # row 3\n" in body
-    assert "  move seq_2  # row 4\n" in body          # same time: as fast as the servos allow
+    assert "  move seq_2 in 0ms  # row 4\n" in body      # at the time of the one before: one frame
     assert "  hold 300ms  # row 5\n" in body
     assert "pose seq_1 { a: 1004us }" in imp.text    # a pose names only what its key sets
     assert imp.moves_out == 4 and imp.frames_in == 4 and imp.off_grid == 0
     fe, rep = front(imp.text)
-    assert fe.plan is not None and not rep.has_errors
+    row4 = imp.text.split("\n").index("  move seq_2 in 0ms  # row 4") + 1
+    errors = [(d.code, rep.source.line_col(d.span.start)[0]) for d in rep.diagnostics if d.is_error]
+    assert errors == [("infeasible-speed", row4)]      # b to 2004 us in one frame: the user's to fix
 
 
 def test_off_grid_widths_are_rounded_and_counted():

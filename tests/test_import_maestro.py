@@ -169,10 +169,11 @@ def test_source_has_no_line_breaks():
 
 # ---- sequences ---------------------------------------------------------------------
 
-def test_repeated_sequence_names_are_made_distinct_and_empty_ones_skipped():
+def test_repeated_sequence_names_are_made_distinct_and_empty_ones_kept():
+    """Each <Sequence> becomes a sequence, one without frames too (an empty one)."""
     kf = read_fixture("micro6.xml")
-    assert [t.name for t in kf.tracks] == ["Nod", "Nod (2)"]
-    assert any("'Empty'" in n and "skipped" in n for n in kf.notes)
+    assert [t.name for t in kf.tracks] == ["Nod", "Nod (2)", "Empty"]
+    assert kf.tracks[2].keys == ()
 
 
 def test_unnamed_sequence_gets_a_number():

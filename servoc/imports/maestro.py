@@ -24,8 +24,8 @@ Output: `Keyframes(format="maestro")`:
   (the Maestro's default). index = position in `<Channels>`; name = `name` unless blank;
   min_us/max_us from `min`/`max`; home_us from `home` only when `homemode` is `Goto`.
 - tracks: one per `<Sequence>` (sampled=False), named as written ("Sequence N" when
-  unnamed, a repeated name gets " (2)", " (3)", ...). A sequence without frames is skipped,
-  a file without sequences gives no tracks (each with a note).
+  unnamed, a repeated name gets " (2)", " (3)", ...). A sequence without frames is an
+  empty one; a file without sequences gives no tracks (with a note).
 - keys: one per `<Frame>`, a linear move that arrives `duration` ms after the previous key,
   so `at_ms` is the running sum of durations. A target of 0 means the channel keeps its
   target: left out of `Key.targets` (a frame that sets nothing is a pause). `Key.source`
@@ -163,10 +163,7 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
             limited |= frame_limits
             source = f"{label} frame {i}" + (f" ({fname})" if fname and fname != f"Frame {i}" else "")
             keys.append(Key(at, {ch: Fraction(t, 4) for ch, t in enumerate(targets) if t and ch in servo}, source))
-        if keys:
-            tracks.append(Track(unique, tuple(keys), sampled=False))
-        else:
-            notes.append(f"Sequence {unique!r} has no frames: skipped.")
+        tracks.append(Track(unique, tuple(keys), sampled=False))     # one without frames is an empty sequence
     if limited:
         notes.append("The frames' own speeds and accelerations (after 's' and 'a') are not imported: "
                      "each frame is a linear move over its duration.")

@@ -9,9 +9,8 @@ naming its source) and the import's figures.
   8 µs grid) and are written as widths on the grid; `Imported.off_grid`
   counts those that were not on it.
 - A keyed track (Maestro, CSV): each key is one linear move that arrives at
-  its time, `move KEY in (time - previous time)`; a key at the time of the one
-  before is `move KEY` (as fast as the servos allow), a key that sets nothing
-  is a `hold`.
+  its time, `move KEY in (time - previous time)` (a key at the time of the one
+  before: `in 0ms`, one frame), a key that sets nothing a `hold`.
 - A sampled track (Blender; a Bottango curve sampled at every frame): the
   first sample is a `move` without a duration, then as few linear moves as
   meet every sample within ±1 N. A run of samples i..j becomes one move when,
@@ -119,8 +118,7 @@ class _Writer:
                     body.append(self.statement(nodes.HoldStmt(_ms(duration), NO_SPAN), key.source))
                 continue
             pose = self.pose(f"{prefix}_{i}", values)
-            body.append(self.statement(
-                nodes.MoveStmt(pose, _ms(duration) if duration > 0 else None, None, NO_SPAN), key.source))
+            body.append(self.statement(nodes.MoveStmt(pose, _ms(duration), None, NO_SPAN), key.source))
         return body
 
     def sampled(self, track: Track, prefix: str, timing: Timing) -> list:
