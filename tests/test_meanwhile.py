@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
@@ -343,3 +345,33 @@ def test_verify_frames_counts_each_statement_of_main():
             "main {\n  move p0 in 100ms\n  hold 3s\n  hold 5s\n  select { on button { hold 10ms } }\n"
             "  loop { hold 1s }\n}\n")
     assert verify_frames(_plan(text)) == 10 + 300 + 500 + 20
+
+
+UNDATED = """\
+frame 10ms
+servo a = P1.0
+input b = P3.2
+pose lo { a: 20 }
+pose hi { a: 220 }
+pose mid { a: 120 }
+main {
+  move lo
+  select {
+    on b { move mid }
+    meanwhile { move hi in 2s }
+  }
+  hold 100ms
+}
+"""
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("at_ms, frames", [(15, 25), (505, 13), (1005, 1), (1505, 13), (1995, 25)])
+def test_an_undated_move_after_a_cut_takes_the_frames_of_where_the_servo_is(at_ms, frames):
+    """`move mid` without a duration after the sweep is cut: the firmware finds F from where `a`
+    really is (near `mid`: one frame; at either end: the 25 frames 100 N need at 2.467 ms a DAV
+    and 10 ms a frame), never from the farthest state. Every pulse exact in ucsim."""
+    plan, choices, report = run(UNDATED, f"{at_ms / 1000}s b active\n", 260)
+    start = UNDATED.index("move mid")
+    golden = list(itertools.islice(expand(plan, choices), 260))
+    assert sum(1 for f in golden if f.span.start == start) == frames
