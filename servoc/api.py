@@ -391,6 +391,7 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
     Sampled motion is fitted at the longest frame period that puts every source frame on a frame
     and is no shorter than the default period of a program on the same pins."""
     from .imports import write as _write
+    from .imports.keyframes import ImportError_
     fmt, kf = read_motion(path, fmt, options)
     if not kf.channels:
         raise UsageError(f"{path}: the file has no servo channels to import")
@@ -415,7 +416,7 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
             timing = _write.Timing(floor_us)
     try:
         imported = _write.write(kf, pin_of, timing, os.path.basename(path))
-    except _write.ImportError_ as exc:
+    except ImportError_ as exc:
         raise UsageError(f"{path}: {exc}") from None
     return dataclasses.replace(imported, notes=notes + imported.notes)
 

@@ -5,6 +5,7 @@ that write nothing."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import time
 from pathlib import Path
@@ -105,3 +106,15 @@ def test_a_million_frames_in_any_format_is_a_clear_error(tmp_path, capsys, name,
     assert rc == 2 and "more than the 100,000" in err and "Traceback" not in err, err
     assert os.listdir(tmp_path) == [name]
     assert time.perf_counter() - started < 20
+
+
+def test_the_import_sessions_in_the_docs_are_what_servoc_prints(tmp_path, monkeypatch, capsys):
+    """Each `$ servoc import ...` block of docs/language.md: what it prints on standard output."""
+    docs = (ROOT / "docs" / "language.md").read_text(encoding="utf-8")
+    sessions = re.findall(r"```text\n\$ servoc (import [^\n]*)\n(.*?)```", docs, re.S)
+    assert len(sessions) == 3
+    shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    monkeypatch.chdir(tmp_path)
+    for command, shown in sessions:
+        assert cli.main(command.split()) == 0
+        assert capsys.readouterr().out == shown, command

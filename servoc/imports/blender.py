@@ -120,7 +120,7 @@ def _read_json(data: bytes, path: str, options: ReadOptions):
         raise ImportError_(f"{path}: \"positions\" must be a list with one object per frame")
     if count != len(frames):
         raise ImportError_(f"{path}: \"frames\" is {count} but \"positions\" has {len(frames)} frames")
-    _limit(count, path)
+    check_frames(count, path)
     ids, out = {}, []       # ids: JSON key -> servo id, each key checked once
     for k, frame in enumerate(frames):
         for key, position in frame.items():
@@ -152,7 +152,7 @@ def _read_header(text: str, path: str, stem: str, options: ReadOptions):
         consts = {k: int(v) for k, v in _CONST.findall(before)}
         namespaces = _NAMESPACE.findall(before)
         name = namespaces[-1] if namespaces else stem if len(starts) == 1 else f"{stem}_{n + 1}"
-        _limit(consts.get("FRAMES", 0), where)
+        check_frames(consts.get("FRAMES", 0), where)
         if "FPS" in consts:
             fps = _fps(consts["FPS"], where, "FPS", options)
         elif options.fps is not None:
@@ -175,10 +175,6 @@ def _read_header(text: str, path: str, stem: str, options: ReadOptions):
     return animations
 
 
-def _limit(frames: int, where: str) -> None:
-    check_frames(frames, where)
-
-
 def _frames(data: bytes, where: str) -> list:
     """The frames of 5-byte records `0x3C id hi lo 0x3E` each ended by 0x0A, as dicts id -> position."""
     frames, frame, start, i, n = [], {}, 0, 0, len(data)
@@ -186,7 +182,7 @@ def _frames(data: bytes, where: str) -> list:
         b = data[i]
         if b == 0x0A:
             frames.append(frame)
-            _limit(len(frames), where)
+            check_frames(len(frames), where)
             frame, start, i = {}, i + 1, i + 1
         elif b != 0x3C:
             raise ImportError_(f"{where}: byte {i} is 0x{b:02X}, not 0x3C (start of a servo record) "

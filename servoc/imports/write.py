@@ -31,7 +31,7 @@ from fractions import Fraction
 from .. import nodes
 from ..printer import format_program
 from ..source import NO_SPAN
-from ..units import BASE_US, DIV_US, N_MAX, round_half_up, width_on_grid, width_to_n
+from ..units import BASE_US, DIV_US, N_MAX, n_to_width_us, round_half_up, width_on_grid, width_to_n
 from .keyframes import ImportError_, Keyframes, Track, check_frames, identifier
 
 MAX_MOVE_FRAMES = 65535        # the firmware's frame counters are 16 bits
@@ -241,7 +241,7 @@ def _ms(value: Fraction) -> nodes.Quantity:
 
 
 def _width(n: int) -> nodes.Quantity:
-    return nodes.Quantity(Fraction(BASE_US + DIV_US * n), "us", NO_SPAN)
+    return nodes.Quantity(Fraction(n_to_width_us(n)), "us", NO_SPAN)
 
 
 def _limit(channel) -> tuple:
