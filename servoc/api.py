@@ -27,6 +27,7 @@ from . import verify as _verify
 from .diagnostics import Reporter
 from .source import NO_SPAN, SourceFile, Span
 from .steps import Plan
+from .units import round_half_up
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
 
 SimError = _sim.SimError
@@ -389,14 +390,16 @@ def import_pins(kf, given: dict) -> tuple[dict, tuple]:
 def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, options=None):
     """A file made by another tool -> servoc.imports.write.Imported (the .servo text and figures).
     Sampled motion is fitted at the longest frame period that puts every source frame on a frame
-    and is no shorter than the default period of a program on the same pins."""
+    and is no shorter than the default period of a program on the same pins; when 1/fps is shorter
+    than that default, at P = 1/fps if the firmware written for it holds that P, else at a multiple
+    of 1/fps (every `step`-th source frame met, with a note)."""
     from .imports import write as _write
     from .imports.keyframes import ImportError_
     fmt, kf = read_motion(path, fmt, options)
     if not kf.channels:
         raise UsageError(f"{path}: the file has no servo channels to import")
     pin_of, notes = import_pins(kf, pins or {})
-    timing = None
+    timing, exact = None, None
     if any(t.sampled for t in kf.tracks):
         floor_us = _default_period_on(sorted(set(pin_of.values())))
         keyed = [t for t in kf.tracks if t.curve is None and len(t.keys) > 1]
@@ -409,16 +412,27 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
                 raise UsageError(f"{path}: the frames are not 1/fps apart")
             timing = _write.sampled_timing(Fraction(1000) / interval, floor_us)
             if timing.step > 1:
-                notes += (f"1/fps is shorter than the shortest frame the firmware holds on these pins "
-                          f"({floor_us} us): every {timing.step}th source frame is met, those between are passed "
-                          "on the way",)
+                exact = _write.Timing(round_half_up(interval * 1000))
         else:
             timing = _write.Timing(floor_us)
     try:
-        imported = _write.write(kf, pin_of, timing, os.path.basename(path))
+        imported = _write.write(kf, pin_of, exact or timing, os.path.basename(path))
+        if exact is not None and not _holds(imported.text, exact.period_us):
+            imported = _write.write(kf, pin_of, timing, os.path.basename(path))
+            notes += (f"1/fps ({exact.period_us} us) is shorter than the shortest frame the firmware holds on "
+                      f"these pins: one source frame in {timing.step} is met, those between are passed on the way",)
     except ImportError_ as exc:
         raise UsageError(f"{path}: {exc}") from None
     return dataclasses.replace(imported, notes=notes + imported.notes)
+
+
+def _holds(text: str, period_us: int) -> bool:
+    """Whether the program `text` plans without errors and its firmware holds `period_us`."""
+    source = SourceFile("<import>", text)
+    reporter = Reporter(source)
+    fe = front_end(source, reporter)
+    return fe.plan is not None and fe.plan.min_period_us <= period_us and not any(
+        d.code == "period-too-short" for d in reporter.diagnostics)
 
 
 def _default_period_on(pins: list) -> int:
