@@ -360,6 +360,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if stack_bytes > room:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
                                   f"the firmware has {room}")
+    # the last of three ports gets a sort buffer of its own (B) where the stack has room for it
+    bport = plan.ports[-1] if len(plan.ports) == 3 and stack_bytes + costs.BUFB_RAM <= room else None
     if serial is not None and send_run(plan) > costs.QUEUE:
         raise layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
                                  f"the transmit queue holds {costs.QUEUE}")
@@ -380,7 +382,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     watch = _select_ram(ctx, ram)
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
-    e = _engine(plan, ram, period_cycles)
+    e = _engine(plan, ram, period_cycles, bport)
     e["framed"] = ctx.flagged
     s = None if serial is None else _serial(serial, ram)
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
@@ -425,7 +427,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     text = render("firmware.asm.j2",
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
-                  ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit,
+                  ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit, bfull_bit=framed_bit + 1,
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
@@ -444,7 +446,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
                            f"{costs.runtime_stack(bool(watch))} the stack bound counts")
     offsets = tuple(costs.rise_offsets(plan.ports, target).values())
-    ram_bytes = ram.total(24, stack_bytes)
+    ram_bytes = ram.total(24, stack_bytes) + (costs.BUFB_RAM if bport is not None else 0)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
         breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])
@@ -457,7 +459,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
-                                     0 if s is None else s["byte_cycles"])
+                                     0 if s is None else s["byte_cycles"], bport is not None)
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
@@ -507,8 +509,9 @@ def _port_pins(plan: Plan, port: int) -> list[dict]:
             for i, b in enumerate(bits)]
 
 
-def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
-    """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2)."""
+def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None) -> dict:
+    """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2).
+    `bport`: the port sorted into buffer B (None: every port goes through buffer A)."""
     target = plan.program.target
     ports = []
     for k, port in enumerate(plan.ports):
@@ -522,14 +525,18 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
         ports[-1]["rest_add"] = (costs.STOP - ports[-1]["rnext"]) % 0x10000   # no fall: straight to the next rise
     most = max((p["s"] for p in ports), default=1)
-    ram.alloc("RISEM", 1, "the lines of the next port to rise that have a target")
-    ram.alloc("DC", 1, "how many distinct N the sorted port has")
-    ram.alloc("EMC", 1, "ports the handler has taken from the sort buffer (counts on)")
+    ram.alloc("RISEM", 1, "the lines of the next port to rise from buffer A that have a target")
+    ram.alloc("EMC", 1, "ports the handler has taken from sort buffer A (counts on)")
     ram.alloc("SRT", 1, "ports frame_io has sorted into it (counts on)")
-    ram.symbols += [("DN", layout.SORT_BASE, "the sorted port's distinct N, ascending"),
-                    ("DM", layout.SORT_BASE + 8, "the lines that fall at each"),
-                    ("WN", layout.SORT_BASE, "sort work: N (then DN)"),
-                    ("WM", layout.SORT_BASE + 8, "sort work: the lines (then DM)")]
+    ram.symbols += [("WN", layout.SORT_BASE, "sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)"),
+                    ("WM", layout.SORT_BASE + 1, "sort buffer A: the lines of pair i at WM + 2i")]
+    if bport is not None:
+        ram.symbols += [("BUFB", layout.BUFB_BASE, f"sort buffer B, P{bport}'s distinct N and lines in pairs (indirect)"),
+                        ("RISEMB", layout.BUFB_BASE - 1, f"the lines of P{bport} that have a target (indirect)")]
+    # frame_io's order: the port with buffer B first (sorted before the work between frames), then
+    # the others in port order; the engine starts once the first port's N are sorted
+    order = sorted(ports, key=lambda p: p["port"] != bport)
+    blocks = [{"p": p, "to_b": p["port"] == bport, "start": p is ports[0]} for p in order]
     if target.grid:
         near_dn = -(-costs.SPLIT // 8)
         ctime = ["SWAP    A                       ; t = C(N) = 500 + 8 N, in R7:A", "RR      A",
@@ -544,10 +551,10 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int) -> dict:
         "window": 2 ** costs.WINDOW_BITS, "cascade": [(k, 2 ** k) for k in range(costs.WINDOW_BITS)],
         "stop": costs.STOP, "add": costs.STOP + 1,        # ~interval + STOP + 1 = 65536 - interval + STOP
         "entry": costs.ENTRY, "split": costs.SPLIT, "sled_add": costs.SLED + 8,   # ~gap + SLED + 8 = SLED + 7 - gap
-        "later": list(range(1, most)), "dm_before": 8 - 1,    # DM of the distinct N before: R0 + 8 - 1
+        "later": list(range(1, most)),
         "sled": costs.SLED, "fall_off": costs.SLED, "exit_off": costs.SLED + 7,
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
-        "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn,
+        "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "ctime": "\n".join("        " + line for line in ctime),
         "sorts": [{"s": n, "network": SORTING_NETWORKS[n]} for n in sizes],
     }
@@ -563,7 +570,7 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
 
 
 def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],
-                 byte_cycles: int = 0) -> tuple[costs.Budget | None, str]:
+                 byte_cycles: int = 0, last_in_b: bool = False) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `byte_cycles`: a byte's time on the
     serial line (0: the program has none)."""
@@ -581,7 +588,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],
                       "byte_cycles": byte_cycles}
     except wcet.WcetError as exc:
         return None, str(exc)
-    return costs.Budget(work, sorts, rises, lines, **serial), code.label_at(at)
+    return costs.Budget(work, sorts, rises, lines, last_in_b=last_in_b, **serial), code.label_at(at)
 
 
 def _serial(serial, ram: layout.RamAllocator) -> dict:

@@ -81,6 +81,7 @@ class Budget:
     serial_run: int = 0         # the serial handler's longest run, its vector's LCALL to RETI (0: no serial line)
     serial_head: int = 0        # its vector's LCALL to the end of `CLR RI`: a received byte taken
     byte_cycles: int = 0        # one byte on the serial line (10 bits)
+    last_in_b: bool = False     # the last port has sort buffer B: frame_io sorts it before the others
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -104,11 +105,14 @@ def _frame_cycles(target, budget: Budget) -> int:
         return budget.work
     span = port_span(target)
     load = [handler_load(r, s) for r, s in zip(budget.rises, budget.lines)]
-    need = [m * span, sum(budget.sorts) + budget.work + sum(load),
-            (m - 1) * span + budget.sorts[0] + load[-1]]
-    if m >= 2:
-        need.append((m - 2) * span + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1])
-    for j in range(1, m):       # each later port's sort fits between the rise before and its own
+    need = [m * span, sum(budget.sorts) + budget.work + sum(load)]
+    if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
+        need.append((m - 1) * span + budget.sorts[-1] + budget.sorts[0] + load[-1])
+    else:
+        need.append((m - 1) * span + budget.sorts[0] + load[-1])
+        if m >= 2:
+            need.append((m - 2) * span + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1])
+    for j in range(1, m - 1 if budget.last_in_b else m):   # each later port's sort in A fits between the rise before and its own
         if budget.sorts[j] + load[j - 1] > span:
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, with the serial "
                           f"handler's) does not fit between the rise before it and its own")
@@ -126,6 +130,7 @@ SERIAL_STACK = 5                # the serial handler: its LCALL, PSW, ACC, R0 (t
 # Before a pending serial interrupt is taken: the instruction under way (at most 4 cycles,
 # MUL or DIV; or the one that always follows a RETI). Its vector's LCALL is in serial_head.
 SERIAL_WAIT = 4
+BUFB_RAM = 17                   # sort buffer B (8 pairs of N and lines) and its rise mask, from the stack
 
 
 def busy_stretch(target, budget: Budget) -> int:

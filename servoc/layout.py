@@ -7,13 +7,14 @@ about the firmware's memory is stated once.
 RAM (AT89C52, 256 bytes):
     0x00-0x07  register bank 0 (the program and the runtime)
     0x08-0x0F  register bank 1 (the edge handler's)
-    0x10-0x1F  SORT: one port's distinct N (DN) and their lines (DM), sorted for the handler
+    0x10-0x1F  sort buffer A: a port's N and lines in pairs, then its distinct N, for the handler
     0x20-0x2C  bit-addressable per-port masks (ACT, MOVB, DIRB, RMASK) and FLAGS
     0x2D-0x2F  F of the current move
     0x30-0x47  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
     0x48-0x71  direct variables and the handler's items (allocated in order)
     0x72-0x9F  the stack (STACK_BYTES), growing up; with `serial`, its queues and
-               counters take the first SERIAL_RAM bytes of it
+               counters take the first SERIAL_RAM bytes of it; with three ports, where
+               the program leaves room, sort buffer B and its rise mask the last 17
     0xA0-0xFF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
 
 A record list is a run of move and hold records in code memory; each record
@@ -28,11 +29,15 @@ from . import costs
 
 RAM_SIZE = 256
 HANDLER_BANK = 0x08             # register bank 1: the edge handler's
-SORT_BASE = 0x10                # DN (8 bytes), then DM (8 bytes)
+SORT_BASE = 0x10                # sort buffer A: 8 pairs (N, lines)
 CUR_BASE = 0x30                 # current N per pin
 STATE_BYTES = 4
 STATE_BASE = RAM_SIZE - 24 * STATE_BYTES     # motion state, 4 bytes per pin: 0xA0..0xFF
 STACK_BASE = STATE_BASE - costs.STACK_BYTES  # the stack below it: 0x72..0x9F
+BUFB_BASE = STATE_BASE - 16     # sort buffer B (three ports, where the stack has room): 16 bytes
+                                # at the top of the stack's room, its rise mask below; like A at
+                                # 0x10 mod 0x20, so that bit 4 of a pointer just past either is clear
+assert SORT_BASE % 0x20 == BUFB_BASE % 0x20 == 0x10
 DIRECT_END = STACK_BASE         # direct variables end where the stack starts
 DIRECT_LIMIT = 0x80             # above it, RAM is reached only through @R0/@R1 (direct 0x80.. are the SFRs)
 WORK_BASE = CUR_BASE + 24       # variables after CUR
