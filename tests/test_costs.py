@@ -47,6 +47,16 @@ ADVERSARIAL = {
     + "sequence s { repeat 2 { repeat 2 { move a in {1P}us; move b in {1P}us } } }\n"
     + "sequence t { repeat 3 { play s } }\n"
     + "main { loop { repeat 2 { repeat 1 { play t } } } }\n",
+    # every line of a port its own handler entry (14 N apart), a new move each frame, on three ports
+    "spread-24": servos(24) + all_at("a", 24, lambda i: 14 * (i % 8) + i // 8)
+    + all_at("b", 24, lambda i: 250 - 14 * (i % 8) - i // 8)
+    + "main { loop { move b in {1P}us; move a in {1P}us } }\n",
+    "runtime-f-24": servos(24, "") + all_at("lo", 24, lambda i: 7 * (i % 8)) + all_at("hi", 24, lambda i: 250 - 9 * (i % 8))
+    + all_at("far", 24, lambda i: 240 + i % 8)
+    + "sequence go { move far }\nmain { loop { move lo in 700ms; play go; move hi in 400ms; play go } }\n",
+    # nested too deep for sort buffer B to fit above the stack: the last port shares buffer A
+    "deep-24": servos(24) + all_at("a", 24, lambda i: i) + all_at("b", 24, lambda i: 249 - i)
+    + "main { loop { " + "repeat 2 { " * 8 + "move b in {1P}us; move a in {1P}us" + " }" * 8 + " } }\n",
     "zero-frame": servos(8) + all_at("a", 8, lambda i: 5) + all_at("b", 8, lambda i: 245)
     + "sequence nap { hold 10us }\nsequence none { }\n"
     + "main { loop { move b in {1P}us; repeat 300 { hold 20us }; repeat 60000 { play nap }; play none; "
@@ -102,6 +112,31 @@ def test_adversarial_programs_at_other_clocks_verify_at_their_reported_minimum(n
                                                         [str(m) for m in report.mismatches[:5]])
     _, diags = front_end_text(line + "\n" + at_period(ADVERSARIAL[name], period - 1))
     assert "period-too-short" in [d.code for d in diags if d.is_error]
+
+
+@pytest.mark.parametrize("name,has_b", [("carry-24", True), ("spread-24", True), ("runtime-f-24", True),
+                                         ("deep-24", False), ("carry-8", False)])
+def test_the_last_of_three_ports_gets_buffer_b_where_the_stack_has_room(name, has_b):
+    """Buffer B takes 17 bytes from the top of the stack: three ports and room left, else one buffer
+    for all (the adversarial programs above verify either way)."""
+    built = build_text(at_period(ADVERSARIAL[name], 20000))
+    unit = built.firmware.unit
+    assert unit.budget.last_in_b is has_b
+    assert ("BUFB" in unit.text) is has_b
+    room = costs.stack_room() - (costs.BUFB_RAM if has_b else 0)
+    assert unit.stack_bytes <= room
+
+
+def test_buffer_b_removes_the_work_after_the_last_sort():
+    """With buffer B the three-port bound is the pulses or the whole frame's work, never the work
+    after the last sort: the same program without it (too deep) reports more, by about that term."""
+    with_b = costs.Budget(work=3000, sorts=(400, 400, 400), rises=(330,) * 3, lines=(8,) * 3, last_in_b=True)
+    without = costs.Budget(work=3000, sorts=(400, 400, 400), rises=(330,) * 3, lines=(8,) * 3)
+    from servoc.target import DEFAULT
+    span = costs.port_span(DEFAULT)
+    loads = [costs.handler_load(330, 8)] * 3
+    assert costs.frame_cycles(DEFAULT, with_b) == max(3 * span, 1200 + 3000 + sum(loads))
+    assert costs.frame_cycles(DEFAULT, without) == span + 400 + 3000 + 400 + 2 * loads[0]
 
 
 def test_a_period_below_the_minimum_is_refused():

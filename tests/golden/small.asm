@@ -30,15 +30,12 @@ EVAL    = 0x50              ; e(k/F) x 256 this frame
 TMPD    = 0x51              ; scratch: |delta|
 TMPL    = 0x52              ; scratch
 LPTR    = 0x53              ; the record list being run: the next record
-RISEM   = 0x55              ; the lines of the next port to rise that have a target
-DC      = 0x56              ; how many distinct N the sorted port has
-EMC     = 0x57              ; ports the handler has taken from the sort buffer (counts on)
-SRT     = 0x58              ; ports frame_io has sorted into it (counts on)
-DN      = 0x10              ; the sorted port's distinct N, ascending
-DM      = 0x18              ; the lines that fall at each
-WN      = 0x10              ; sort work: N (then DN)
-WM      = 0x18              ; sort work: the lines (then DM)
-ITEMS   = 0x59              ; the handler's items for the port being pulsed
+RISEM   = 0x55              ; the lines of the next port to rise from buffer A that have a target
+EMC     = 0x56              ; ports the handler has taken from sort buffer A (counts on)
+SRT     = 0x57              ; ports frame_io has sorted into it (counts on)
+WN      = 0x10              ; sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)
+WM      = 0x11              ; sort buffer A: the lines of pair i at WM + 2i
+ITEMS   = 0x58              ; the handler's items for the port being pulsed
 EASED   = 0x60              ; FLAGS.0: the current move is eased
 NODUR   = 0x61              ; FLAGS.1: F is found at run time
 LASTF   = 0x62              ; FLAGS.2: this is the move's last frame
@@ -444,11 +441,12 @@ rn_lo:  DEC     @R0
         RET
 
 ; ================================================================ frame_io (background)
-; frame_io: hand the N now in CUR to the edge handler, port by port. Each port
-; is sorted into WN/WM (one buffer) as soon as the handler has taken the port
-; sorted before it (EMC = SRT), and must be there before that port's rise:
-; its distinct N ascending (DN = WN, DC of them), each with the lines it
-; drops (DM = WM), lines without a target left out.
+; frame_io: hand the N now in CUR to the edge handler, port by port. A port is
+; sorted in the sort buffer A (WN/WM: N and lines in pairs) as soon as the
+; handler has taken the port sorted there before it (EMC = SRT), and must be
+; there before that port's rise: its distinct N ascending, each with the lines
+; it drops, ended by N = 0xFF unless all 8 are distinct; lines without a target
+; left out.
 frame_io:
 fi1:    MOV     A, EMC
         CJNE    A, SRT, fi1          ; the handler still needs the port sorted before
@@ -457,13 +455,14 @@ fs1:
         MOV     A, ACT+1
         ANL     A, #0x01
         MOV     WM+0, A               ; its line, if it has a target
-        MOV     WN+1, 0x3B           ; N of tilt
+        MOV     WN+2, 0x3B           ; N of tilt
         MOV     A, ACT+1
         ANL     A, #0x08
-        MOV     WM+1, A               ; its line, if it has a target
-        MOV     RISEM, ACT+1
+        MOV     WM+2, A               ; its line, if it has a target
         LCALL   sort2
+        MOV     R0, #WN
         LCALL   distinct2
+        MOV     RISEM, ACT+1
         INC     SRT
         JB      TR0, fi1_run
         LCALL   engine_start
@@ -475,9 +474,10 @@ fs2:
         MOV     A, ACT+2
         ANL     A, #0x40
         MOV     WM+0, A               ; its line, if it has a target
-        MOV     RISEM, ACT+2
         LCALL   sort1
+        MOV     R0, #WN
         LCALL   distinct1
+        MOV     RISEM, ACT+2
         INC     SRT
 fi_done:
         RET                             ; looks at next (a select's inputs) is at most P old
@@ -494,108 +494,94 @@ engine_start:                           ; the first frame: its first rise comes 
         SETB    EA
         RET
 
-sort1:                                  ; WN+0..0 ascending, WM with them
+sort1:                                  ; pairs (WN+2i, WM+2i), i < 1, ascending by N
         RET
 
-sort2:                                  ; WN+0..1 ascending, WM with them
-        MOV     A, WN+1
+sort2:                                  ; pairs (WN+2i, WM+2i), i < 2, ascending by N
+        MOV     A, WN+2
         CLR     C
         SUBB    A, WN+0
         JNC     so2_1                ; N0 <= N1
         MOV     A, WN+0
-        XCH     A, WN+1
+        XCH     A, WN+2
         MOV     WN+0, A
         MOV     A, WM+0
-        XCH     A, WM+1
+        XCH     A, WM+2
         MOV     WM+0, A
 so2_1:
         RET
 
-distinct1:                              ; equal N merged, lines without a target left out
-        MOV     R0, #WN                 ; the next distinct N
+distinct1:                              ; R0 -> where the distinct pairs go (A itself, or B)
         MOV     R7, #0xFF               ; N before (no N is 255)
-        MOV     DC, #0
         MOV     A, WM+0
         JZ      di1_0
         MOV     R6, A
         MOV     A, WN+0
         XRL     A, R7
         JNZ     di1_0_new
-        MOV     A, R0                   ; the same N: its lines join the edge before
-        ADD     A, #7
-        MOV     R1, A
+        DEC     R0                      ; the same N: its lines join the edge before
         MOV     A, R6
-        ORL     A, @R1
-        MOV     @R1, A
+        ORL     A, @R0
+        MOV     @R0, A
+        INC     R0
         SJMP    di1_0
 di1_0_new:
         MOV     A, WN+0
         MOV     R7, A
         MOV     @R0, A
-        MOV     A, R0
-        ADD     A, #8
-        MOV     R1, A
-        MOV     A, R6
-        MOV     @R1, A
         INC     R0
-        INC     DC
+        MOV     A, R6
+        MOV     @R0, A
+        INC     R0
 di1_0:
+        MOV     @R0, #0xFF              ; the end
         RET
 
-distinct2:                              ; equal N merged, lines without a target left out
-        MOV     R0, #WN                 ; the next distinct N
+distinct2:                              ; R0 -> where the distinct pairs go (A itself, or B)
         MOV     R7, #0xFF               ; N before (no N is 255)
-        MOV     DC, #0
         MOV     A, WM+0
         JZ      di2_0
         MOV     R6, A
         MOV     A, WN+0
         XRL     A, R7
         JNZ     di2_0_new
-        MOV     A, R0                   ; the same N: its lines join the edge before
-        ADD     A, #7
-        MOV     R1, A
+        DEC     R0                      ; the same N: its lines join the edge before
         MOV     A, R6
-        ORL     A, @R1
-        MOV     @R1, A
+        ORL     A, @R0
+        MOV     @R0, A
+        INC     R0
         SJMP    di2_0
 di2_0_new:
         MOV     A, WN+0
         MOV     R7, A
         MOV     @R0, A
-        MOV     A, R0
-        ADD     A, #8
-        MOV     R1, A
-        MOV     A, R6
-        MOV     @R1, A
         INC     R0
-        INC     DC
+        MOV     A, R6
+        MOV     @R0, A
+        INC     R0
 di2_0:
-        MOV     A, WM+1
+        MOV     A, WM+2
         JZ      di2_1
         MOV     R6, A
-        MOV     A, WN+1
+        MOV     A, WN+2
         XRL     A, R7
         JNZ     di2_1_new
-        MOV     A, R0                   ; the same N: its lines join the edge before
-        ADD     A, #7
-        MOV     R1, A
+        DEC     R0                      ; the same N: its lines join the edge before
         MOV     A, R6
-        ORL     A, @R1
-        MOV     @R1, A
+        ORL     A, @R0
+        MOV     @R0, A
+        INC     R0
         SJMP    di2_1
 di2_1_new:
-        MOV     A, WN+1
+        MOV     A, WN+2
         MOV     R7, A
         MOV     @R0, A
-        MOV     A, R0
-        ADD     A, #8
-        MOV     R1, A
-        MOV     A, R6
-        MOV     @R1, A
         INC     R0
-        INC     DC
+        MOV     A, R6
+        MOV     @R0, A
+        INC     R0
 di2_1:
+        MOV     @R0, #0xFF              ; the end
         RET
 ; ================================================================ the edge handler (Timer0)
 ; Every edge of a frame comes from the Timer0 handler. The handler reads TL0
@@ -965,14 +951,16 @@ exit_p2:                             ; items: [lo, hi] to add: the next edge is 
         MOV     R4, #>win_p1
         SJMP    exit_timer
 
-; ---- items, written at each port's rise from its distinct N (ascending, DC of them)
-; [mask] first fall; then per fall [sled offset, mask] (gap < 111) or
+; ---- items, written at each port's rise from its distinct N (ascending, in pairs N, lines,
+; ended by N = 0xFF): [mask] first fall; then per fall [sled offset, mask] (gap < 111) or
 ; [far exit, N, mask]; last [next-rise exit, lo, hi].
 
 emit_p1:                              ; the handler, just after the rise of P1
         MOV     R1, #ITEMS
-        MOV     A, DC
-        JZ      em1_none
+        MOV     R0, #WN
+        MOV     A, @R0
+        INC     A
+        JZ      em1_none                ; N = 0xFF: no line falls
         LCALL   emit_list               ; R3:R2 = the time of the last cluster's first fall
         MOV     @R1, #113             ; the next rise: 2611 cycles after this one
         INC     R1
@@ -991,9 +979,10 @@ emit_p1:                              ; the handler, just after the rise of P1
         CPL     A
         ADDC    A, #0
         MOV     @R1, A
-        INC     EMC                     ; the sorted buffer is free again
+        MOV     R0, #WN
+        MOV     A, @R0                  ; the first fall: t0 cycles after the rise
+        INC     EMC                     ; the sort buffer is free again
         MOV     R0, #ITEMS
-        MOV     A, DN+0                 ; the first fall: t0 cycles after the rise
         SWAP    A                       ; t = C(N) = 500 + 8 N, in R7:A
         RR      A
         MOV     R7, A
@@ -1023,8 +1012,10 @@ em1_none:                             ; no line falls: straight on to the next r
 
 emit_p2:                              ; the handler, just after the rise of P2
         MOV     R1, #ITEMS
-        MOV     A, DC
-        JZ      em2_none
+        MOV     R0, #WN
+        MOV     A, @R0
+        INC     A
+        JZ      em2_none                ; N = 0xFF: no line falls
         LCALL   emit_list               ; R3:R2 = the time of the last cluster's first fall
         MOV     @R1, #113             ; the next rise: 3389 cycles after this one
         INC     R1
@@ -1043,9 +1034,10 @@ emit_p2:                              ; the handler, just after the rise of P2
         CPL     A
         ADDC    A, #0
         MOV     @R1, A
-        INC     EMC                     ; the sorted buffer is free again
+        MOV     R0, #WN
+        MOV     A, @R0                  ; the first fall: t0 cycles after the rise
+        INC     EMC                     ; the sort buffer is free again
         MOV     R0, #ITEMS
-        MOV     A, DN+0                 ; the first fall: t0 cycles after the rise
         SWAP    A                       ; t = C(N) = 500 + 8 N, in R7:A
         RR      A
         MOV     R7, A
@@ -1073,19 +1065,22 @@ em2_none:                             ; no line falls: straight on to the next r
         MOV     R0, #ITEMS
         LJMP    exit_p2
 
-; emit_list: the items of DC >= 1 distinct falls; leaves R3:R2 = t of the last cluster start.
+; emit_list: the items of the distinct falls at R0 (at least one); leaves R3:R2 = t of the
+; last cluster start.
 emit_list:
-        MOV     A, DC
-        MOV     R7, A
-        MOV     A, DN+0
+        MOV     A, @R0                  ; the first N
+        INC     R0
         MOV     R2, A                   ; N of the edge before
         MOV     R3, A                   ; N of the cluster's first edge
-        MOV     @R1, DM+0
+        MOV     A, @R0
+        INC     R0
+        MOV     @R1, A                  ; its lines
         INC     R1
-        DJNZ    R7, el_1
-        LJMP    el_end
-el_1:  MOV     A, DN+1
-        XCH     A, R2
+        MOV     A, @R0
+        INC     R0
+        CJNE    A, #0xFF, el_1
+        LJMP    el_end                  ; the end mark
+el_1:  XCH     A, R2
         CPL     A                       ; dN = N - N before
         SETB    C
         ADDC    A, R2
@@ -1106,7 +1101,9 @@ el1_far:
         MOV     R3, A                   ; a new cluster starts here
         MOV     @R1, A
         INC     R1
-el1_m: MOV     @R1, DM+1
+el1_m: MOV     A, @R0
+        INC     R0
+        MOV     @R1, A                  ; its lines
         INC     R1
 el_end: MOV     A, R3                   ; t of the last cluster start
         SWAP    A                       ; t = C(N) = 500 + 8 N, in R7:A
