@@ -66,9 +66,9 @@ def rise_offsets(ports: tuple[int, ...], target) -> dict[int, int]:
 
 
 def handler_load(rise_cycles: int, lines: int) -> int:
-    """The handler's worst cycles in one frame for a port: its rise entry, then at most SPLIT
-    per line (an entry of its own, or a step shorter than SPLIT)."""
-    return rise_cycles + SPLIT * lines
+    """The handler's worst cycles in one frame for a port: its rise entry, then at most
+    SPLIT - 1 = ENTRY + EXIT per line (an entry of its own, or a step shorter than SPLIT)."""
+    return rise_cycles + (SPLIT - 1) * lines
 
 
 @dataclass(frozen=True)

@@ -99,7 +99,9 @@ def test_adversarial_programs_verify_at_their_reported_minimum(name):
                                        ("runtime-f", "target at89c52 clock 22.1184MHz"),
                                        ("zero-frame", "target at89c52 clock 24MHz"),
                                        ("carry-8", "target stc89c58rd clock 40MHz mode 6T"),
-                                       ("eased", "target stc89c52rc clock 10.5MHz")])
+                                       ("eased", "target stc89c52rc clock 10.5MHz"),
+                                       ("spread-24", "target stc89c52rc clock 11.0592MHz mode 6T"),
+                                       ("deep-24", "target stc89c52rc clock 11.0592MHz")])
 def test_adversarial_programs_at_other_clocks_verify_at_their_reported_minimum(name, line):
     """At other clocks every figure of the budget is in machine cycles and C(N) comes from a table
     (the handler's rise entry is longest there); down to the lowest clock, 10.5 MHz."""
