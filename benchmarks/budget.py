@@ -26,7 +26,7 @@ from __future__ import annotations
 import time
 
 from baselines import POSITIONS, BuildError
-from servoc import api, codegen, costs
+from servoc import api, codegen, costs, events
 from servoc.diagnostics import Reporter
 from servoc.steps import Plan
 from servoc.source import SourceFile
@@ -93,9 +93,9 @@ def exact(plan: Plan, fw: api.Firmware, frames: int) -> bool:
 # ---------------------------------------------------------------- worst case: stress programs
 
 def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = False, depth: int | None = None,
-                  target: str = "") -> str:
+                  target: str = "", serial: bool = False) -> str:
     pins = [(p, b) for p in range(ports) for b in range(per_port)]
-    lines = ([target] if target else []) + [f"frame {period}us"]
+    lines = ([target] if target else []) + ([SERIAL_LINE] if serial else []) + [f"frame {period}us"]
     speed = "" if runtime_f else " speed 0.0001s/60deg"     # fast enough for any P the firmware holds
     for i, (p, b) in enumerate(pins):
         lines.append(f"servo s{i} = P{p}.{b}{speed}")
@@ -122,9 +122,10 @@ def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = Fals
 
 
 def budget_period(ports: int, per_port: int, runtime_f: bool = False, depth: int | None = None,
-                  period: int = 20000, target: str = "") -> int:
+                  period: int = 20000, target: str = "", serial: bool = False) -> int:
     """The shortest P servoc reports for the stress program (planned at `period`)."""
-    return plan_text(stress_source(ports, per_port, period, runtime_f, depth, target), "stress")[1].min_period_us
+    return plan_text(stress_source(ports, per_port, period, runtime_f, depth, target, serial),
+                     "stress")[1].min_period_us
 
 
 def exact_at(ports: int, per_port: int, period: int, runtime_f: bool = False, frames: int = 400,
@@ -176,23 +177,49 @@ def hold_shortest(ports: int, quick: bool) -> tuple[int, int]:
     return p, step
 
 
-# ---------------------------------------------------------------- other crystals
+# ---------------------------------------------------------------- other crystals, the serial line
 
 CLOCK_TARGETS = ("target stc89c52rc clock 11.0592MHz", "target at89c52 clock 22.1184MHz")
+SERIAL_LINE = "serial 4800"
+BURST_MS = 9
+"""With `serial`, the run gets 4 bytes back to back every BURST_MS ms (4 bytes take 8.3 ms at 4800
+baud: the line is busy nearly all the time), and every pulse must still be exact."""
+
+
+def serial_exact_at(ports: int, period: int, target: str = "", runtime_f: bool = False, frames: int = 100) -> bool:
+    """The stress program with `serial` at `period` (the budget bypassed), verified in ucsim while
+    bytes keep coming."""
+    plan, fw = build_unchecked(stress_source(ports, 8, period, runtime_f, target=target, serial=True), "stress")
+    cycles = api.cycles_needed(plan, frames)
+    span_ms = cycles * plan.program.target.cycle_us / 1000
+    text = "".join(f'{5 + BURST_MS * k}ms "x" "y" "z" "w"\n' for k in range(int((span_ms - 15) // BURST_MS)))
+    evs = events.parse(text, plan.program.inputs, True)
+    trace = api.simulate(fw.hex_text, cycles, plan.program.target, api.stimulus(plan, evs))
+    return api.check_trace(plan, trace, frames).ok
 
 
 def clock_budget(quick: bool, progress=None) -> list[dict]:
-    """The worst-case stress program at crystals whose machine cycle is not 1 us (the cycles engine):
-    servoc's shortest P next to the shortest exact P in ucsim, to QUICK_STEP us (quick: 1 port only)."""
+    """The worst-case stress program at 12 MHz with the serial line busy, and at crystals whose machine
+    cycle is not 1 us (the cycles engine), with and without run-time F and `serial`: servoc's shortest P
+    next to the shortest exact P in ucsim, to QUICK_STEP us (quick: 1 port, fewer cases)."""
     say = progress or (lambda s: None)
     out = []
-    for line in CLOCK_TARGETS:
+    cases = [("", False, True)] + [(line, rf, ser) for line in CLOCK_TARGETS for rf in (False, True) for ser in (False, True)
+                                   if line == CLOCK_TARGETS[0] or not (rf or ser)]
+    if quick:
+        cases = [("", False, True), (CLOCK_TARGETS[0], False, False)]
+    for line, rf, ser in cases:
         for ports in (1,) if quick else (1, 3):
-            say(f"shortest exact P, stress program, {ports} port(s), {line}")
-            reported = budget_period(ports, 8, target=line)
-            p = shortest_period(lambda q: exact_at(ports, 8, q, frames=100, target=line),
-                                reported * 2 // 3, reported, QUICK_STEP)
-            out.append({"target": line.split(" ", 1)[1], "ports": ports, "servos": 8 * ports,
+            what = ", ".join(x for x in (line or "12 MHz", "run-time F" if rf else "", SERIAL_LINE if ser else "") if x)
+            say(f"shortest exact P, stress program, {ports} port(s), {what}")
+            reported = budget_period(ports, 8, rf, target=line, serial=ser)
+            if ser:
+                ok = lambda q: serial_exact_at(ports, q, line, rf)      # noqa: E731
+            else:
+                ok = lambda q: exact_at(ports, 8, q, rf, frames=100, target=line)      # noqa: E731
+            p = shortest_period(ok, reported * 2 // 3, reported, QUICK_STEP)
+            out.append({"target": line.split(" ", 1)[1] if line else "at89c52 (12 MHz)", "ports": ports,
+                        "servos": 8 * ports, "runtime_f": rf, "serial": SERIAL_LINE if ser else "",
                         "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
                         "resolution_us": QUICK_STEP})
     return out

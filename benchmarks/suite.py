@@ -246,18 +246,24 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
         name = f"{what}, {_servos(x['ports'])}{kind}"
         rows += [
             (f"servoc: shortest P reported / shortest exact in ucsim / difference, {name} (us)", "", "",
-             f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{res} / {x['difference_us']:+d}"),
+             f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{res} / {x['difference_us']:+d} ({_over(x)})"),
             (f"servoc: cycles over the pulses alone (shortest exact P - ports x {SPAN}), {name}", "", "",
              f"{x['over_pulses_cycles']}{res}"),
         ]
         if not kind:
             rows.append((f"servoc: default P, {name} (us)", "", "", f"{x['default_p_us']}"))
     for x in fb.get("clocks", ()):
+        kind = "".join(f", {k}" for k in ("run-time F" if x.get("runtime_f") else "", x.get("serial", "")) if k)
         rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, worst case, "
-                     f"{_servos(x['ports'])}, {x['target']} (us)", "", "",
+                     f"{_servos(x['ports'])}, {x['target']}{kind} (us)", "", "",
                      f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']} (to {x['resolution_us']} us) / "
-                     f"{x['difference_us']:+d}"))
+                     f"{x['difference_us']:+d} ({_over(x)})"))
     return rows
+
+
+def _over(x: dict) -> str:
+    """The reported shortest P over the exact one, in percent."""
+    return f"{100 * x['difference_us'] / x['shortest_exact_p_us']:+.1f}%"
 
 
 def _fmt_list(xs) -> str:
