@@ -193,8 +193,8 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     assert "| max abs width error, all channels (us) | " in text
     assert "777 (to 8 us)" in text and "146 / 146" in text
     assert ("| servoc: shortest P reported / shortest exact in ucsim / difference, worst case, 24 servos on P0-P2, "
-            "run-time F (us) |  |  | 10020 / 9999 (to 8 us) / +21 |") in text
-    assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 |" in text
+            "run-time F (us) |  |  | 10020 / 9999 (to 8 us) / +21 (+0.2%) |") in text
+    assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 (+2.4%) |" in text
 
 
 def test_sim_reports_all_port_writes_of_the_baselines():
