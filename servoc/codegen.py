@@ -504,7 +504,7 @@ def _hold(cycles: int) -> str:
 
 def _port_pins(plan: Plan, port: int) -> list[dict]:
     bits = [c.bit for c in plan.channels if c.port == port]
-    return [{"i": i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "bit_mask": 1 << b,
+    return [{"i": i, "at": layout.SORT_PAIR * i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "bit_mask": 1 << b,
              "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
             for i, b in enumerate(bits)]
 
@@ -556,7 +556,9 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "ctime": "\n".join("        " + line for line in ctime),
-        "sorts": [{"s": n, "network": SORTING_NETWORKS[n]} for n in sizes],
+        "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
+                   "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in SORTING_NETWORKS[n]]}
+                  for n in sizes],
     }
 
 

@@ -130,7 +130,6 @@ SERIAL_STACK = 5                # the serial handler: its LCALL, PSW, ACC, R0 (t
 # Before a pending serial interrupt is taken: the instruction under way (at most 4 cycles,
 # MUL or DIV; or the one that always follows a RETI). Its vector's LCALL is in serial_head.
 SERIAL_WAIT = 4
-BUFB_RAM = 17                   # sort buffer B (8 pairs of N and lines) and its rise mask, from the stack
 
 
 def busy_stretch(target, budget: Budget) -> int:
@@ -181,6 +180,8 @@ def default_period_us(min_period: int) -> int:
 # generation reads the runtime's depth from the code (codegen.runtime_stack) and
 # holds it to these figures.
 STACK_BYTES = 46
+BUFB_RAM = 17               # sort buffer B (8 pairs of N and lines) and its rise mask: the top of the
+                            # stack's bytes, taken only where the program leaves that much room
 RUNTIME_STACK = 8
 WATCH_STACK = 5
 HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL

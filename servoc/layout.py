@@ -30,6 +30,7 @@ from . import costs
 RAM_SIZE = 256
 HANDLER_BANK = 0x08             # register bank 1: the edge handler's
 SORT_BASE = 0x10                # sort buffer A: 8 pairs (N, lines)
+SORT_PAIR = 2                   # bytes of a pair: pair i at +2i, its N first
 CUR_BASE = 0x30                 # current N per pin
 STATE_BYTES = 4
 STATE_BASE = RAM_SIZE - 24 * STATE_BYTES     # motion state, 4 bytes per pin: 0xA0..0xFF

@@ -57,6 +57,11 @@ ADVERSARIAL = {
     # nested too deep for sort buffer B to fit above the stack: the last port shares buffer A
     "deep-24": servos(24) + all_at("a", 24, lambda i: i) + all_at("b", 24, lambda i: 249 - i)
     + "main { loop { " + "repeat 2 { " * 8 + "move b in {1P}us; move a in {1P}us" + " }" * 8 + " } }\n",
+    # a meanwhile body on three ports (frame_w after each frame) with buffer B, cut by nothing
+    "meanwhile-24": servos(24) + "input b = P3.2\n" + all_at("a", 24, lambda i: 14 * (i % 8))
+    + all_at("z", 24, lambda i: 250 - 14 * (i % 8))
+    + "main { loop { select { on press b { move a in {1P}us } meanwhile { loop { move z in {1P}us; "
+    + "move a in {1P}us } } } } }\n",
     "zero-frame": servos(8) + all_at("a", 8, lambda i: 5) + all_at("b", 8, lambda i: 245)
     + "sequence nap { hold 10us }\nsequence none { }\n"
     + "main { loop { move b in {1P}us; repeat 300 { hold 20us }; repeat 60000 { play nap }; play none; "
@@ -117,7 +122,7 @@ def test_adversarial_programs_at_other_clocks_verify_at_their_reported_minimum(n
 
 
 @pytest.mark.parametrize("name,has_b", [("carry-24", True), ("spread-24", True), ("runtime-f-24", True),
-                                         ("deep-24", False), ("carry-8", False)])
+                                         ("meanwhile-24", True), ("deep-24", False), ("carry-8", False)])
 def test_the_last_of_three_ports_gets_buffer_b_where_the_stack_has_room(name, has_b):
     """Buffer B takes 17 bytes from the top of the stack: three ports and room left, else one buffer
     for all (the adversarial programs above verify either way)."""

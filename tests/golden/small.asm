@@ -494,10 +494,10 @@ engine_start:                           ; the first frame: its first rise comes 
         SETB    EA
         RET
 
-sort1:                                  ; pairs (WN+2i, WM+2i), i < 1, ascending by N
+sort1:                                  ; pairs 0..0 (N at WN, lines at WM) ascending by N
         RET
 
-sort2:                                  ; pairs (WN+2i, WM+2i), i < 2, ascending by N
+sort2:                                  ; pairs 0..1 (N at WN, lines at WM) ascending by N
         MOV     A, WN+2
         CLR     C
         SUBB    A, WN+0
