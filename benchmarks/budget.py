@@ -104,9 +104,10 @@ def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = Fals
     far = ", ".join(f"s{i}: {240 + i % 10}" for i in range(len(pins)))
     lines += [f"pose lo {{ {low} }}", f"pose hi {{ {high} }}", f"pose far {{ {far} }}"]
     if runtime_f:
-        # `move far` is entered from `lo` and from `hi`: its F is found at run time
-        lines += ["sequence go { move far }", "main {", "  loop {",
-                  "    move lo in 700ms", "    play go", "    move hi in 100ms", "    play go", "  }", "}"]
+        # `move far` is entered from `hi` (in the second frame already) and from `lo`: its F is found
+        # at run time, with every servo moving
+        lines += ["sequence go { move far }", "main {", f"  move hi in {period}us", "  loop {",
+                  "    play go", "    move lo in 700ms", "    play go", "    move hi in 100ms", "  }", "}"]
     elif depth is not None:
         # `depth` repeats all ending after the same frame, then all starting again
         body = [f"move hi in {period}us", f"move lo in {period}us"]

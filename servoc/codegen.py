@@ -29,8 +29,9 @@ from . import costs
 from . import walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .flow import (UNBOUNDED, edge_ports, fewest_frames, select_ram, select_slots, send_gap, send_run, sends,
-                   takes_frames, watches)
+from .flow import (UNBOUNDED, edge_ports, fewest_frames, port_motions, select_ram, select_slots, send_gap, send_run,
+                   sends, takes_frames, watches)
+
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
                     steps)
@@ -458,7 +459,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         breakdown["maps of the bytes selects name"] = 32 * len(ctx.byte_maps)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
+    falls = port_motions(plan)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
+                                     tuple(costs.falls_load(target, falls[p]) for p in plan.ports),
                                      0 if s is None else s["byte_cycles"], bport is not None)
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
@@ -571,7 +574,7 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
     return max((code.stack_below(name, memo) for name in called), default=0)
 
 
-def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],
+def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], falls: tuple[int, ...],
                  byte_cycles: int = 0, last_in_b: bool = False) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `byte_cycles`: a byte's time on the
@@ -590,7 +593,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...],
                       "byte_cycles": byte_cycles}
     except wcet.WcetError as exc:
         return None, str(exc)
-    return costs.Budget(work, sorts, rises, lines, last_in_b=last_in_b, **serial), code.label_at(at)
+    return costs.Budget(work, sorts, rises, lines, falls, last_in_b=last_in_b, **serial), code.label_at(at)
 
 
 def _serial(serial, ram: layout.RamAllocator) -> dict:

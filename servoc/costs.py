@@ -65,10 +65,81 @@ def rise_offsets(ports: tuple[int, ...], target) -> dict[int, int]:
     return {port: k * port_span(target) for k, port in enumerate(ports)}
 
 
-def handler_load(rise_cycles: int, lines: int) -> int:
-    """The handler's worst cycles in one frame for a port: its rise entry, then at most
-    SPLIT - 1 = ENTRY + EXIT per line (an entry of its own, or a step shorter than SPLIT)."""
-    return rise_cycles + (SPLIT - 1) * lines
+def handler_load(rise_cycles: int, falls: int) -> int:
+    """The handler's worst cycles in one frame for a port: its rise entry, then its falls (`falls_load`)."""
+    return rise_cycles + falls
+
+
+def edges_load(widths, values) -> int:
+    """The handler's cycles for the falls of one frame whose lines fall at N = `values`: the first
+    fall an entry of its own (ENTRY + EXIT = SPLIT - 1), then per distinct N after it the gap to the
+    edge before when it is a step in the same entry (gap < SPLIT), else SPLIT - 1 (the exit, then an
+    entry of its own). `widths[N]` = C(N) in cycles."""
+    cs = sorted({widths[v] for v in values})
+    return (SPLIT - 1) * bool(cs) + sum(min(b - a, SPLIT - 1) for a, b in zip(cs, cs[1:]))
+
+
+SWEEP_BUDGET = 200_000      # breakpoints swept per port before the rest get the hull bound
+
+
+def falls_load(target, motions) -> int:
+    """The handler's worst cycles for one port's falls in any frame (`handler_load`), over the
+    port's motions (`flow.port_motions`): for a move of known start, every frame it can have at any
+    period. Its lines' N are functions of one u in [0, 1] (k / F, or the eased table's value), each
+    a step function that changes at known u: the frames are the sets of N between those u, swept
+    in order. A move that can start after an interruption (a `Reach`) gets the
+    bound of its hull: each gap at most SPLIT - 1, and all of them at most C(highest) - C(lowest).
+    Paths are swept in order of that bound, while it can still beat the worst found."""
+    widths = [target.width_cycles(n) for n in range(256)]
+
+    def hull(lines) -> int:
+        lo = min(min(_lo(a), _lo(b)) for a, b in lines)
+        hi = max(max(_hi(a), _hi(b)) for a, b in lines)
+        return (SPLIT - 1) + min((SPLIT - 1) * (len(lines) - 1), widths[hi] - widths[lo])
+
+    order = sorted(((hull(lines), lines) for lines in motions), key=lambda m: -m[0])
+    worst, budget = 0, SWEEP_BUDGET
+    for bound, lines in order:
+        if bound <= worst:
+            break
+        exact = all(isinstance(a, int) and isinstance(b, int) for a, b in lines)
+        cost = sum(abs(b - a) for a, b in lines) if exact else 0
+        if not exact or cost > budget:
+            worst = bound
+            continue
+        budget -= cost
+        worst = max(worst, _sweep(widths, lines, worst, bound))
+    return worst
+
+
+def _lo(v) -> int:
+    return v if isinstance(v, int) else v.lo
+
+
+def _hi(v) -> int:
+    return v if isinstance(v, int) else v.hi
+
+
+def _sweep(widths, lines, worst: int, bound: int) -> int:
+    """The most `edges_load` over the frames of one move (see `falls_load`), stopping at `bound`.
+    The firmware puts line i at N0 +- floor(|d| u + 1/2), d = N1 - N0, for the frame's u (k / F, or
+    the eased table's value / 256; `plan.firmware_value`): it steps by one at u = (m - 1/2) / |d|,
+    m = 1..|d|, and holds the new N from that u on. (Equal rationals with denominators this small
+    are equal floats, so the u of several lines meet exactly.)"""
+    cur = [a for a, _ in lines]
+    at: dict[float, list[int]] = {}
+    for i, (a, b) in enumerate(lines):
+        d = abs(b - a)
+        for m in range(1, d + 1):
+            at.setdefault((2 * m - 1) / (2 * d), []).append(i)
+    worst = max(worst, edges_load(widths, cur))
+    for u in sorted(at):
+        if worst >= bound:
+            break
+        for i in at[u]:
+            cur[i] += 1 if lines[i][1] > lines[i][0] else -1
+        worst = max(worst, edges_load(widths, cur))
+    return worst
 
 
 @dataclass(frozen=True)
@@ -78,6 +149,7 @@ class Budget:
     sorts: tuple[int, ...]      # each port's sort in frame_io, in port order
     rises: tuple[int, ...]      # each port's rise entry of the handler, overflow to RETI
     lines: tuple[int, ...]      # servo lines on each port
+    falls: tuple[int, ...]      # the handler's worst cycles for each port's falls in a frame (falls_load)
     serial_run: int = 0         # the serial handler's longest run, its vector's LCALL to RETI (0: no serial line)
     serial_head: int = 0        # its vector's LCALL to the end of `CLR RI`: a received byte taken
     byte_cycles: int = 0        # one byte on the serial line (10 bits)
@@ -104,7 +176,7 @@ def _frame_cycles(target, budget: Budget) -> int:
     if m == 0:
         return budget.work
     span = port_span(target)
-    load = [handler_load(r, s) for r, s in zip(budget.rises, budget.lines)]
+    load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
     need = [m * span, sum(budget.sorts) + budget.work + sum(load)]
     if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
         need.append((m - 1) * span + budget.sorts[-1] + budget.sorts[0] + load[-1])

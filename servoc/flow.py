@@ -290,3 +290,26 @@ def send_gap(plan: Plan, cap: int) -> int:
     """The fewest frames between two sends that are not in one run (`cap` if never fewer)."""
     found = _fold_sends(plan, _Gaps(cap), _Gaps(cap, frozenset(), frozenset({0}), frozenset({0}), zsend=True)).gap
     return cap if found is None else min(found, cap)
+
+
+def port_motions(plan: Plan) -> dict[int, frozenset]:
+    """Per port, every way its lines can go through the frames of one move instance: a (start, end)
+    for each line of the port that can have a target in those frames. A line the
+    move names goes from its start (an N, or a `Reach` after an interruption) to its N, one set at
+    once is at its N throughout, and one the move does not name stays where it is (start = end). The
+    frames of a move are every frame of the program: holds and waiting selects repeat the last one,
+    and before the first move no line has a target."""
+    out: dict[int, set] = {port: set() for port in plan.ports}
+    for inst in plan.moves:
+        ends = dict(inst.step.targets)
+        lines: dict[int, list] = {port: [] for port in plan.ports}
+        for ch in plan.channels:
+            start = inst.start[ch.index]
+            end = ends.get(ch.index, start)
+            if end is None:
+                continue
+            lines[ch.port].append((end if start is None else start, end))
+        for port, ls in lines.items():
+            if ls:
+                out[port].add(tuple(ls))
+    return {port: frozenset(ms) for port, ms in out.items()}

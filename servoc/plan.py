@@ -359,7 +359,7 @@ class _Walker:
                     f = move_frames_at(st, s, self.tables, self.classes)
                     motions = tuple(ServoMotion(ch, far(s[ch], n1), n1, far_from(s[ch], n1)) for ch, n1 in st.targets)
                     cut = any(isinstance(s[ch], Reach) for ch, _ in st.targets)
-                    self.instances.setdefault((id(st), s), MoveInstance(st, f, motions, made(where), branch, cut))
+                    self.instances.setdefault((id(st), s), MoveInstance(st, f, motions, made(where), branch, cut, s))
                     after = list(s)
                     for ch, n1 in st.targets:
                         after[ch] = n1

@@ -221,6 +221,8 @@ class MoveInstance:
     origin: Origin = field(default=("start",), compare=False)
     branch: Branch | None = field(default=None, compare=False)
     cut: bool = field(default=False, compare=False)     # it can start after an interruption
+    start: tuple = field(default=(), compare=False)     # per channel where it starts: an N, None (no
+                                                        # target yet) or a Reach (after an interruption)
 
 
 @dataclass(frozen=True)

@@ -40,9 +40,17 @@ ADVERSARIAL = {
     + "main { loop { move b in {2P}us; move a in {2P}us } }\n",
     "eased": servos(8) + all_at("a", 8, lambda i: 3 * i) + all_at("b", 8, lambda i: 250 - 5 * i)
     + "main { loop { move b in {3P}us ease in-out; move a in {2P}us ease in; move b in {1P}us ease out } }\n",
+    # `move far` has its F found at run time, from hi (in the second frame already) and from lo
     "runtime-f": servos(8, "") + all_at("lo", 8, lambda i: 7 * i) + all_at("hi", 8, lambda i: 250 - 9 * i)
-    + all_at("far", 8, lambda i: 240 + i)
-    + "sequence go { move far }\nmain { loop { move lo in 700ms; play go; move hi in 400ms; play go } }\n",
+    + all_at("far", 8, lambda i: 245 - 10 * i)
+    + "sequence go { move far }\nmain { move hi in {1P}us; loop { play go; move lo in 700ms; play go; "
+    + "move hi in 400ms } }\n",
+    # the steps of one handler entry at their longest: 8 lines 13 N apart (104 cycles at 12 MHz)
+    "steps-8": servos(8) + all_at("a", 8, lambda i: 13 * i) + all_at("b", 8, lambda i: 159 - 13 * i)
+    + "main { loop { move b in {1P}us; move a in {1P}us } }\n",
+    # 15 N apart: 120 cycles at 12 MHz (entries of their own), 110 or 111 at 11.0592 MHz (some steps)
+    "split-8": servos(8) + all_at("a", 8, lambda i: 15 * i) + all_at("b", 8, lambda i: 250 - 15 * i)
+    + "main { loop { move b in {1P}us; move a in {1P}us } }\n",
     "nesting": servos(4) + all_at("a", 4, lambda i: 1 + i) + all_at("b", 4, lambda i: 200 + i)
     + "sequence s { repeat 2 { repeat 2 { move a in {1P}us; move b in {1P}us } } }\n"
     + "sequence t { repeat 3 { play s } }\n"
@@ -52,8 +60,9 @@ ADVERSARIAL = {
     + all_at("b", 24, lambda i: 250 - 14 * (i % 8) - i // 8)
     + "main { loop { move b in {1P}us; move a in {1P}us } }\n",
     "runtime-f-24": servos(24, "") + all_at("lo", 24, lambda i: 7 * (i % 8)) + all_at("hi", 24, lambda i: 250 - 9 * (i % 8))
-    + all_at("far", 24, lambda i: 240 + i % 8)
-    + "sequence go { move far }\nmain { loop { move lo in 700ms; play go; move hi in 400ms; play go } }\n",
+    + all_at("far", 24, lambda i: 245 - 10 * (i % 8))
+    + "sequence go { move far }\nmain { move hi in {1P}us; loop { play go; move lo in 700ms; play go; "
+    + "move hi in 400ms } }\n",
     # nested too deep for sort buffer B to fit above the stack: the last port shares buffer A
     "deep-24": servos(24) + all_at("a", 24, lambda i: i) + all_at("b", 24, lambda i: 249 - i)
     + "main { loop { " + "repeat 2 { " * 8 + "move b in {1P}us; move a in {1P}us" + " }" * 8 + " } }\n",
@@ -106,6 +115,8 @@ def test_adversarial_programs_verify_at_their_reported_minimum(name):
                                        ("carry-8", "target stc89c58rd clock 40MHz mode 6T"),
                                        ("eased", "target stc89c52rc clock 10.5MHz"),
                                        ("spread-24", "target stc89c52rc clock 11.0592MHz mode 6T"),
+                                       ("split-8", "target stc89c52rc clock 11.0592MHz"),
+                                       ("steps-8", "target stc89c52rc clock 11.0592MHz"),
                                        ("deep-24", "target stc89c52rc clock 11.0592MHz")])
 def test_adversarial_programs_at_other_clocks_verify_at_their_reported_minimum(name, line):
     """At other clocks every figure of the budget is in machine cycles and C(N) comes from a table
@@ -137,11 +148,13 @@ def test_the_last_of_three_ports_gets_buffer_b_where_the_stack_has_room(name, ha
 def test_buffer_b_removes_the_work_after_the_last_sort():
     """With buffer B the three-port bound is the pulses or the whole frame's work, never the work
     after the last sort: the same program without it (too deep) reports more, by about that term."""
-    with_b = costs.Budget(work=3000, sorts=(400, 400, 400), rises=(330,) * 3, lines=(8,) * 3, last_in_b=True)
-    without = costs.Budget(work=3000, sorts=(400, 400, 400), rises=(330,) * 3, lines=(8,) * 3)
+    falls = (costs.SPLIT - 1) * 8
+    with_b = costs.Budget(work=3000, sorts=(400, 400, 400), rises=(330,) * 3, lines=(8,) * 3, falls=(falls,) * 3,
+                          last_in_b=True)
+    without = costs.Budget(work=3000, sorts=(400, 400, 400), rises=(330,) * 3, lines=(8,) * 3, falls=(falls,) * 3)
     from servoc.target import DEFAULT
     span = costs.port_span(DEFAULT)
-    loads = [costs.handler_load(330, 8)] * 3
+    loads = [costs.handler_load(330, falls)] * 3
     assert costs.frame_cycles(DEFAULT, with_b) == max(3 * span, 1200 + 3000 + sum(loads))
     assert costs.frame_cycles(DEFAULT, without) == span + 400 + 3000 + 400 + 2 * loads[0]
 

@@ -1,0 +1,113 @@
+"""The handler's load for a port's falls (costs.falls_load over flow.port_motions) against every
+frame the firmware can put out: per move at any F, and per program over the frames `plan.expand`
+gives. The ucsim side (a step costs its gap, an entry of its own ENTRY + EXIT) is checked by the
+adversarial programs of tests/test_costs.py, which run at the minimum this bound gives."""
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from conftest import front_end_text
+from servoc import costs, target as target_mod
+from servoc.flow import port_motions
+from servoc.plan import ease_table, expand, firmware_value
+from servoc.steps import Reach
+
+T12 = target_mod.DEFAULT
+SPLIT = costs.SPLIT
+
+
+def widths(t):
+    return [t.width_cycles(n) for n in range(256)]
+
+
+def test_edges_load_counts_an_entry_per_cluster_and_the_steps_inside_it():
+    w = widths(T12)                                 # 8 cycles per N at 12 MHz
+    assert costs.edges_load(w, []) == 0
+    assert costs.edges_load(w, [5, 5, 5]) == SPLIT - 1
+    assert costs.edges_load(w, [0, 1, 3]) == SPLIT - 1 + 8 + 16
+    assert costs.edges_load(w, [0, 13]) == SPLIT - 1 + 104               # a step: its gap
+    assert costs.edges_load(w, [0, 14, 250]) == 3 * (SPLIT - 1)         # entries of their own
+    assert costs.edges_load(w, list(range(0, 8 * 14, 14))) == 8 * (SPLIT - 1)
+
+
+def frames_of(lines, frames, ease):
+    """Every frame's N of a move from lines' starts to their ends in `frames` frames."""
+    table = ease_table(ease, frames)
+    return [[firmware_value(a, b, k, frames, ease, table) for a, b in lines] for k in range(1, frames + 1)]
+
+
+lines_st = st.lists(st.tuples(st.integers(0, 250), st.integers(0, 250)), min_size=1, max_size=8)
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(lines_st, st.integers(1, 300), st.sampled_from(["linear", "in", "out", "in-out"]),
+       st.sampled_from(["12", "11.0592 6T", "22.1184"]))
+def test_the_bound_holds_for_every_frame_of_a_move_at_any_f(lines, frames, ease, clock):
+    t = {"12": T12, "11.0592 6T": _target("target stc89c52rc clock 11.0592MHz mode 6T"),
+         "22.1184": _target("target at89c52 clock 22.1184MHz")}[clock]
+    bound = costs.falls_load(t, {tuple(lines)})
+    w = widths(t)
+    assert all(costs.edges_load(w, f) <= bound for f in frames_of(lines, frames, ease))
+    assert bound <= SPLIT - 1 + min((SPLIT - 1) * (len(lines) - 1),
+                                     max(w[v] for ab in lines for v in ab) - min(w[v] for ab in lines for v in ab))
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 40)), min_size=1, max_size=8))
+def test_the_bound_is_reached(lines):
+    """Not a margin: some F has a frame at the bound (the sweep's worst u is some k / F)."""
+    bound = costs.falls_load(T12, {tuple(lines)})
+    w = widths(T12)
+    assert max(costs.edges_load(w, f) for frames in range(1, 200) for f in frames_of(lines, frames, "linear")) == bound
+
+
+def test_a_move_after_an_interruption_gets_its_hull():
+    """A servo that can be anywhere in lo..hi: the hull of every position, each gap at most SPLIT - 1."""
+    w = widths(T12)
+    near = ((Reach(10, 12), 20), (15, 15))
+    assert costs.falls_load(T12, {near}) == SPLIT - 1 + w[20] - w[10]
+    wide = ((Reach(0, 250), 20), (15, 15), (100, 100))
+    assert costs.falls_load(T12, {wide}) == 3 * (SPLIT - 1)
+
+
+def test_clustered_lines_cost_less_than_an_entry_each():
+    w = widths(T12)
+    tight = tuple((100 + i, 120 + i) for i in range(8))
+    assert costs.falls_load(T12, {tight}) == SPLIT - 1 + w[107] - w[100]
+    assert costs.falls_load(T12, {tight}) < 8 * (SPLIT - 1)
+
+
+def _target(line):
+    fe, diags = front_end_text(line + "\nservo s = P1.0\npose a { s: 1 }\nmain { move a }\n")
+    return fe.plan.program.target
+
+
+PROGRAMS = {
+    "three ports, a meanwhile cut": "input b = P3.2\n" + "".join(f"servo s{i} = P{i // 4}.{i % 4}\n" for i in range(12))
+    + "pose a { " + ", ".join(f"s{i}: {9 * i}" for i in range(12)) + " }\n"
+    + "pose z { " + ", ".join(f"s{i}: {250 - 13 * i}" for i in range(12)) + " }\n"
+    + "pose m { s0: 120, s5: 40, s11: 200 }\n"
+    + "main { move a in 200ms; loop { select { on press b { move m in 300ms ease in-out } meanwhile { loop { "
+    + "move z in 400ms; move a in 300ms ease in } } } } }\n",
+    "home, stagger, holds": "servo x = P1.0\nservo y = P1.1\nservo z = P1.5\npose rest { x: 10, y: 200, z: 100 }\n"
+    + "home rest\nstagger 40ms\npose p { x: 100, z: 110 }\npose q { y: 30 }\n"
+    + "main { repeat 3 { move p in 150ms; hold 40ms; move q in 90ms ease out; move p in 100ms } }\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(PROGRAMS))
+def test_every_frame_of_a_program_is_within_the_bound(name):
+    fe, diags = front_end_text(PROGRAMS[name])
+    plan = fe.plan
+    assert plan is not None, diags
+    t = plan.program.target
+    w = widths(t)
+    motions = port_motions(plan)
+    bounds = {p: costs.falls_load(t, motions[p]) for p in plan.ports}
+    worst = dict.fromkeys(plan.ports, 0)
+    for i, frame in zip(range(3000), expand(plan)):
+        for p in plan.ports:
+            vals = [n for c, n in zip(plan.channels, frame.n) if c.port == p and n is not None]
+            worst[p] = max(worst[p], costs.edges_load(w, vals))
+    assert all(worst[p] <= bounds[p] for p in plan.ports), (worst, bounds)
+    assert any(worst[p] > SPLIT - 1 for p in plan.ports)        # the programs do put out clusters
