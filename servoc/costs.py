@@ -18,8 +18,9 @@ between the previous port's rise and its own.
 
 The budget: the background's work between two frames (W, read from the
 generated code by `servoc.wcet`), each port's sort (read the same way) and
-the handler's worst load per port (its rise entry, read from the code, plus
-SPLIT for each line) must fit the frame, and so must the pulses themselves:
+the handler's worst load per port (its rise entry, read from the code, and
+its falls in the worst frame the program's moves can put out: `falls_load`)
+must fit the frame, and so must the pulses themselves:
 
     P >= ports x port_span
     P >= sum(sorts) + W + sum(handler loads)
