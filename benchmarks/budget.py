@@ -100,8 +100,14 @@ def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = Fals
     for i, (p, b) in enumerate(pins):
         lines.append(f"servo s{i} = P{p}.{b}{speed}")
     low = ", ".join(f"s{i}: {(7 * i) % 40}" for i in range(len(pins)))
-    high = ", ".join(f"s{i}: {250 - (11 * i) % 40}" for i in range(len(pins)))
-    far = ", ".join(f"s{i}: {240 + i % 10}" for i in range(len(pins)))
+    if runtime_f:
+        # servos in pairs at the same N, so that the edge handler would show a sort or its merge of
+        # equal N that is not done by the rise; every servo moves from hi to far
+        high = ", ".join(f"s{i}: {250 - (11 * (i // 2)) % 40}" for i in range(len(pins)))
+        far = ", ".join(f"s{i}: {245 - (11 * (i // 2)) % 40 - i // 2 % 4}" for i in range(len(pins)))
+    else:
+        high = ", ".join(f"s{i}: {250 - (11 * i) % 40}" for i in range(len(pins)))
+        far = ", ".join(f"s{i}: {240 + i % 10}" for i in range(len(pins)))
     lines += [f"pose lo {{ {low} }}", f"pose hi {{ {high} }}", f"pose far {{ {far} }}"]
     if runtime_f:
         # `move far` is entered from `hi` (in the second frame already) and from `lo`: its F is found

@@ -28,8 +28,12 @@ must fit the frame, and so must the pulses themselves:
     P >= R(m-1) + sort(0) + load(m-1)
 
 (the last two: W runs after the last port's sort, and each port's sort must
-be there before its rise). `tests/test_costs.py` runs adversarial programs in
-ucsim at their own minimum.
+be there before its rise; with sort buffer B for the last of three ports the
+last is R(m-1) + sort(m-1) + sort(0) + load(m-1) and the one before goes).
+With a serial line, each term adds the serial handler's runs that can come in
+its window: the whole frame, or from the rise it starts at to the first
+port's next rise. `tests/test_costs.py` runs adversarial programs in ucsim at
+their own minimum.
 """
 
 from __future__ import annotations
@@ -158,37 +162,42 @@ class Budget:
 
 
 def frame_cycles(target, budget: Budget) -> int:
-    """The shortest frame period in machine cycles this code holds. The serial handler's runs
-    come on top of the background's work: as many as bytes can come and go in a frame."""
-    period = _frame_cycles(target, budget)
-    if not budget.byte_cycles:
-        return period
-    near = serial_load(budget, port_span(target))      # what can come while a port is sorted
-    while True:
-        more = _frame_cycles(target, replace(budget, work=budget.work + serial_load(budget, period),
-                                             sorts=tuple(s + near for s in budget.sorts)))
+    """The shortest frame period in machine cycles this code holds. With a serial line its handler's
+    runs come on top, in each window of the frame as many as bytes can come and go in it: the
+    windows' lengths depend on the period, so it is found again until it no longer grows."""
+    period = _frame_cycles(target, budget, 0)
+    while budget.byte_cycles:
+        more = _frame_cycles(target, budget, period)
         if more <= period:
-            return period
+            break
         period = more
+    return period
 
 
-def _frame_cycles(target, budget: Budget) -> int:
+def _frame_cycles(target, budget: Budget, period: int) -> int:
+    """The largest of the terms (module docstring), each window of a frame `period` long with the
+    serial handler's runs in it (`serial_load`; none without a serial line)."""
+    def runs(cycles: int) -> int:
+        return serial_load(budget, max(cycles, 0)) if budget.byte_cycles else 0
+
     m = len(budget.lines)
     if m == 0:
-        return budget.work
+        return budget.work + runs(period)
     span = port_span(target)
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
-    need = [m * span, sum(budget.sorts) + budget.work + sum(load)]
+    need = [m * span, sum(budget.sorts) + budget.work + sum(load) + runs(period)]
+    last = period - (m - 1) * span     # the last port's rise to the first port's next
     if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
-        need.append((m - 1) * span + budget.sorts[-1] + budget.sorts[0] + load[-1])
+        need.append((m - 1) * span + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))
     else:
-        need.append((m - 1) * span + budget.sorts[0] + load[-1])
+        need.append((m - 1) * span + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:
-            need.append((m - 2) * span + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1])
+            need.append((m - 2) * span + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
+                        + runs(last + span))
     for j in range(1, m - 1 if budget.last_in_b else m):   # each later port's sort in A fits between the rise before and its own
-        if budget.sorts[j] + load[j - 1] > span:
-            raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, with the serial "
-                          f"handler's) does not fit between the rise before it and its own")
+        if budget.sorts[j] + load[j - 1] + runs(span) > span:
+            raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
+                          f"handler's {runs(span)}) does not fit between the rise before it and its own")
     return max(need)
 
 

@@ -301,7 +301,7 @@ def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
         start, select = reached[len(choices)]
         waited = max(0, lead + bad - 1 - start)
         cands = [Choice(k, w) for k, br in enumerate(select.branches) if not isinstance(br, AfterBranch)
-                 for w in range(max(1, waited - 3), waited + 2)
+                 for w in range(max(0, waited - 3), waited + 2)
                  if select.after is None or w <= max(1, select.after.frames)]
         if select.after is not None:
             cands.append(Choice(len(select.branches) - 1, max(1, select.after.frames)))
