@@ -45,7 +45,7 @@ lines_st = st.lists(st.tuples(st.integers(0, 250), st.integers(0, 250)), min_siz
 def test_the_bound_holds_for_every_frame_of_a_move_at_any_f(lines, frames, ease, clock):
     t = {"12": T12, "11.0592 6T": _target("target stc89c52rc clock 11.0592MHz mode 6T"),
          "22.1184": _target("target at89c52 clock 22.1184MHz")}[clock]
-    bound = costs.falls_load(t, {tuple(lines)})
+    bound = costs.falls_load(t, frozenset({tuple(lines)}))
     w = widths(t)
     assert all(costs.edges_load(w, f) <= bound for f in frames_of(lines, frames, ease))
     assert bound <= SPLIT - 1 + min((SPLIT - 1) * (len(lines) - 1),
@@ -56,7 +56,7 @@ def test_the_bound_holds_for_every_frame_of_a_move_at_any_f(lines, frames, ease,
 @given(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 40)), min_size=1, max_size=8))
 def test_the_bound_is_reached(lines):
     """Not a margin: some F has a frame at the bound (the sweep's worst u is some k / F)."""
-    bound = costs.falls_load(T12, {tuple(lines)})
+    bound = costs.falls_load(T12, frozenset({tuple(lines)}))
     w = widths(T12)
     assert max(costs.edges_load(w, f) for frames in range(1, 200) for f in frames_of(lines, frames, "linear")) == bound
 
@@ -65,16 +65,16 @@ def test_a_move_after_an_interruption_gets_its_hull():
     """A servo that can be anywhere in lo..hi: the hull of every position, each gap at most SPLIT - 1."""
     w = widths(T12)
     near = ((Reach(10, 12), 20), (15, 15))
-    assert costs.falls_load(T12, {near}) == SPLIT - 1 + w[20] - w[10]
+    assert costs.falls_load(T12, frozenset({near})) == SPLIT - 1 + w[20] - w[10]
     wide = ((Reach(0, 250), 20), (15, 15), (100, 100))
-    assert costs.falls_load(T12, {wide}) == 3 * (SPLIT - 1)
+    assert costs.falls_load(T12, frozenset({wide})) == 3 * (SPLIT - 1)
 
 
 def test_clustered_lines_cost_less_than_an_entry_each():
     w = widths(T12)
     tight = tuple((100 + i, 120 + i) for i in range(8))
-    assert costs.falls_load(T12, {tight}) == SPLIT - 1 + w[107] - w[100]
-    assert costs.falls_load(T12, {tight}) < 8 * (SPLIT - 1)
+    assert costs.falls_load(T12, frozenset({tight})) == SPLIT - 1 + w[107] - w[100]
+    assert costs.falls_load(T12, frozenset({tight})) < 8 * (SPLIT - 1)
 
 
 def _target(line):
@@ -111,3 +111,13 @@ def test_every_frame_of_a_program_is_within_the_bound(name):
             worst[p] = max(worst[p], costs.edges_load(w, vals))
     assert all(worst[p] <= bounds[p] for p in plan.ports), (worst, bounds)
     assert any(worst[p] > SPLIT - 1 for p in plan.ports)        # the programs do put out clusters
+
+
+def test_past_the_sweep_budget_the_rest_get_their_hull():
+    """Programs with more motion than SWEEP_BUDGET breakpoints: the paths left get the hull bound,
+    never less than their own worst frame."""
+    paths = [tuple((i * 3 + k % 9, 250 - i * 5 - k % 11) for i in range(8)) for k in range(60)]
+    assert sum(abs(b - a) for p in paths for a, b in p) > costs.SWEEP_BUDGET
+    alone = max(costs.falls_load(T12, frozenset({p})) for p in paths)
+    together = costs.falls_load(T12, frozenset(paths))
+    assert alone <= together <= 8 * (SPLIT - 1)
