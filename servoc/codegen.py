@@ -462,7 +462,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     falls = port_motions(plan)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
                                      tuple(costs.falls_load(target, falls[p]) for p in plan.ports),
-                                     0 if s is None else s["byte_cycles"], bport is not None)
+                                     0 if s is None else s["byte_cycles"], bport is not None,
+                                     any(isinstance(st, SendStep) for st in steps(plan)))
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
@@ -575,10 +576,10 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
 
 
 def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], falls: tuple[int, ...],
-                 byte_cycles: int = 0, last_in_b: bool = False) -> tuple[costs.Budget | None, str]:
+                 byte_cycles: int = 0, last_in_b: bool = False, sends: bool = False) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `byte_cycles`: a byte's time on the
-    serial line (0: the program has none)."""
+    serial line (0: the program has none); `sends`: the program has a `send`."""
     try:
         code = wcet.Code(text)
         work, at = code.between_frames()
@@ -590,7 +591,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], fall
         if byte_cycles:     # from the vector: its LCALL (2) and LJMP (2)
             serial = {"serial_run": 4 + code.longest("uart_isr", set()),
                       "serial_head": 4 + code.straight("uart_isr", "ui_got") + 1,
-                      "byte_cycles": byte_cycles}
+                      "byte_cycles": byte_cycles, "serial_sends": sends}
     except wcet.WcetError as exc:
         return None, str(exc)
     return costs.Budget(work, sorts, rises, lines, falls, last_in_b=last_in_b, **serial), code.label_at(at)

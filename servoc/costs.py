@@ -161,6 +161,7 @@ class Budget:
     serial_run: int = 0         # the serial handler's longest run, its vector's LCALL to RETI (0: no serial line)
     serial_head: int = 0        # its vector's LCALL to the end of `CLR RI`: a received byte taken
     byte_cycles: int = 0        # one byte on the serial line (10 bits)
+    serial_sends: bool = False  # the program sends: the serial handler also runs for each byte that goes out
     last_in_b: bool = False     # the last port has sort buffer B: frame_io sorts it before the others
 
 
@@ -244,8 +245,11 @@ def serial_latency(target, budget: Budget) -> int:
 
 def serial_load(budget: Budget, cycles: int) -> int:
     """The serial handler's cycles within `cycles` at the most: a run for each byte that can come
-    in and each that can go out, and the instruction each run waits for."""
-    runs = 2 * (-(-cycles // budget.byte_cycles) + 1)
+    in and, if the program sends, each that can go out (TI is set by a byte sent, never else),
+    and the instruction each run waits for. Bytes end a byte time apart at the least, and a run
+    starts within a byte time of its byte (serial_latency), so a window of c cycles meets
+    ceil(c / byte) + 1 runs each way."""
+    runs = (2 if budget.serial_sends else 1) * (-(-cycles // budget.byte_cycles) + 1)
     return runs * (budget.serial_run + SERIAL_WAIT)
 
 
