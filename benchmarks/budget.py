@@ -101,8 +101,8 @@ def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = Fals
         lines.append(f"servo s{i} = P{p}.{b}{speed}")
     low = ", ".join(f"s{i}: {(7 * i) % 40}" for i in range(len(pins)))
     if runtime_f:
-        # servos in pairs at the same N, so that the edge handler would show a sort or its merge of
-        # equal N that is not done by the rise; every servo moves from hi to far
+        # servos in pairs at the same N (two lines on one edge, as on a symmetric robot); every servo
+        # moves from hi to far
         high = ", ".join(f"s{i}: {250 - (11 * (i // 2)) % 40}" for i in range(len(pins)))
         far = ", ".join(f"s{i}: {245 - (11 * (i // 2)) % 40 - i // 2 % 4}" for i in range(len(pins)))
     else:

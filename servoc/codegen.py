@@ -31,7 +31,6 @@ from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, fewest_frames, port_motions, select_ram, select_slots, send_gap, send_run,
                    sends, takes_frames, watches)
-
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
                     steps)
@@ -463,7 +462,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
                                      tuple(costs.falls_load(target, falls[p]) for p in plan.ports),
                                      0 if s is None else s["byte_cycles"], bport is not None,
-                                     any(isinstance(st, SendStep) for st in steps(plan)))
+                                     sends(plan.main, plan, ctx.sends_memo))
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "

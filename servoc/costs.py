@@ -85,7 +85,7 @@ def edges_load(widths, values) -> int:
     return (SPLIT - 1) * bool(cs) + sum(min(b - a, SPLIT - 1) for a, b in zip(cs, cs[1:]))
 
 
-SWEEP_BUDGET = 40_000       # breakpoints swept per port before the rest get the hull bound (0.3 s at most)
+SWEEP_BUDGET = 40_000       # breakpoints swept per port before the rest get the hull bound
 
 
 @lru_cache(maxsize=16)
