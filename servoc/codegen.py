@@ -36,19 +36,6 @@ from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, R
                     steps)
 from .units import N_MAX
 
-# Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19).
-SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
-    1: (),
-    2: ((0, 1),),
-    3: ((0, 2), (0, 1), (1, 2)),
-    4: ((0, 1), (2, 3), (0, 2), (1, 3), (1, 2)),
-    5: ((0, 3), (1, 4), (0, 2), (1, 3), (0, 1), (2, 4), (1, 2), (3, 4), (2, 3)),
-    6: ((0, 5), (1, 3), (2, 4), (1, 2), (3, 4), (0, 3), (2, 5), (0, 1), (2, 3), (4, 5), (1, 2), (3, 4)),
-    7: ((0, 6), (2, 3), (4, 5), (0, 2), (1, 4), (3, 6), (0, 1), (2, 5), (3, 4), (1, 2), (4, 6), (2, 3),
-        (4, 5), (1, 2), (3, 4), (5, 6)),
-    8: ((0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7), (0, 1), (2, 3), (4, 5), (6, 7),
-        (2, 4), (3, 5), (1, 4), (3, 6), (1, 2), (3, 4), (5, 6)),
-}
 
 @dataclass(frozen=True)
 class AsmUnit:
@@ -458,9 +445,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         breakdown["maps of the bytes selects name"] = 32 * len(ctx.byte_maps)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
-    falls = port_motions(plan)
+    motions = port_motions(plan)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
-                                     tuple(costs.falls_load(target, falls[p]) for p in plan.ports),
+                                     tuple(costs.port_load(target, motions[p]) for p in plan.ports),
                                      0 if s is None else s["byte_cycles"], bport is not None,
                                      sends(plan.main, plan, ctx.sends_memo))
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
@@ -560,7 +547,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "ctime": "\n".join("        " + line for line in ctime),
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
-                   "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in SORTING_NETWORKS[n]]}
+                   "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in costs.SORTING_NETWORKS[n]]}
                   for n in sizes],
     }
 
@@ -574,15 +561,17 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
     return max((code.stack_below(name, memo) for name in called), default=0)
 
 
-def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], falls: tuple[int, ...],
+def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loads: tuple[costs.PortLoad, ...],
                  byte_cycles: int = 0, last_in_b: bool = False, sends: bool = False) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
-    between frames starts (or why it cannot be bounded). `byte_cycles`: a byte's time on the
-    serial line (0: the program has none); `sends`: the program has a `send`."""
+    between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
+    (costs.port_load); its sort is the longest path less the swaps no frame makes. `byte_cycles`:
+    a byte's time on the serial line (0: the program has none); `sends`: the program has a `send`."""
     try:
         code = wcet.Code(text)
         work, at = code.between_frames()
-        sorts = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
+        sorts = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"})
+                      - _unswapped(code, n, load.swaps) for p, n, load in zip(ports, lines, loads))
         exits = {f"exit_p{p}" for p in ports} | {"exit_fall"}
         rises = tuple(costs.ENTRY + 2 + code.longest(f"emit_p{p}", exits) + code.longest_exit(exits)
                       for p in ports)
@@ -593,7 +582,15 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], fall
                       "byte_cycles": byte_cycles, "serial_sends": sends}
     except wcet.WcetError as exc:
         return None, str(exc)
-    return costs.Budget(work, sorts, rises, lines, falls, last_in_b=last_in_b, **serial), code.label_at(at)
+    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b, **serial),
+            code.label_at(at))
+
+
+def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:
+    """The cycles of the swaps the longest path through sort<n> counts (every comparator's) and
+    no frame makes: all but `swaps` of them, the cheapest first."""
+    bodies = sorted(code.straight(f"sw{n}_{i}", f"so{n}_{i}") for i in range(1, len(costs.SORTING_NETWORKS[n]) + 1))
+    return sum(bodies[:len(bodies) - swaps])
 
 
 def _serial(serial, ram: layout.RamAllocator) -> dict:

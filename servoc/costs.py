@@ -19,7 +19,7 @@ between the previous port's rise and its own.
 The budget: the background's work between two frames (W, read from the
 generated code by `servoc.wcet`), each port's sort (read the same way) and
 the handler's worst load per port (its rise entry, read from the code, and
-its falls in the worst frame the program's moves can put out: `falls_load`)
+its falls in the worst frame the program's moves can put out: `port_load`)
 must fit the frame, and so must the pulses themselves:
 
     P >= ports x port_span
@@ -72,7 +72,7 @@ def rise_offsets(ports: tuple[int, ...], target) -> dict[int, int]:
 
 
 def handler_load(rise_cycles: int, falls: int) -> int:
-    """The handler's worst cycles in one frame for a port: its rise entry, then its falls (`falls_load`)."""
+    """The handler's worst cycles in one frame for a port: its rise entry, then its falls (`port_load`)."""
     return rise_cycles + falls
 
 
@@ -85,39 +85,76 @@ def edges_load(widths, values) -> int:
     return (SPLIT - 1) * bool(cs) + sum(min(b - a, SPLIT - 1) for a, b in zip(cs, cs[1:]))
 
 
+# Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19): frame_io's sort of a
+# port's N in pin order (frame_irq.asm.j2). A comparator (a, b) swaps when N_b < N_a.
+SORTING_NETWORKS: dict[int, tuple[tuple[int, int], ...]] = {
+    1: (),
+    2: ((0, 1),),
+    3: ((0, 2), (0, 1), (1, 2)),
+    4: ((0, 1), (2, 3), (0, 2), (1, 3), (1, 2)),
+    5: ((0, 3), (1, 4), (0, 2), (1, 3), (0, 1), (2, 4), (1, 2), (3, 4), (2, 3)),
+    6: ((0, 5), (1, 3), (2, 4), (1, 2), (3, 4), (0, 3), (2, 5), (0, 1), (2, 3), (4, 5), (1, 2), (3, 4)),
+    7: ((0, 6), (2, 3), (4, 5), (0, 2), (1, 4), (3, 6), (0, 1), (2, 5), (3, 4), (1, 2), (4, 6), (2, 3),
+        (4, 5), (1, 2), (3, 4), (5, 6)),
+    8: ((0, 2), (1, 3), (4, 6), (5, 7), (0, 4), (1, 5), (2, 6), (3, 7), (0, 1), (2, 3), (4, 5), (6, 7),
+        (2, 4), (3, 5), (1, 4), (3, 6), (1, 2), (3, 4), (5, 6)),
+}
+
+
+def swaps(values) -> int:
+    """How many comparators of the sorting network swap when it sorts `values` (pin order)."""
+    v = list(values)
+    n = 0
+    for a, b in SORTING_NETWORKS[len(v)]:
+        if v[b] < v[a]:
+            v[a], v[b] = v[b], v[a]
+            n += 1
+    return n
+
+
+@dataclass(frozen=True)
+class PortLoad:
+    """A port's worst frame, over every frame the program's moves can put out (`port_load`)."""
+    falls: int      # the handler's cycles for its falls (`edges_load`)
+    swaps: int      # comparators of its sort that swap
+
+
 SWEEP_BUDGET = 40_000       # breakpoints swept per port before the rest get the hull bound
 
 
 @lru_cache(maxsize=16)
-def falls_load(target, motions: frozenset) -> int:
-    """The handler's worst cycles for one port's falls in any frame (`handler_load`), over the
-    port's motions (`flow.port_motions`): for a move of known start, every frame it can have at any
-    period. Its lines' N are functions of one u in [0, 1] (k / F, or the eased table's value), each
-    a step function that changes at known u: the frames are the sets of N between those u, swept
-    in order. A move that can start after an interruption (a `Reach`) gets the
-    bound of its hull: each gap at most SPLIT - 1, and all of them at most C(highest) - C(lowest).
-    Paths are swept in order of that bound, while it can still beat the worst found. (The motions
-    do not depend on the period: the period stage asks again with the same ones.)"""
+def port_load(target, motions: frozenset) -> PortLoad:
+    """The handler's worst cycles for one port's falls in any frame (`handler_load`), and the most
+    comparators of its sort that swap, over the port's motions (`flow.port_motions`): for a move of
+    known start, every frame it can have at any period. Its lines' N are functions of one u in
+    [0, 1] (k / F, or the eased table's value), each a step function that changes at known u: the
+    frames are the sets of N between those u, swept in order. A move that can start after an
+    interruption (a `Reach`) gets the bound of its hull: each gap at most SPLIT - 1, and all of them
+    at most C(highest) - C(lowest), and every comparator swapping. Paths are swept in order of that
+    bound while it, or a swap not yet seen, can still beat the worst found. (The motions do not
+    depend on the period: the period stage asks again with the same ones.)"""
     widths = [target.width_cycles(n) for n in range(256)]
 
     def hull(lines) -> int:
-        lo = min(min(_lo(a), _lo(b)) for a, b in lines)
-        hi = max(max(_hi(a), _hi(b)) for a, b in lines)
-        return (SPLIT - 1) + min((SPLIT - 1) * (len(lines) - 1), widths[hi] - widths[lo])
+        fall = [ab for ab in lines if ab is not None]
+        lo = min(min(_lo(a), _lo(b)) for a, b in fall)
+        hi = max(max(_hi(a), _hi(b)) for a, b in fall)
+        return (SPLIT - 1) + min((SPLIT - 1) * (len(fall) - 1), widths[hi] - widths[lo])
 
     order = sorted(((hull(lines), lines) for lines in motions), key=lambda m: -m[0])
-    worst, budget = 0, SWEEP_BUDGET
+    most = max((len(SORTING_NETWORKS[len(lines)]) for lines in motions), default=0)
+    worst, swapped, budget = 0, 0, SWEEP_BUDGET
     for bound, lines in order:
-        if bound <= worst:
+        if bound <= worst and swapped >= most:
             break
-        exact = all(isinstance(a, int) and isinstance(b, int) for a, b in lines)
-        cost = sum(abs(b - a) for a, b in lines) if exact else 0
+        exact = all(ab is None or (isinstance(ab[0], int) and isinstance(ab[1], int)) for ab in lines)
+        cost = sum(abs(ab[1] - ab[0]) for ab in lines if ab is not None) if exact else 0
         if not exact or cost > budget:
-            worst = bound
+            worst, swapped = max(worst, bound), most
             continue
         budget -= cost
-        worst = max(worst, _sweep(widths, lines, worst, bound))
-    return worst
+        worst, swapped = _sweep(widths, lines, worst, bound, swapped, most)
+    return PortLoad(worst, swapped)
 
 
 def _lo(v) -> int:
@@ -128,26 +165,36 @@ def _hi(v) -> int:
     return v if isinstance(v, int) else v.hi
 
 
-def _sweep(widths, lines, worst: int, bound: int) -> int:
-    """The most `edges_load` over the frames of one move (see `falls_load`), stopping at `bound`.
-    The firmware puts line i at N0 +- floor(|d| u + 1/2), d = N1 - N0, for the frame's u (k / F, or
-    the eased table's value / 256; `plan.firmware_value`): it steps by one at u = (m - 1/2) / |d|,
-    m = 1..|d|, and holds the new N from that u on. (Equal rationals with denominators this small
-    are equal floats, so the u of several lines meet exactly.)"""
-    cur = [a for a, _ in lines]
+def _sweep(widths, lines, worst: int, bound: int, swapped: int, most: int) -> tuple[int, int]:
+    """The most `edges_load` (up to `bound`) and the most `swaps` (up to `most`) over the frames of
+    one move (see `port_load`), from the worst found before. The firmware puts line i at
+    N0 +- floor(|d| u + 1/2), d = N1 - N0, for the frame's u (k / F, or the eased table's value / 256;
+    `plan.firmware_value`): it steps by one at u = (m - 1/2) / |d|, m = 1..|d|, and holds the new N
+    from that u on. (Equal rationals with denominators this small are equal floats, so the u of
+    several lines meet exactly.) A line without a target (None) stays at N 0: sorted, never falling."""
+    cur = [0 if ab is None else ab[0] for ab in lines]
+    falling = [ab is not None for ab in lines]
     at: dict[float, list[int]] = {}
-    for i, (a, b) in enumerate(lines):
-        d = abs(b - a)
+    for i, ab in enumerate(lines):
+        if ab is None:
+            continue
+        d = abs(ab[1] - ab[0])
         for m in range(1, d + 1):
             at.setdefault((2 * m - 1) / (2 * d), []).append(i)
-    worst = max(worst, edges_load(widths, cur))
+
+    def frame() -> None:
+        nonlocal worst, swapped
+        worst = max(worst, edges_load(widths, [v for v, f in zip(cur, falling) if f]))
+        swapped = max(swapped, swaps(cur))
+
+    frame()
     for u in sorted(at):
-        if worst >= bound:
+        if worst >= bound and swapped >= most:
             break
         for i in at[u]:
             cur[i] += 1 if lines[i][1] > lines[i][0] else -1
-        worst = max(worst, edges_load(widths, cur))
-    return worst
+        frame()
+    return worst, swapped
 
 
 @dataclass(frozen=True)
@@ -157,7 +204,7 @@ class Budget:
     sorts: tuple[int, ...]      # each port's sort in frame_io, in port order
     rises: tuple[int, ...]      # each port's rise entry of the handler, overflow to RETI
     lines: tuple[int, ...]      # servo lines on each port
-    falls: tuple[int, ...]      # the handler's worst cycles for each port's falls in a frame (falls_load)
+    falls: tuple[int, ...]      # the handler's worst cycles for each port's falls in a frame (port_load)
     serial_run: int = 0         # the serial handler's longest run, its vector's LCALL to RETI (0: no serial line)
     serial_head: int = 0        # its vector's LCALL to the end of `CLR RI`: a received byte taken
     byte_cycles: int = 0        # one byte on the serial line (10 bits)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Iterator
 
 from . import walk
-from .steps import AfterBranch, LoopStep, Plan, PlayStep, RepeatStep, SelectStep, Step, steps
+from .steps import AfterBranch, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, Step, steps
 
 
 def _any_frame(acc: bool, st: Step, inner) -> bool:
@@ -293,23 +293,31 @@ def send_gap(plan: Plan, cap: int) -> int:
 
 
 def port_motions(plan: Plan) -> dict[int, frozenset]:
-    """Per port, every way its lines can go through the frames of one move instance: a (start, end)
-    for each line of the port that can have a target in those frames. A line the
+    """Per port, every way its lines can go through the frames of one move instance: for each line
+    of the port in channel order (the order of its sort buffer), a (start, end), or None for a line
+    that has no target in those frames (its N stays 0: sorted, never falling). A line the
     move names goes from its start (an N, or a `Reach` after an interruption) to its N, one set at
     once is at its N throughout, and one the move does not name stays where it is (start = end). The
     frames of a move are every frame of the program: holds and waiting selects repeat the last one,
-    and before the first move no line has a target."""
+    and before the first move no line has a target (no frame with a fall to count). The power-up
+    (`plan.power_up`) switches lines on one move at a time from none: each state it passes through
+    is a frame of its own (the move instances start from the state after it)."""
     out: dict[int, set] = {port: set() for port in plan.ports}
-    for inst in plan.moves:
-        ends = dict(inst.step.targets)
+
+    def add(start, ends) -> None:
         lines: dict[int, list] = {port: [] for port in plan.ports}
         for ch in plan.channels:
-            start = inst.start[ch.index]
-            end = ends.get(ch.index, start)
-            if end is None:
-                continue
-            lines[ch.port].append((end if start is None else start, end))
+            end = ends.get(ch.index, start[ch.index])
+            lines[ch.port].append(None if end is None else (end if start[ch.index] is None else start[ch.index], end))
         for port, ls in lines.items():
-            if ls:
+            if any(ls):
                 out[port].add(tuple(ls))
+
+    on: dict[int, int] = {}
+    for st in plan.power_up:
+        if isinstance(st, MoveStep):
+            on.update(st.targets)
+            add((None,) * len(plan.channels), on)
+    for inst in plan.moves:
+        add(inst.start, dict(inst.step.targets))
     return {port: frozenset(ms) for port, ms in out.items()}

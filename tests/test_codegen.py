@@ -240,7 +240,7 @@ def test_exits_stop_timer0_for_stop_cycles(handler_firmware):
 
 def test_sorting_networks_sort_every_zero_one_vector():
     """The comparator lists themselves (the ucsim tests run the generated code on the same inputs)."""
-    for s, network in codegen.SORTING_NETWORKS.items():
+    for s, network in costs.SORTING_NETWORKS.items():
         assert all(0 <= a < b < s for a, b in network)
         for k in range(2 ** s):
             v = [(k >> i) & 1 for i in range(s)]

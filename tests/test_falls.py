@@ -1,7 +1,9 @@
-"""The handler's load for a port's falls (costs.falls_load over flow.port_motions) against every
+"""The handler's load for a port's falls (costs.port_load over flow.port_motions) against every
 frame the firmware can put out: per move at any F, and per program over the frames `plan.expand`
 gives. The ucsim side (a step costs its gap, an entry of its own ENTRY + EXIT) is checked by the
 adversarial programs of tests/test_costs.py, which run at the minimum this bound gives."""
+
+import itertools
 
 import pytest
 from hypothesis import given, settings, strategies as st
@@ -45,7 +47,7 @@ lines_st = st.lists(st.tuples(st.integers(0, 250), st.integers(0, 250)), min_siz
 def test_the_bound_holds_for_every_frame_of_a_move_at_any_f(lines, frames, ease, clock):
     t = {"12": T12, "11.0592 6T": _target("target stc89c52rc clock 11.0592MHz mode 6T"),
          "22.1184": _target("target at89c52 clock 22.1184MHz")}[clock]
-    bound = costs.falls_load(t, frozenset({tuple(lines)}))
+    bound = costs.port_load(t, frozenset({tuple(lines)})).falls
     w = widths(t)
     assert all(costs.edges_load(w, f) <= bound for f in frames_of(lines, frames, ease))
     assert bound <= SPLIT - 1 + min((SPLIT - 1) * (len(lines) - 1),
@@ -56,25 +58,62 @@ def test_the_bound_holds_for_every_frame_of_a_move_at_any_f(lines, frames, ease,
 @given(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 40)), min_size=1, max_size=8))
 def test_the_bound_is_reached(lines):
     """Not a margin: some F has a frame at the bound (the sweep's worst u is some k / F)."""
-    bound = costs.falls_load(T12, frozenset({tuple(lines)}))
+    bound = costs.port_load(T12, frozenset({tuple(lines)})).falls
     w = widths(T12)
     assert max(costs.edges_load(w, f) for frames in range(1, 200) for f in frames_of(lines, frames, "linear")) == bound
+
+
+def sort_values(lines, frame):
+    """The N the sort sees: a line without a target (None) stays at 0."""
+    it = iter(frame)
+    return [0 if ab is None else next(it) for ab in lines]
+
+
+lines_or_none_st = st.lists(st.one_of(st.none(), st.tuples(st.integers(0, 250), st.integers(0, 250))),
+                            min_size=1, max_size=8).filter(any)
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(lines_or_none_st, st.integers(1, 300), st.sampled_from(["linear", "in", "out", "in-out"]))
+def test_the_swaps_bound_every_frame_of_a_move_at_any_f(lines, frames, ease):
+    load = costs.port_load(T12, frozenset({tuple(lines)}))
+    falling = [ab for ab in lines if ab is not None]
+    assert all(costs.swaps(sort_values(lines, f)) <= load.swaps for f in frames_of(falling, frames, ease))
+
+
+@settings(max_examples=60, deadline=None, derandomize=True)
+@given(st.lists(st.one_of(st.none(), st.tuples(st.integers(0, 40), st.integers(0, 40))), min_size=1, max_size=8)
+       .filter(any))
+def test_the_swaps_bound_is_reached(lines):
+    load = costs.port_load(T12, frozenset({tuple(lines)}))
+    falling = [ab for ab in lines if ab is not None]
+    assert max(costs.swaps(sort_values(lines, f)) for frames in range(1, 200)
+               for f in frames_of(falling, frames, "linear")) == load.swaps
+
+
+def test_swaps_count_the_comparators_that_exchange():
+    assert costs.swaps([1, 2, 3, 4, 5, 6, 7, 8]) == 0
+    assert max(costs.swaps(p) for p in itertools.permutations(range(8))) == len(costs.SORTING_NETWORKS[8])
+    assert costs.swaps([8, 7, 6, 5, 4, 3, 2, 1]) < len(costs.SORTING_NETWORKS[8])   # reversed is not the worst
+    assert costs.swaps([5, 5, 5]) == 0                                   # equal N stay
+    assert costs.swaps([2, 1]) == 1
 
 
 def test_a_move_after_an_interruption_gets_its_hull():
     """A servo that can be anywhere in lo..hi: the hull of every position, each gap at most SPLIT - 1."""
     w = widths(T12)
     near = ((Reach(10, 12), 20), (15, 15))
-    assert costs.falls_load(T12, frozenset({near})) == SPLIT - 1 + w[20] - w[10]
+    assert costs.port_load(T12, frozenset({near})).falls == SPLIT - 1 + w[20] - w[10]
     wide = ((Reach(0, 250), 20), (15, 15), (100, 100))
-    assert costs.falls_load(T12, frozenset({wide})) == 3 * (SPLIT - 1)
+    assert costs.port_load(T12, frozenset({wide})).falls == 3 * (SPLIT - 1)
+    assert costs.port_load(T12, frozenset({wide})).swaps == len(costs.SORTING_NETWORKS[3])   # any order
 
 
 def test_clustered_lines_cost_less_than_an_entry_each():
     w = widths(T12)
     tight = tuple((100 + i, 120 + i) for i in range(8))
-    assert costs.falls_load(T12, frozenset({tight})) == SPLIT - 1 + w[107] - w[100]
-    assert costs.falls_load(T12, frozenset({tight})) < 8 * (SPLIT - 1)
+    assert costs.port_load(T12, frozenset({tight})).falls == SPLIT - 1 + w[107] - w[100]
+    assert costs.port_load(T12, frozenset({tight})).falls < 8 * (SPLIT - 1)
 
 
 def _target(line):
@@ -103,13 +142,16 @@ def test_every_frame_of_a_program_is_within_the_bound(name):
     t = plan.program.target
     w = widths(t)
     motions = port_motions(plan)
-    bounds = {p: costs.falls_load(t, motions[p]) for p in plan.ports}
+    bounds = {p: costs.port_load(t, motions[p]) for p in plan.ports}
     worst = dict.fromkeys(plan.ports, 0)
+    swapped = dict.fromkeys(plan.ports, 0)
     for i, frame in zip(range(3000), expand(plan)):
         for p in plan.ports:
-            vals = [n for c, n in zip(plan.channels, frame.n) if c.port == p and n is not None]
-            worst[p] = max(worst[p], costs.edges_load(w, vals))
-    assert all(worst[p] <= bounds[p] for p in plan.ports), (worst, bounds)
+            vals = [n for c, n in zip(plan.channels, frame.n) if c.port == p]
+            worst[p] = max(worst[p], costs.edges_load(w, [n for n in vals if n is not None]))
+            swapped[p] = max(swapped[p], costs.swaps([n or 0 for n in vals]))
+    assert all(worst[p] <= bounds[p].falls for p in plan.ports), (worst, bounds)
+    assert all(swapped[p] <= bounds[p].swaps for p in plan.ports), (swapped, bounds)
     assert any(worst[p] > SPLIT - 1 for p in plan.ports)        # the programs do put out clusters
 
 
@@ -118,6 +160,6 @@ def test_past_the_sweep_budget_the_rest_get_their_hull():
     never less than their own worst frame."""
     paths = [tuple((i * 3 + k % 9, 250 - i * 5 - k % 11) for i in range(8)) for k in range(60)]
     assert sum(abs(b - a) for p in paths for a, b in p) > costs.SWEEP_BUDGET
-    alone = max(costs.falls_load(T12, frozenset({p})) for p in paths)
-    together = costs.falls_load(T12, frozenset(paths))
+    alone = max(costs.port_load(T12, frozenset({p})).falls for p in paths)
+    together = costs.port_load(T12, frozenset(paths)).falls
     assert alone <= together <= 8 * (SPLIT - 1)
