@@ -568,7 +568,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
     (costs.port_load); its sort is the longest path less the swaps no frame makes. `byte_cycles`:
     a byte's time on the serial line (0: the program has none); `sends`: the program has a `send`."""
     try:
-        code = wcet.Code(text)
+        code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record))
         work, at = code.between_frames()
         sorts = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"})
                       - _unswapped(code, n, load.swaps) for p, n, load in zip(ports, lines, loads))

@@ -19,11 +19,18 @@ that loops without reaching a frame is an error, not a guess: the only
 backward branches allowed are counted pad loops (`MOV Rn,#k` then `DJNZ
 Rn,.`) and paths that pass a frame.
 
-One flag is followed along each path: FRAMED, which frame_io sets. A `loop`
+A flag is followed along each path: FRAMED, which frame_io sets. A `loop`
 whose pass can take no frame clears it at the top of each pass and, at the
 end, waits for a frame only if it is still clear (`JB FRAMED`); the analysis
 knows it is set right after a frame and clear after the `CLR`, so that test
 goes one way on each path and the loop is bounded by the frame it reaches.
+
+The bits of a move record's flags byte (FLAGS: eased, F found at run time, F in one byte, every
+servo named, a hold) are followed the same way: run_list writes the byte whole from each record
+(`MOV FLAGS, A`), and from there a path that went one way at a test of a bit goes the same way at
+every later test of it until the byte is written again, so a record is charged for what one kind
+of record does (a record without F is not also charged for reading one; a linear move not for the
+eased table). Nothing else writes FLAGS: the handlers never touch it.
 
 A select's meanwhile body is cut by frame_w, which runs right after each frame: an event sets
 the stack back to where the select started the body (`MOV SP, ...`) and jumps to its branches
@@ -99,7 +106,9 @@ _LABEL = re.compile(r"^([A-Za-z_.$][\w.$]*)::?\s*(.*)$")
 class Code:
     """The instructions of one assembly text, with their labels."""
 
-    def __init__(self, text: str) -> None:
+    def __init__(self, text: str, flag_byte: str = "", flag_bits: frozenset[str] = frozenset()) -> None:
+        self.flag_byte = flag_byte      # a byte whose bits a path learns from its branches (`walk`)
+        self.flag_bits = flag_bits
         self.instrs: list[Instr] = []
         self.labels: dict[str, int] = {}
         pending: list[str] = []
@@ -155,12 +164,15 @@ class Code:
 
     # ---------------------------------------------------------------- analysis
 
-    def walk(self, i: int, clear: bool = False) -> dict:
+    def walk(self, i: int, clear: bool = False, known: frozenset = frozenset()) -> dict:
         """Longest cycles from instruction i to each way out: 'frame' (the LCALL frame_io,
-        its 2 cycles included) and ('ret', clear) (the RET of the routine i is in, included,
-        with what is known of FRAMED there). `clear`: the path has passed a `CLR FRAMED` since
-        its last frame, so FRAMED is 0 (frame_io sets it): a `JB FRAMED` there falls through."""
-        key = (i, clear)
+        its 2 cycles included) and ('ret', clear, known) (the RET of the routine i is in, included,
+        with what is known of FRAMED and the flag bits there). `clear`: the path has passed a
+        `CLR FRAMED` since its last frame, so FRAMED is 0 (frame_io sets it): a `JB FRAMED` there
+        falls through. `known`: (bit, value) of the flag byte's bits the path has learned (from a
+        `JB`/`JNB` on them, or a `SETB`/`CLR`) since the byte was last written whole: a later test of
+        such a bit goes one way only."""
+        key = (i, clear, known)
         if key in self._walk_memo:
             return self._walk_memo[key]
         if key in self._on_path:
@@ -169,59 +181,76 @@ class Code:
             raise WcetError("a path runs off the end of the code")
         self._on_path.add(key)
         try:
-            out = self._walk(self.instrs[i], clear)
+            out = self._walk(self.instrs[i], clear, known)
         finally:
             self._on_path.discard(key)
         self._walk_memo[key] = out
         return out
 
-    def _walk(self, ins: Instr, clear: bool) -> dict:
+    def _walk(self, ins: Instr, clear: bool, known: frozenset) -> dict:
         c = ins.cycles
+        nxt = ins.index + 1
         if ins.op in _CALLS:
             name = ins.args[0]
             if name == FRAME_ROUTINE:
                 return {"frame": c}
-            callee = self.walk(self.target(ins), clear)
+            callee = self.walk(self.target(ins), clear, known)
             if name in FRAME_REACHING:
                 return {"frame": c + callee["frame"]}
             out = {"frame": c + callee["frame"]} if "frame" in callee else {}
             for key, v in callee.items():
                 if key != "frame":
-                    out = _merge(out, _plus(self.walk(ins.index + 1, key[1]), c + v))
+                    out = _merge(out, _plus(self.walk(nxt, key[1], key[2]), c + v))
             return out
         if ins.op in ("RET", "RETI"):
-            return {("ret", clear): c}
+            return {("ret", clear, known): c}
         if ins.op == "MOV" and ins.args[0] == "SP":
             # a cut (frame_w): the stack as a select left it, and on at its branches, right after a
             # frame (FRAMED set); a RET there returns to the callers of the routine the select is in
-            nxt = self.instrs[ins.index + 1]
-            if nxt.op != "LJMP":
+            jump = self.instrs[nxt]
+            if jump.op != "LJMP":
                 raise WcetError(f"line {ins.line}: `MOV SP` between frames must be followed by an LJMP")
-            return {"frame": c + nxt.cycles + self.resume(self.target(nxt))}
+            return {"frame": c + jump.cycles + self.resume(self.target(jump))}
         if ins.op == "JMP":
             raise WcetError(f"line {ins.line}: an indirect jump between frames")
         if ins.op in _JUMPS:
-            return _plus(self.walk(self.target(ins), clear), c)
+            return _plus(self.walk(self.target(ins), clear, known), c)
         if ins.args and ins.args[0] == FRAME_FLAG:
             if ins.op == "CLR":
-                return _plus(self.walk(ins.index + 1, True), c)
+                return _plus(self.walk(nxt, True, known), c)
             if ins.op == "JB":      # set (behind a frame) unless cleared since
-                return _plus(self.walk(ins.index + 1 if clear else self.target(ins), clear), c)
+                return _plus(self.walk(nxt if clear else self.target(ins), clear, known), c)
             raise WcetError(f"line {ins.line}: `{ins.op} {FRAME_FLAG}` outside frame_io")
+        if ins.args and ins.args[0] in self.flag_bits:
+            bit = ins.args[0]
+            rest = frozenset(f for f in known if f[0] != bit)
+            if ins.op in ("JB", "JNB"):
+                was = dict(known).get(bit)
+                ways = []
+                for value in (False, True) if was is None else (was,):
+                    taken = value == (ins.op == "JB")
+                    ways.append(self.walk(self.target(ins) if taken else nxt, clear, rest | {(bit, value)}))
+                out = ways[0] if len(ways) == 1 else _merge(*ways)
+                return _plus(out, c)
+            if ins.op in ("SETB", "CLR"):
+                return _plus(self.walk(nxt, clear, rest | {(bit, ins.op == "SETB")}), c)
+            known = rest           # any other write (JBC, CPL, MOV bit,C): its value unknown
+        elif ins.args and ins.args[0] == self.flag_byte:
+            known = frozenset()    # the byte written whole
         if ins.op == "DJNZ" and ins.args[-1] == ".":
             prev = self.instrs[ins.index - 1]
             if not (prev.op == "MOV" and prev.args[0] == ins.args[0] and prev.args[1].startswith("#")):
                 raise WcetError(f"line {ins.line}: a pad loop needs `MOV {ins.args[0]},#k` right before it")
             k = int(prev.args[1][1:], 0) or 256
-            return _plus(self.walk(ins.index + 1, clear), c * k)
+            return _plus(self.walk(nxt, clear, known), c * k)
         if ins.op in _BRANCH2:
-            return _plus(_merge(self.walk(ins.index + 1, clear), self.walk(self.target(ins), clear)), c)
-        return _plus(self.walk(ins.index + 1, clear), c)
+            return _plus(_merge(self.walk(nxt, clear, known), self.walk(self.target(ins), clear, known)), c)
+        return _plus(self.walk(nxt, clear, known), c)
 
-    def resume(self, i: int, clear: bool = False) -> int:
+    def resume(self, i: int, clear: bool = False, known: frozenset = frozenset()) -> int:
         """Longest cycles from instruction i to the next frame, going on behind the callers
         of the routine i is in when it returns."""
-        r = self.walk(i, clear)
+        r = self.walk(i, clear, known)
         best = r.get("frame", 0)
         for key, v in r.items():
             if key == "frame":
@@ -230,7 +259,7 @@ class Code:
             if entry is None:
                 raise WcetError(f"a RET at {self.label_at(i)} outside any routine")
             # a routine nobody calls (the record runner of a program without moves) never returns
-            best = max([best] + [v + self.resume(s + 1, key[1]) for s in self.call_sites(entry)])
+            best = max([best] + [v + self.resume(s + 1, key[1], key[2]) for s in self.call_sites(entry)])
         return best
 
     def longest(self, start: str, stops: set[str]) -> int:

@@ -502,6 +502,7 @@ sort2:                                  ; pairs 0..1 (N at WN, lines at WM) asce
         CLR     C
         SUBB    A, WN+0
         JNC     so2_1                ; N0 <= N1
+sw2_1:                                  ; swap the pairs
         MOV     A, WN+0
         XCH     A, WN+2
         MOV     WN+0, A
