@@ -100,3 +100,33 @@ def test_generated_code_budget_names_its_start():
     assert unit.min_period_us == max(costs.port_span(fe.plan.program.target), b.sorts[0] + b.work + load)
     assert unit.work_from
     assert make_plan(fe.plan.program, None).min_period_us == unit.min_period_us
+
+
+FLAGGED = """
+main:
+        LCALL   frame_io        ; 2
+        MOV     FLAGS, A        ; 1  a record's flags
+        JB      KIND, heavy     ; 2
+        MUL     AB              ; 4  light records: 4 here ...
+        SJMP    two             ; 2
+heavy:  NOP                     ; 1
+two:    JNB     KIND, cheap     ; 2
+        MUL     AB              ; 4  ... heavy ones: 4 here
+        MUL     AB              ; 4
+        MUL     AB              ; 4
+cheap:  SJMP    main            ; 2
+frame_io:
+        RET
+"""
+
+
+def test_a_flag_bit_tested_twice_goes_the_same_way_both_times():
+    """A path that found the bit clear at the first test finds it clear at the second: light
+    records 1 + 2 + 4 + 2 + 2 + 2, heavy 1 + 2 + 1 + 2 + 12 + 2, each with the LCALL frame_io (2)."""
+    followed = wcet.Code(FLAGGED, "FLAGS", frozenset({"KIND"})).between_frames()[0]
+    assert followed == max(1 + 2 + 4 + 2 + 2 + 2, 1 + 2 + 1 + 2 + 12 + 2) + 2
+    # not followed, both costlier ways are counted on one path
+    assert wcet.Code(FLAGGED).between_frames()[0] == 1 + 2 + 4 + 2 + 2 + 12 + 2 + 2
+    # the byte written again in between: the second test goes both ways
+    rewritten = FLAGGED.replace("two:    JNB", "two:    MOV     FLAGS, A\n        JNB")
+    assert wcet.Code(rewritten, "FLAGS", frozenset({"KIND"})).between_frames()[0] == 1 + 2 + 4 + 2 + 1 + 2 + 12 + 2 + 2
