@@ -29,7 +29,7 @@ from . import costs
 from . import walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .flow import (UNBOUNDED, edge_ports, fewest_frames, port_motions, select_ram, select_slots, send_gap, send_run,
+from .flow import (UNBOUNDED, edge_ports, fewest_frames, move_starts, port_motions, select_ram, select_slots, send_gap, send_run,
                    sends, takes_frames, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
@@ -445,9 +445,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         breakdown["maps of the bytes selects name"] = 32 * len(ctx.byte_maps)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
-    motions = port_motions(plan)
+    motions, starts = port_motions(plan), move_starts(plan)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
                                      tuple(costs.port_load(target, motions[p]) for p in plan.ports),
+                                     None if len(plan.ports) != 1 or starts[plan.ports[0]] is None
+                                     else costs.start_loads(target, starts[plan.ports[0]]),
                                      0 if s is None else s["byte_cycles"], bport is not None,
                                      sends(plan.main, plan, ctx.sends_memo))
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
@@ -562,16 +564,31 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
 
 
 def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loads: tuple[costs.PortLoad, ...],
-                 byte_cycles: int = 0, last_in_b: bool = False, sends: bool = False) -> tuple[costs.Budget | None, str]:
+                 starts: frozenset | None = None, byte_cycles: int = 0, last_in_b: bool = False,
+                 sends: bool = False) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
-    (costs.port_load); its sort is the longest path less the swaps no frame makes. `byte_cycles`:
+    (costs.port_load); its sort is the longest path less the swaps no frame makes. `starts`: one
+    port's move starts (costs.start_loads), so that the work of a path that starts a move is
+    paired with that move's first frame (None: every path with the worst frame). `byte_cycles`:
     a byte's time on the serial line (0: the program has none); `sends`: the program has a `send`."""
     try:
         code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record))
         work, at = code.between_frames()
-        sorts = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"})
-                      - _unswapped(code, n, load.swaps) for p, n, load in zip(ports, lines, loads))
+        fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
+        sorts = tuple(f - _unswapped(code, n, load.swaps) for f, n, load in zip(fs, lines, loads))
+        paired = {}
+        if starts:      # the paths that read a move record (a hold's HOLDF set, or not known, is not one)
+            by = code.by_record()
+            moving = {tag: v for tag, v in by.items() if tag is not None and ("HOLDF", False) in tag}
+
+            def work_of(eased: bool, runtime_f: bool) -> int:    # the paths a record of this kind can take
+                return max((v for tag, v in moving.items()
+                            if ("EASED", not eased) not in tag and ("NODUR", not runtime_f) not in tag), default=0)
+
+            paired = {"start_frame": max(work_of(e, r) + fs[0] - _unswapped(code, lines[0], sw) + falls
+                                         for falls, sw, e, r in starts),
+                      "other_work": max((v for tag, v in by.items() if tag not in moving), default=0)}
         exits = {f"exit_p{p}" for p in ports} | {"exit_fall"}
         rises = tuple(costs.ENTRY + 2 + code.longest(f"emit_p{p}", exits) + code.longest_exit(exits)
                       for p in ports)
@@ -582,7 +599,8 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                       "byte_cycles": byte_cycles, "serial_sends": sends}
     except wcet.WcetError as exc:
         return None, str(exc)
-    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b, **serial),
+    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
+                         **paired, **serial),
             code.label_at(at))
 
 

@@ -27,7 +27,11 @@ must fit the frame, and so must the pulses themselves:
     P >= R(m-2) + sort(m-1) + W + sort(0) + load(m-2) + load(m-1)   (m >= 2 ports)
     P >= R(m-1) + sort(0) + load(m-1)
 
-(the last two: W runs after the last port's sort, and each port's sort must
+(with one port the second is, more finely, the larger of: a frame whose work starts no
+move, with the worst sort and falls of any frame; and one whose work reads a move's record, with
+the sort of that move's first frame and the falls of the frame before it, for each move: frame_io
+returns only once the handler has taken the port, so a frame's work, its sort and the falls of the
+frame before fall in one period. The last two: W runs after the last port's sort, and each port's sort must
 be there before its rise; with sort buffer B for the last of three ports the
 last is R(m-1) + sort(m-1) + sort(0) + load(m-1) and the one before goes).
 With a serial line, each term adds the serial handler's runs that can come in
@@ -157,6 +161,16 @@ def port_load(target, motions: frozenset) -> PortLoad:
     return PortLoad(worst, swapped)
 
 
+@lru_cache(maxsize=16)
+def start_loads(target, starts: frozenset) -> frozenset:
+    """For each move start on a port (`flow.move_starts`): (the handler's cycles for the falls of
+    the frame before it, the comparators of its sort that swap on its first frame, the move is
+    eased, its F is found at run time)."""
+    widths = [target.width_cycles(n) for n in range(256)]
+    return frozenset((edges_load(widths, [v for v in before if v is not None]), swaps([v or 0 for v in first]),
+                      eased, runtime_f) for before, first, eased, runtime_f in starts)
+
+
 def _lo(v) -> int:
     return v if isinstance(v, int) else v.lo
 
@@ -205,6 +219,9 @@ class Budget:
     rises: tuple[int, ...]      # each port's rise entry of the handler, overflow to RETI
     lines: tuple[int, ...]      # servo lines on each port
     falls: tuple[int, ...]      # the handler's worst cycles for each port's falls in a frame (port_load)
+    start_frame: int | None = None  # one port: the longest frame that starts a move, its work and
+                                # its own sort and falls (`start_loads`); None: not known apart
+    other_work: int = 0         # then the longest work between frames of those that start no move
     serial_run: int = 0         # the serial handler's longest run, its vector's LCALL to RETI (0: no serial line)
     serial_head: int = 0        # its vector's LCALL to the end of `CLR RI`: a received byte taken
     byte_cycles: int = 0        # one byte on the serial line (10 bits)
@@ -236,7 +253,10 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         return budget.work + runs(period)
     span = port_span(target)
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
-    need = [m * span, sum(budget.sorts) + budget.work + sum(load) + runs(period)]
+    frame = sum(budget.sorts) + budget.work + sum(load)
+    if budget.start_frame is not None:      # one port: a frame's work, then its sort, within its period
+        frame = max(budget.sorts[0] + budget.other_work + load[0], budget.start_frame + budget.rises[0])
+    need = [m * span, frame + runs(period)]
     last = period - (m - 1) * span     # the last port's rise to the first port's next
     if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
         need.append((m - 1) * span + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))

@@ -321,3 +321,36 @@ def port_motions(plan: Plan) -> dict[int, frozenset]:
     for inst in plan.moves:
         add(inst.start, dict(inst.step.targets))
     return {port: frozenset(ms) for port, ms in out.items()}
+
+
+def move_starts(plan: Plan) -> dict[int, frozenset | None]:
+    """Per port, each move's first frame with the frame before it (the last of whatever came before:
+    its start): (N before, N in its first frame, the move is eased, its F is found at run time), the
+    N per line in channel order, None for a line without a target. None for the port when a move can
+    start where one of its lines is not known (after an interruption). The power-up's moves count
+    from the states it passes through (`port_motions`)."""
+    out: dict[int, set | None] = {port: set() for port in plan.ports}
+
+    def add(before: tuple, first: tuple, step: MoveStep) -> None:
+        for port in plan.ports:
+            if out[port] is None:
+                continue
+            pair = tuple(tuple(state[c.index] for c in plan.channels if c.port == port) for state in (before, first))
+            if all(v is None or isinstance(v, int) for half in pair for v in half):
+                out[port].add(pair + (step.ease != "linear", step.frames is None))
+            else:
+                out[port] = None
+
+    power = {id(st) for st in plan.power_up}
+    on: tuple = (None,) * len(plan.channels)
+    for st in plan.power_up:
+        if isinstance(st, MoveStep):
+            after = list(on)
+            for ch, n in st.targets:
+                after[ch] = n
+            add(on, tuple(after), st)
+            on = tuple(after)
+    for inst in plan.moves:
+        if id(inst.step) not in power:
+            add(inst.start, inst.first, inst.step)
+    return {port: None if pairs is None else frozenset(pairs) for port, pairs in out.items()}

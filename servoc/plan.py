@@ -81,8 +81,23 @@ def frame_value(n0: int, n1: int, k: int, frames: int, ease: str) -> int:
 def ease_table(ease: str, frames: int) -> tuple[int, ...]:
     if ease == "linear":
         return ()
-    return tuple(min(EASE_SCALE - 1, math.floor(ease_value(ease, Fraction(k, frames)) * EASE_SCALE + Fraction(1, 2)))
-                 for k in range(1, frames))
+    return tuple(ease_entry(ease, k, frames) for k in range(1, frames))
+
+
+def ease_entry(ease: str, k: int, frames: int) -> int:
+    """The eased curve table's entry for frame k (1..F-1): e(k / F) x 256, rounded, below 256."""
+    return min(EASE_SCALE - 1, math.floor(ease_value(ease, Fraction(k, frames)) * EASE_SCALE + Fraction(1, 2)))
+
+
+def first_frame(st: MoveStep, state: tuple, frames: int) -> tuple:
+    """Per channel the N of move `st`'s first frame in `frames` frames from `state` (a servo
+    without a target jumps to its own; one the move does not name stays as it is)."""
+    out = list(state)
+    table = () if st.ease == "linear" or frames <= 1 else (ease_entry(st.ease, 1, frames),)
+    for ch, n1 in st.targets:
+        n0 = state[ch]
+        out[ch] = n1 if n0 is None else firmware_value(n0, n1, 1, frames, st.ease, table) if isinstance(n0, int) else n0
+    return tuple(out)
 
 
 # ----------------------------------------------------------------- planning
@@ -359,7 +374,9 @@ class _Walker:
                     f = move_frames_at(st, s, self.tables, self.classes)
                     motions = tuple(ServoMotion(ch, far(s[ch], n1), n1, far_from(s[ch], n1)) for ch, n1 in st.targets)
                     cut = any(isinstance(s[ch], Reach) for ch, _ in st.targets)
-                    self.instances.setdefault((id(st), s), MoveInstance(st, f, motions, made(where), branch, cut, s))
+                    if (id(st), s) not in self.instances:
+                        self.instances[(id(st), s)] = MoveInstance(st, f, motions, made(where), branch, cut, s,
+                                                                   first_frame(st, s, f))
                     after = list(s)
                     for ch, n1 in st.targets:
                         after[ch] = n1

@@ -223,6 +223,8 @@ class MoveInstance:
     cut: bool = field(default=False, compare=False)     # it can start after an interruption
     start: tuple = field(default=(), compare=False)     # per channel where it starts: an N, None (no
                                                         # target yet) or a Reach (after an interruption)
+    first: tuple = field(default=(), compare=False)     # per channel its N in the move's first frame (as
+                                                        # `start`; an N wherever the start is known)
 
 
 @dataclass(frozen=True)

@@ -49,6 +49,7 @@ from dataclasses import dataclass
 
 FRAME_ROUTINE = "frame_io"      # LCALL of it: a frame starts (the cut point)
 FRAME_REACHING = {"run_list"}   # calls that always reach a frame before they return
+WRITTEN = ("", True)            # a path's fact: it wrote the flag byte whole (a record read)
 FRAME_FLAG = "FRAMED"           # set by frame_io; a loop clears it at the top of a pass and
                                 # tests it at the end (`JB FRAMED`): a pass that took no frame waits for one
 
@@ -193,13 +194,13 @@ class Code:
         if ins.op in _CALLS:
             name = ins.args[0]
             if name == FRAME_ROUTINE:
-                return {"frame": c}
+                return {("frame", known if WRITTEN in known else None): c}
             callee = self.walk(self.target(ins), clear, known)
+            out = {key: c + v for key, v in callee.items() if key[0] == "frame"}
             if name in FRAME_REACHING:
-                return {"frame": c + callee["frame"]}
-            out = {"frame": c + callee["frame"]} if "frame" in callee else {}
+                return out
             for key, v in callee.items():
-                if key != "frame":
+                if key[0] == "ret":
                     out = _merge(out, _plus(self.walk(nxt, key[1], key[2]), c + v))
             return out
         if ins.op in ("RET", "RETI"):
@@ -210,7 +211,7 @@ class Code:
             jump = self.instrs[nxt]
             if jump.op != "LJMP":
                 raise WcetError(f"line {ins.line}: `MOV SP` between frames must be followed by an LJMP")
-            return {"frame": c + jump.cycles + self.resume(self.target(jump))}
+            return {("frame", tag): c + jump.cycles + v for tag, v in self.resume(self.target(jump)).items()}
         if ins.op == "JMP":
             raise WcetError(f"line {ins.line}: an indirect jump between frames")
         if ins.op in _JUMPS:
@@ -236,7 +237,7 @@ class Code:
                 return _plus(self.walk(nxt, clear, rest | {(bit, ins.op == "SETB")}), c)
             known = rest           # any other write (JBC, CPL, MOV bit,C): its value unknown
         elif ins.args and ins.args[0] == self.flag_byte:
-            known = frozenset()    # the byte written whole
+            known = frozenset({WRITTEN})    # the byte written whole (a record read)
         if ins.op == "DJNZ" and ins.args[-1] == ".":
             prev = self.instrs[ins.index - 1]
             if not (prev.op == "MOV" and prev.args[0] == ins.args[0] and prev.args[1].startswith("#")):
@@ -247,19 +248,21 @@ class Code:
             return _plus(_merge(self.walk(nxt, clear, known), self.walk(self.target(ins), clear, known)), c)
         return _plus(self.walk(nxt, clear, known), c)
 
-    def resume(self, i: int, clear: bool = False, known: frozenset = frozenset()) -> int:
+    def resume(self, i: int, clear: bool = False, known: frozenset = frozenset()) -> dict:
         """Longest cycles from instruction i to the next frame, going on behind the callers
-        of the routine i is in when it returns."""
+        of the routine i is in when it returns: by what the path learned of the flag byte when it
+        wrote it (`between_frames`; None: it did not)."""
         r = self.walk(i, clear, known)
-        best = r.get("frame", 0)
+        best = {key[1]: v for key, v in r.items() if key[0] == "frame"}
         for key, v in r.items():
-            if key == "frame":
+            if key[0] != "ret":
                 continue
             entry = self.routine_of(i)
             if entry is None:
                 raise WcetError(f"a RET at {self.label_at(i)} outside any routine")
             # a routine nobody calls (the record runner of a program without moves) never returns
-            best = max([best] + [v + self.resume(s + 1, key[1], key[2]) for s in self.call_sites(entry)])
+            for s in self.call_sites(entry):
+                best = _merge(best, _plus(self.resume(s + 1, key[1], key[2]), v))
         return best
 
     def longest(self, start: str, stops: set[str]) -> int:
@@ -286,7 +289,7 @@ class Code:
             if ins.op in ("RET", "RETI"):
                 out = c
             elif ins.op in _CALLS:
-                rets = [v for k, v in self.walk(self.target(ins)).items() if k != "frame"]
+                rets = [v for k, v in self.walk(self.target(ins)).items() if k[0] == "ret"]
                 if not rets:
                     raise WcetError(f"line {ins.line}: a call that does not return")
                 out = c + max(rets) + go(i + 1)
@@ -366,13 +369,25 @@ class Code:
 
     def between_frames(self) -> tuple[int, int]:
         """(cycles, resume instruction) of the longest path from any frame to the next."""
+        return max((max(by.values(), default=0), i) for i, by in self._from_frames().items())
+
+    def by_record(self) -> dict:
+        """The longest path from any frame to the next by what it learned of the flag byte: None for
+        the paths that do not write it, else the (bit, value) it knows at the frame (with WRITTEN)."""
+        out: dict = {}
+        for by in self._from_frames().values():
+            out = _merge(out, by)
+        return out
+
+    def _from_frames(self) -> dict[int, dict]:
         resumes = [ins.index + 1 for ins in self.instrs if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE]
         if not resumes:
             raise WcetError("the code never calls frame_io")
         limit = sys.getrecursionlimit()
-        sys.setrecursionlimit(max(limit, 8 * len(self.instrs) + 1000))   # a path visits each instruction once in each FRAMED state
+        # a path visits each instruction once in each state (FRAMED, the flag bits it knows)
+        sys.setrecursionlimit(max(limit, 32 * len(self.instrs) + 1000))
         try:
-            return max((self.resume(i), i) for i in resumes)
+            return {i: self.resume(i) for i in resumes}
         finally:
             sys.setrecursionlimit(limit)
 

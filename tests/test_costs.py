@@ -51,6 +51,12 @@ ADVERSARIAL = {
     # 15 N apart: 120 cycles at 12 MHz (entries of their own), 110 or 111 at 11.0592 MHz (some steps)
     "split-8": servos(8) + all_at("a", 8, lambda i: 15 * i) + all_at("b", 8, lambda i: 250 - 15 * i)
     + "main { loop { move b in {1P}us; move a in {1P}us } }\n",
+    # a move whose F is found at run time starts where every line is an entry of its own (15 N apart)
+    # in an order on which every comparator of the sort swaps: the longest work with the worst frame
+    "start-8": servos(8, "") + all_at("perm", 8, lambda i: 20 + 15 * (7, 4, 5, 1, 6, 2, 3, 0)[i])
+    + all_at("lo", 8, lambda i: 3 * i) + all_at("far", 8, lambda i: 245 - i)
+    + "sequence go { move far }\nmain { move perm in {1P}us; loop { play go; move lo in 700ms; play go; "
+    + "move perm in 600ms } }\n",
     "nesting": servos(4) + all_at("a", 4, lambda i: 1 + i) + all_at("b", 4, lambda i: 200 + i)
     + "sequence s { repeat 2 { repeat 2 { move a in {1P}us; move b in {1P}us } } }\n"
     + "sequence t { repeat 3 { play s } }\n"
@@ -117,7 +123,9 @@ def test_adversarial_programs_verify_at_their_reported_minimum(name):
                                        ("spread-24", "target stc89c52rc clock 11.0592MHz mode 6T"),
                                        ("split-8", "target stc89c52rc clock 11.0592MHz"),
                                        ("steps-8", "target stc89c52rc clock 11.0592MHz"),
-                                       ("deep-24", "target stc89c52rc clock 11.0592MHz")])
+                                       ("deep-24", "target stc89c52rc clock 11.0592MHz"),
+                                       ("runtime-f", "target stc89c52rc clock 11.0592MHz"),
+                                       ("start-8", "target stc89c52rc clock 11.0592MHz")])
 def test_adversarial_programs_at_other_clocks_verify_at_their_reported_minimum(name, line):
     """At other clocks every figure of the budget is in machine cycles and C(N) comes from a table
     (the handler's rise entry is longest there); down to the lowest clock, 10.5 MHz."""
