@@ -231,6 +231,32 @@ def test_generated_programs_verify_at_their_reported_minimum(template):
     assert report.ok and report.max_error_cycles == 0, (period, report.summary(), [str(m) for m in report.mismatches[:5]])
 
 
+@st.composite
+def runtime_f_programs(draw):
+    """One port at 11.0592 MHz, where the work between frames sets the period: a move whose F is
+    found at run time, entered from two poses, between random poses in any order."""
+    n = draw(st.integers(7, 8))
+    far = [draw(st.integers(0, 250)) for _ in range(n)]
+    hi = [min(250, max(0, v + draw(st.integers(-150, 150)))) for v in far]
+    lo = [draw(st.integers(0, 250)) for _ in range(n)]
+    return ("target stc89c52rc clock 11.0592MHz\n" + servos(n, "") + all_at("hi", n, hi.__getitem__)
+            + all_at("lo", n, lo.__getitem__) + all_at("far", n, far.__getitem__)
+            + "sequence go { move far }\nmain { move hi in {1P}us; loop { play go; move lo in 700ms; play go; "
+            + "move hi in 400ms } }\n")
+
+
+@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(runtime_f_programs())
+def test_run_time_f_programs_at_11_0592_mhz_verify_at_their_reported_minimum(template):
+    """Each move's first frame is paired with the frame before it, the work of a record with F found
+    at run time with that record's own (costs.py): every pulse exact at the minimum that gives."""
+    period = own_minimum(template)
+    built = build_text(at_period(template, period))
+    assert built.firmware.unit.budget.start_frame is not None
+    report = built.verify(sum(m.frames for m in built.plan.moves) + 2)     # every move once
+    assert report.ok and report.max_error_cycles == 0, (period, report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
 def test_the_rise_entry_ends_before_the_earliest_fall():
     """At a port's rise the handler writes the port's edge list; it must return before the first
     fall (N = 0: C(0) cycles later), at the lowest clock too (10.5 MHz: 438 cycles)."""
