@@ -10,9 +10,9 @@ from hypothesis import given, settings, strategies as st
 
 from conftest import front_end_text
 from servoc import costs, target as target_mod
-from servoc.flow import port_motions
+from servoc.flow import move_starts, port_motions
 from servoc.plan import ease_table, expand, firmware_value
-from servoc.steps import Reach
+from servoc.steps import MoveStep, Reach, steps
 
 T12 = target_mod.DEFAULT
 SPLIT = costs.SPLIT
@@ -163,3 +163,44 @@ def test_past_the_sweep_budget_the_rest_get_their_hull():
     alone = max(costs.port_load(T12, frozenset({p})).falls for p in paths)
     together = costs.port_load(T12, frozenset(paths)).falls
     assert alone <= together <= 8 * (SPLIT - 1)
+
+
+STARTS = {
+    "run-time F, eased": "servo x = P1.0\nservo y = P1.1\nservo z = P1.5\npose a { x: 10, y: 200, z: 100 }\n"
+    + "pose b { x: 100, z: 110 }\npose c { y: 30, x: 40 }\nsequence go { move b }\n"
+    + "main { move a in 100ms; repeat 2 { play go; hold 40ms; move c in 90ms ease out; play go; move a in 300ms } }\n",
+    "home, stagger": "servo x = P1.0\nservo y = P1.1\nservo z = P1.5\npose rest { x: 10, y: 200, z: 100 }\n"
+    + "home rest\nstagger 40ms\npose p { x: 100, z: 110 }\npose q { y: 30 }\n"
+    + "main { repeat 2 { move p in 150ms; move q in 90ms ease in } }\n",
+}
+
+
+@pytest.mark.parametrize("name", sorted(STARTS))
+def test_every_move_start_is_among_the_pairs(name):
+    """Each frame a move statement makes after a frame of another statement is that move's first
+    frame: the pair (the frame before, it) is one move_starts gives, with the move's kind."""
+    fe, diags = front_end_text(STARTS[name])
+    plan = fe.plan
+    assert plan is not None, diags
+    starts = move_starts(plan)
+    port = plan.ports[0]
+    pairs = {(b, f) for b, f, _, _ in starts[port]}
+    moves = {st.span for st in steps(plan) if isinstance(st, MoveStep)}
+    frames = [f for _, f in zip(range(2000), expand(plan))]
+    seen = 0
+    for a, b in zip([None] + frames, frames):
+        if b.span in moves and (a is None or a.span != b.span):
+            before = a.n if a is not None else (None,) * len(plan.channels)
+            assert (before, b.n) in pairs, (before, b.n)
+            seen += 1
+    assert seen >= 5
+    if "eased" in name:     # the kinds: `move b` with its F found at run time, `move c` eased
+        assert {(e, r) for _, _, e, r in starts[port]} >= {(False, True), (True, False)}
+    else:                   # the power-up switches the servos on one at a time, each a frame of its own
+        partial = [b for b, _ in pairs if None in b and any(v is not None for v in b)]
+        assert len(partial) == 2, pairs
+
+
+def test_a_move_that_can_start_after_an_interruption_has_no_pairs():
+    fe, diags = front_end_text(PROGRAMS["three ports, a meanwhile cut"])
+    assert None in move_starts(fe.plan).values()
