@@ -584,7 +584,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
 
             def work_of(eased: bool, runtime_f: bool) -> int:    # the paths a record of this kind can take
                 return max((v for tag, v in moving.items()
-                            if ("EASED", not eased) not in tag and ("NODUR", not runtime_f) not in tag), default=0)
+                            if ("EASED", not eased) not in tag and ("NODUR", not runtime_f) not in tag), default=work)
 
             paired = {"start_frame": max(work_of(e, r) + fs[0] - _unswapped(code, lines[0], sw) + falls
                                          for falls, sw, e, r in starts),

@@ -134,7 +134,8 @@ class Code:
         self._call_targets = sorted({self.labels[i.args[0]] for i in self.instrs
                                      if i.op in _CALLS and i.args[0] in self.labels}
                                     | ({self.labels["main"]} if "main" in self.labels else set()))
-        self._walk_memo: dict[int, dict[str, int]] = {}
+        self._walk_memo: dict[tuple, dict] = {}
+        self._frames: dict[int, dict] | None = None
         self._on_path: set[int] = set()
 
     # ---------------------------------------------------------------- helpers
@@ -380,6 +381,12 @@ class Code:
         return out
 
     def _from_frames(self) -> dict[int, dict]:
+        """Per resume point (behind an LCALL frame_io), its longest paths to the next frame by tag."""
+        if self._frames is None:
+            self._frames = self._walk_frames()
+        return self._frames
+
+    def _walk_frames(self) -> dict[int, dict]:
         resumes = [ins.index + 1 for ins in self.instrs if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE]
         if not resumes:
             raise WcetError("the code never calls frame_io")
