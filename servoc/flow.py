@@ -313,14 +313,24 @@ def port_motions(plan: Plan) -> dict[int, frozenset]:
             if any(ls):
                 out[port].add(tuple(ls))
 
-    on: dict[int, int] = {}
-    for st in plan.power_up:
-        if isinstance(st, MoveStep):
-            on.update(st.targets)
-            add((None,) * len(plan.channels), on)
+    for _, after, _ in _power_up(plan):
+        add(after, {})
     for inst in plan.moves:
         add(inst.start, dict(inst.step.targets))
     return {port: frozenset(ms) for port, ms in out.items()}
+
+
+def _power_up(plan: Plan) -> Iterator[tuple[tuple, tuple, MoveStep]]:
+    """The power-up's moves with the states they go from and to (per channel an N, or None: no
+    target yet): it switches the lines on from none, one move at a time."""
+    on: tuple = (None,) * len(plan.channels)
+    for st in plan.power_up:
+        if isinstance(st, MoveStep):
+            after = list(on)
+            for ch, n in st.targets:
+                after[ch] = n
+            yield on, tuple(after), st
+            on = tuple(after)
 
 
 def move_starts(plan: Plan) -> dict[int, frozenset | None]:
@@ -342,14 +352,8 @@ def move_starts(plan: Plan) -> dict[int, frozenset | None]:
                 out[port] = None
 
     power = {id(st) for st in plan.power_up}
-    on: tuple = (None,) * len(plan.channels)
-    for st in plan.power_up:
-        if isinstance(st, MoveStep):
-            after = list(on)
-            for ch, n in st.targets:
-                after[ch] = n
-            add(on, tuple(after), st)
-            on = tuple(after)
+    for before, after, st in _power_up(plan):
+        add(before, after, st)
     for inst in plan.moves:
         if id(inst.step) not in power:
             add(inst.start, inst.first, inst.step)
