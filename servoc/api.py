@@ -117,7 +117,7 @@ def choose_period(program, first: Plan) -> Plan:
             return result
         seen.add(result.period_us)
         period = max(want, result.period_us) if len(seen) > 4 else want
-        result = _budgeted(_plan.plan(program, None, period))
+        result = _budgeted(dataclasses.replace(_plan.plan(program, None, period), compact=first.compact))
 
 
 def _budgeted(p: Plan) -> Plan:
@@ -221,15 +221,27 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
                     startup)
 
 
-def build(source: SourceFile, reporter: Reporter) -> tuple[FrontEnd, Firmware | None]:
-    """The whole compile: front end, then code generation and assembly if there were no errors."""
+def build(source: SourceFile, reporter: Reporter, for_size: bool = False) -> tuple[FrontEnd, Firmware | None]:
+    """The whole compile: front end, then code generation and assembly if there were no errors.
+    The firmware is built for speed; when that does not fit the chip's code memory (or with
+    `for_size`), for size (`Plan.compact`), at the period that code holds: the front end's plan
+    is then that one."""
     fe = front_end(source, reporter)
     if fe.plan is None or reporter.has_errors:
         return fe, None
+    if not for_size:
+        unit = generate(fe.plan, source, reporter)
+        if unit is None:
+            return fe, None
+        trial = Reporter(source)
+        firmware = assemble(unit, trial)
+        if firmware is not None or [d.code for d in trial.diagnostics] != ["rom-overflow"]:
+            for d in trial.diagnostics:
+                reporter.report(d)
+            return fe, firmware
+    fe = dataclasses.replace(fe, plan=choose_period(fe.plan.program, dataclasses.replace(fe.plan, compact=True)))
     unit = generate(fe.plan, source, reporter)
-    if unit is None:
-        return fe, None
-    return fe, assemble(unit, reporter)
+    return fe, None if unit is None else assemble(unit, reporter)
 
 
 @dataclass(frozen=True)

@@ -182,6 +182,8 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
     def flush() -> None:
         known.clear()
         if run:
+            if ctx.plan.compact:
+                run[:] = layout.share_headers(run)
             label = f"list{len(ctx.lists) + 1}"
             ctx.lists.append({"label": label, "records": list(run), "where": run[0]["where"]})
             ctx.records.extend(run)
@@ -366,6 +368,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     ram.alloc("TMPD", 1, "scratch: |delta|")
     ram.alloc("TMPL", 1, "scratch")
     ram.alloc("LPTR", 2, "the record list being run: the next record")
+    more = any(r.get("more") for r in ctx.records)
+    if more:
+        ram.alloc("MOREC", 1, "records left that share the flags and F of the one before")
     watch = _select_ram(ctx, ram)
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
@@ -418,7 +423,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
-                  state_base=layout.STATE_BASE, stack_base=stack_base, s=s,
+                  state_base=layout.STATE_BASE, state_bytes=layout.STATE_BYTES, stack_base=stack_base, s=s,
+                  compact=plan.compact, more=more, more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   looks=ctx.looks, watch=watch, fcall="frame_w" if watch else "frame_io",
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
@@ -511,6 +517,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         nxt = plan.ports[0 if last else k + 1]
         rise = costs.rise_offsets(plan.ports, target)
         ports.append({"port": port, "pins": _port_pins(plan, port), "win": f"win_p{port}", "last": last,
+                      "cur0": layout.CUR_BASE + 8 * port, "state0": layout.STATE_BASE + layout.STATE_BYTES * 8 * port,
                       "next_port": nxt, "next_win": f"win_p{nxt}", "rise": rise[port],
                       "rnext": (period_cycles if last else rise[nxt]) - rise[port]})
         ports[-1]["s"] = len(ports[-1]["pins"])

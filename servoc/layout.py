@@ -217,6 +217,39 @@ def move_record(frames: int | None, ease_label: str | None, targets: dict[int, i
     return flags, [hex8(flags)] + data
 
 
+MORE_BIT = 2        # FLAGS.2 of a move record built for size (LASTF's bit once the move runs): a
+                    # count follows the flags byte, of the records after it that share its flags and F
+MORE_MOST = 255     # records a count can name
+
+
+def share_headers(records: list[dict]) -> list[dict]:
+    """The records of one list built for size: each run of move records with the same flags and F
+    (F given, not found at run time) is written as the first, with MORE set and the count of the
+    others right behind its flags byte, then the others without their flags and F."""
+    def head(r: dict) -> int:      # the flags byte and F
+        return 0 if r["flags"] & FLAG["HOLDF"] or r["flags"] & FLAG["NODUR"] else \
+            2 if r["flags"] & FLAG["F8"] else 3
+    out: list[dict] = []
+    i = 0
+    while i < len(records):
+        h = head(records[i])
+        j = i + 1
+        while (h and j < len(records) and j - i <= MORE_MOST and head(records[j]) == h
+               and records[j]["data"][:h] == records[i]["data"][:h]):
+            j += 1
+        if j - i == 1:
+            out.append(records[i])
+        else:
+            first = records[i]
+            data = [hex8(first["flags"] | 1 << MORE_BIT), str(j - i - 1)] + first["data"][1:]
+            out.append({**first, "data": data, "more": True,
+                        "notes": first["notes"] + [f"its flags and F also the {j - i - 1} after it's"]})
+            out += [{**r, "data": r["data"][h:], "notes": r["notes"] + ["flags and F as the record before"]}
+                    for r in records[i + 1:j]]
+        i = j
+    return out
+
+
 def hold_record(frames: int) -> tuple[int, list[str]]:
     f8, fb = frames_bytes(frames)
     flags = FLAG["HOLDF"] | f8

@@ -247,6 +247,8 @@ class Plan:
     power_up: tuple = ()                    # the steps that make the power-up (the first of `main`)
     firmware_limit: tuple | None = None     # (code, message, help) of the resource limit the code generated
                                             # for this plan hits (layout.LayoutError), found without assembling
+    compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
+                                            # does not fit the code memory): loops where the fast one is unrolled
 
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)

@@ -17,7 +17,9 @@ every call of that routine. Conditional branches count both ways (so a move
 record is charged as if it named every servo and every pin carried). Code
 that loops without reaching a frame is an error, not a guess: the only
 backward branches allowed are counted pad loops (`MOV Rn,#k` then `DJNZ
-Rn,.`) and paths that pass a frame.
+Rn,.`), counted loops (`MOV Rn,#k` right before the label `L` of a later
+`DJNZ Rn,L`: k passes of the longest pass, none of which may take a frame,
+write Rn, or write the flag byte or its bits) and paths that pass a frame.
 
 A flag is followed along each path: FRAMED, which frame_io sets. A `loop`
 whose pass can take no frame clears it at the top of each pass and, at the
@@ -137,6 +139,15 @@ class Code:
         self._walk_memo: dict[tuple, dict] = {}
         self._frames: dict[int, dict] | None = None
         self._on_path: set[int] = set()
+        # counted loops: the head (the instruction after `MOV Rn,#k`) -> its `DJNZ Rn,head`
+        self._loops: dict[int, int] = {}
+        for ins in self.instrs:
+            if ins.op == "DJNZ" and ins.args[-1] != "." and ins.args[-1] in self.labels:
+                head = self.labels[ins.args[-1]]
+                prev = self.instrs[head - 1] if head else None
+                if head <= ins.index and prev is not None and prev.op == "MOV" and prev.args[0] == ins.args[0] \
+                        and prev.args[1].startswith("#"):
+                    self._loops[head] = ins.index
 
     # ---------------------------------------------------------------- helpers
 
@@ -239,6 +250,11 @@ class Code:
             known = rest           # any other write (JBC, CPL, MOV bit,C): its value unknown
         elif ins.args and ins.args[0] == self.flag_byte:
             known = frozenset({WRITTEN})    # the byte written whole (a record read)
+        if nxt in self._loops and ins.op == "MOV" and ins.args[1].startswith("#") \
+                and ins.args[0] == self.instrs[self._loops[nxt]].args[0]:
+            end = self._loops[nxt]
+            k = int(ins.args[1][1:], 0) or 256
+            return _plus(self.walk(end + 1, clear, known), c + k * self.one_pass(nxt, end))
         if ins.op == "DJNZ" and ins.args[-1] == ".":
             prev = self.instrs[ins.index - 1]
             if not (prev.op == "MOV" and prev.args[0] == ins.args[0] and prev.args[1].startswith("#")):
@@ -266,17 +282,52 @@ class Code:
                 best = _merge(best, _plus(self.resume(s + 1, key[1], key[2]), v))
         return best
 
+    def one_pass(self, head: int, end: int) -> int:
+        """The longest pass of the counted loop from `head` to its `DJNZ` at `end` (included): no
+        frame in it, and neither its counter nor the flag byte or its bits written on the way."""
+        counter = self.instrs[end].args[0]
+        seen: set[int] = set()
+        work = [head]
+        while work:
+            i = work.pop()
+            if i in seen or i == end:
+                continue
+            seen.add(i)
+            if i >= len(self.instrs):
+                raise WcetError("a path runs off the end of the code")
+            ins = self.instrs[i]
+            if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE:
+                raise WcetError(f"line {ins.line}: a frame inside the counted loop at line {self.instrs[head].line}")
+            if ins.args and (ins.args[0] in (counter, self.flag_byte, FRAME_FLAG) or ins.args[0] in self.flag_bits
+                             or (ins.op == "XCH" and ins.args[-1] == counter)) \
+                    and not ins.op.startswith("J") and ins.op != "CJNE":
+                raise WcetError(f"line {ins.line}: `{ins.op} {', '.join(ins.args)}` inside the counted loop at "
+                                f"line {self.instrs[head].line}")
+            if ins.op in ("RET", "RETI"):
+                continue
+            if ins.op in _CALLS:
+                work += [self.target(ins), i + 1]
+            elif ins.op in _JUMPS:
+                work.append(self.target(ins))
+            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
+                work += [i + 1, self.target(ins)]
+            else:
+                work.append(i + 1)
+        return self._longest(head, {end}) + self.instrs[end].cycles
+
     def longest(self, start: str, stops: set[str]) -> int:
         """Longest cycles from label `start` until a label in `stops` is reached (its instruction
         not counted) or the routine returns (its RET or RETI counted)."""
         if start not in self.labels:
             raise WcetError(f"no label `{start}`")
-        stop_at = {self.labels[s] for s in stops if s in self.labels}
+        return self._longest(self.labels[start], {self.labels[s] for s in stops if s in self.labels})
+
+    def _longest(self, first: int, stop_at: set[int]) -> int:
         memo: dict[int, int] = {}
         on_path: set[int] = set()
 
         def go(i: int) -> int:
-            if i in stop_at and i != self.labels[start]:
+            if i in stop_at and i != first:
                 return 0
             if i in memo:
                 return memo[i]
@@ -307,7 +358,7 @@ class Code:
             return out
 
         try:
-            return go(self.labels[start])
+            return go(first)
         finally:
             del go      # it calls itself through its closure: no cycle is left for the collector
 

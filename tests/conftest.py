@@ -31,21 +31,21 @@ class Built:
         return api.verify(self.plan, self.firmware, frames)
 
 
-def compile_file(path: str) -> tuple[Built | None, api.FrontEnd, list]:
-    """Compile one .servo file: (Built or None, front end, diagnostics)."""
+def compile_file(path: str, for_size: bool = False) -> tuple[Built | None, api.FrontEnd, list]:
+    """Compile one .servo file: (Built or None, front end, diagnostics); `for_size`: built for size."""
     source, reporter = api.load_source(path)
-    fe, fw = api.build(source, reporter)
+    fe, fw = api.build(source, reporter, for_size)
     built = None if fw is None else Built(source, fe.plan, fw, tuple(reporter.diagnostics))
     return built, fe, reporter.diagnostics
 
 
-def build_text(text: str, name: str = "prog.servo") -> Built:
+def build_text(text: str, name: str = "prog.servo", for_size: bool = False) -> Built:
     """Compile .servo text written to a temporary file; fails the test on any error."""
     with tempfile.TemporaryDirectory(prefix="servoc-test-") as tmp:
         path = os.path.join(tmp, name)
         with open(path, "w", encoding="utf-8") as f:
             f.write(text)
-        built, _, diags = compile_file(path)
+        built, _, diags = compile_file(path, for_size)
         source = api.load_source(path)[0]
     errors = [render_short(d, source) for d in diags if d.is_error]
     assert built is not None and not errors, "compile failed:\n" + "\n".join(errors) + "\n--- source:\n" + text
