@@ -119,6 +119,7 @@ class _Ctx:
     edge_ports: tuple = ()           # ports with an input some `on press`/`on release` watches
     looks: list = field(default_factory=list)         # every select's op, for its look routine
     watches: int = 0                 # selects with a meanwhile body so far (their ids: 1, 2, ...)
+    repeats: bool = False            # a `repeat` is laid out (it counts its passes with rep_next)
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -237,6 +238,7 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
         flush()
         if isinstance(st, RepeatStep):
             lab = ctx.label("rep")
+            ctx.repeats = True
             out.append({"op": "repeat", "label": lab, "count": st.count, "where": where})
             _ops(ctx, st.body, out)
             out.append({"op": "repeat_end", "label": lab, "where": where})
@@ -424,7 +426,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
                   state_base=layout.STATE_BASE, state_bytes=layout.STATE_BYTES, stack_base=stack_base, s=s,
-                  compact=plan.compact, more=more, more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
+                  compact=plan.compact, more=more, repeats=ctx.repeats or not plan.compact,
+                  eased=bool(ease_tables) or not plan.compact,
+                  holds=any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records) or not plan.compact, more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   looks=ctx.looks, watch=watch, fcall="frame_w" if watch else "frame_io",
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
@@ -521,6 +525,8 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
                       "next_port": nxt, "next_win": f"win_p{nxt}", "rise": rise[port],
                       "rnext": (period_cycles if last else rise[nxt]) - rise[port]})
         ports[-1]["s"] = len(ports[-1]["pins"])
+        # built for size, a port whose servos are its pins 0, 1, ... loads its pairs in a loop
+        ports[-1]["looped"] = plan.compact and [pin["bit"] for pin in ports[-1]["pins"]] == list(range(ports[-1]["s"]))
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
         ports[-1]["rest_add"] = (costs.STOP - ports[-1]["rnext"]) % 0x10000   # no fall: straight to the next rise
     most = max((p["s"] for p in ports), default=1)
@@ -553,6 +559,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "later": list(range(1, most)),
         "sled": costs.SLED, "fall_off": costs.SLED, "exit_off": costs.SLED + 7,
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
+        "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "ctime": "\n".join("        " + line for line in ctime),
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
