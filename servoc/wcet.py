@@ -250,10 +250,9 @@ class Code:
             known = rest           # any other write (JBC, CPL, MOV bit,C): its value unknown
         elif ins.args and ins.args[0] == self.flag_byte:
             known = frozenset({WRITTEN})    # the byte written whole (a record read)
-        if nxt in self._loops and ins.op == "MOV" and ins.args[1].startswith("#") \
-                and ins.args[0] == self.instrs[self._loops[nxt]].args[0]:
-            end = self._loops[nxt]
-            k = int(ins.args[1][1:], 0) or 256
+        loop = self._counted(ins)
+        if loop:
+            end, k = loop
             return _plus(self.walk(end + 1, clear, known), c + k * self.one_pass(nxt, end))
         if ins.op == "DJNZ" and ins.args[-1] == ".":
             prev = self.instrs[ins.index - 1]
@@ -281,6 +280,13 @@ class Code:
             for s in self.call_sites(entry):
                 best = _merge(best, _plus(self.resume(s + 1, key[1], key[2]), v))
         return best
+
+    def _counted(self, ins: Instr) -> tuple[int, int] | None:
+        """(its DJNZ, k) when `ins` is the `MOV Rn,#k` that starts a counted loop."""
+        end = self._loops.get(ins.index + 1)
+        if end is None or ins.op != "MOV" or not ins.args[1].startswith("#") or ins.args[0] != self.instrs[end].args[0]:
+            return None
+        return end, int(ins.args[1][1:], 0) or 256
 
     def one_pass(self, head: int, end: int) -> int:
         """The longest pass of the counted loop from `head` to its `DJNZ` at `end` (included): no
@@ -338,7 +344,11 @@ class Code:
             on_path.add(i)
             ins = self.instrs[i]
             c = ins.cycles
-            if ins.op in ("RET", "RETI"):
+            loop = self._counted(ins)
+            if loop:
+                end, k = loop
+                out = c + k * self.one_pass(i + 1, end) + go(end + 1)
+            elif ins.op in ("RET", "RETI"):
                 out = c
             elif ins.op in _CALLS:
                 rets = [v for k, v in self.walk(self.target(ins)).items() if k[0] == "ret"]

@@ -87,6 +87,26 @@ def test_counted_pad_loops_are_bounded():
     assert wcet.Code(padded).between_frames()[0] == 16 - 1 + 1 + 10
 
 
+def test_counted_loops_take_k_passes_of_the_longest_pass():
+    """`MOV Rn,#k` right before the loop's label, `DJNZ Rn,label` at its end: k passes, each as
+    long as the costlier way through it (calls followed)."""
+    looped = SMALL.replace("work:   NOP", "work:   MOV     R3, #6\nwl:     JZ      wn\n        MUL     AB\n"
+                                          "wn:     LCALL   leaf\n        DJNZ    R3, wl")
+    looped += "leaf:   NOP\n        RET\n"
+    # MOV 1 + 6 x (JZ 2 + MUL 4 + LCALL 2 + NOP 1 + RET 2 + DJNZ 2) instead of NOP 1
+    assert wcet.Code(looped).between_frames()[0] == 16 - 1 + 1 + 6 * 13
+    assert wcet.Code(looped).longest("work", set()) == 1 + 6 * 13 + 2
+
+
+@pytest.mark.parametrize("inside,what", [("MOV     R3, A", "R3"), ("LCALL   frame_io", "a frame inside"),
+                                         ("CLR     KIND", "KIND"), ("MOV     FLAGS, A", "FLAGS")])
+def test_a_counted_loop_that_could_run_on_is_an_error(inside, what):
+    """Its counter written in a pass, a frame in it, or the record's flags written: not bounded."""
+    looped = SMALL.replace("work:   NOP", f"work:   MOV     R3, #6\nwl:     NOP\n        {inside}\n        DJNZ    R3, wl")
+    with pytest.raises(wcet.WcetError, match=what):
+        wcet.Code(looped, "FLAGS", frozenset({"KIND"})).between_frames()
+
+
 def test_generated_code_budget_names_its_start():
     from servoc.api import plan as make_plan
     from conftest import front_end_text

@@ -1,0 +1,110 @@
+"""Firmware built for size (`Plan.compact`): what `servoc compile` builds when the fast build does
+not fit the chip's code memory. The motion code runs in per-port loops, the pairs are loaded
+and merged in loops (the sort stays unrolled), runs of move records share one flags byte and F,
+and the runtime leaves out what the program does not use. Its period is read from its own code
+like any other's: every program here verifies in ucsim, to the cycle, at the minimum it reports.
+"""
+
+import dataclasses
+import sys
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+
+from conftest import build_text, front_end_text
+from servoc import api, layout
+from test_costs import ADVERSARIAL, at_period, programs
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+import suite  # noqa: E402  the benchmark's random 24-servo keyframe programs
+
+
+def _min_for_size(template: str, period: int) -> int:
+    fe, diags = front_end_text(at_period(template, period))
+    assert fe.plan is not None, diags
+    return api.choose_period(fe.plan.program, dataclasses.replace(fe.plan, compact=True)).min_period_us
+
+
+def own_minimum_for_size(template: str, start: int = 20000) -> int:
+    """The period P with P >= the minimum the code built for size reports at P (F depends on P)."""
+    period = start
+    for _ in range(6):
+        least = _min_for_size(template, period)
+        if least == period:
+            return period
+        period = least
+    return max(period, _min_for_size(template, period))
+
+
+def _verify_for_size(template: str, frames: int, start: int = 20000):
+    period = own_minimum_for_size(template, start)
+    built = build_text(at_period(template, period), for_size=True)
+    assert built.plan.compact and built.plan.period_us == built.plan.min_period_us == period
+    report = built.verify(frames)
+    assert report.ok and report.max_error_cycles == 0, (period, report.summary(),
+                                                        [str(m) for m in report.mismatches[:5]])
+    assert _min_for_size(template, period - 1) > period - 1
+    return built
+
+
+@pytest.mark.parametrize("name,line", [("carry-24", ""), ("eased", ""), ("runtime-f", ""), ("deep-24", ""),
+                                       ("start-8", ""), ("zero-frame", ""),
+                                       ("spread-24", "target stc89c52rc clock 11.0592MHz"),
+                                       ("runtime-f", "target stc89c52rc clock 11.0592MHz"),
+                                       ("eased", "target stc89c52rc clock 11.0592MHz mode 6T")])
+def test_adversarial_programs_built_for_size_verify_at_their_reported_minimum(name, line):
+    template = (line + "\n" if line else "") + ADVERSARIAL[name]
+    built = _verify_for_size(template, 120, 9000 if "6T" in line else 20000)
+    text = built.firmware.unit.text
+    assert "LCALL   step_port" in text and "sort" in text
+    # the sort stays unrolled: no backward branch in it
+    sort = text[text.index("\nsort"):text.index("RET", text.index("\nsort"))]
+    assert "DJNZ" not in sort and "SJMP" not in sort
+
+
+@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(programs())
+def test_generated_programs_built_for_size_verify_at_their_reported_minimum(template):
+    _verify_for_size(template, 100)
+
+
+def test_records_with_the_same_flags_and_f_share_them():
+    def move(f: int, n: int, eased: bool = False) -> dict:
+        flags, data = layout.move_record(f, "etab1" if eased else None, {0: n, 1: n}, None)
+        return {"flags": flags, "data": data, "notes": []}
+
+    def hold(f: int) -> dict:
+        flags, data = layout.hold_record(f)
+        return {"flags": flags, "data": data, "notes": []}
+
+    runtime_f = {"flags": layout.move_record(None, None, {0: 1}, [1])[0],
+                 "data": layout.move_record(None, None, {0: 1}, [1])[1], "notes": []}
+    records = [move(5, 1), move(5, 2), move(5, 3), move(300, 4), move(300, 5), hold(5), move(5, 6),
+               move(5, 7, True), runtime_f, runtime_f]
+    out = layout.share_headers(records)
+    assert [len(r["data"]) for r in out] == [5, 2, 2, 6, 2, 2, 4, 6, 3, 3]
+    more = 1 << layout.MORE_BIT
+    assert out[0]["data"][:2] == [layout.hex8(records[0]["flags"] | more), "2"]
+    assert out[1]["data"] == ["2", "2"] and out[2]["data"] == ["3", "3"]
+    assert out[3]["data"][:2] == [layout.hex8(records[3]["flags"] | more), "1"]
+    assert out[5] == records[5] and out[6] == records[6] and out[8:] == records[8:]   # each alone
+    # a count names at most 255 records
+    many = layout.share_headers([move(5, i % 250) for i in range(300)])
+    assert [r["data"][1] for r in many if r.get("more")] == ["255", "43"]
+    assert sum(len(r["data"]) for r in many) == 300 * 2 + 2 * 3
+
+
+def test_a_program_that_fits_is_built_for_speed():
+    built = build_text(suite.keyframe_source(20))
+    assert not built.plan.compact and "LCALL   step_port" not in built.firmware.unit.text
+
+
+def test_250_random_keyframes_fit_8_kb_built_for_size_and_verify():
+    """The benchmark's program: 24 servos, 250 random poses, each moved to in 1 s. Built for
+    speed it needs more than 8 KB; built for size it fits, and its first moves verify."""
+    built = build_text(suite.keyframe_source(250))
+    assert built.plan.compact and built.firmware.rom_bytes <= 8192
+    moves = built.plan.moves[:3]
+    report = built.verify(sum(m.frames for m in moves) + 3)
+    assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
