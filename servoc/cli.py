@@ -376,7 +376,7 @@ def _compile(args, run: _Run, source, plan: Plan, firmware) -> int:
         target = firmware.unit.target
         chip = target.chip
         print(f"{out}: {_plan_line(plan)}; ROM {firmware.rom_bytes}/{chip.code_bytes} bytes "
-              f"(start-up {firmware.startup_bytes}, runtime {firmware.runtime_bytes}, program "
+              f"{'built for size ' if plan.compact else ''}(start-up {firmware.startup_bytes}, runtime {firmware.runtime_bytes}, program "
               f"{firmware.program_bytes}, data {firmware.data_bytes}), "
               f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes}); "
               f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, "
@@ -707,7 +707,7 @@ def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> di
             "startup_bytes": firmware.startup_bytes,
             "runtime_bytes": firmware.runtime_bytes, "program_bytes": firmware.program_bytes,
             "data_bytes": firmware.data_bytes, "ram_bytes": firmware.unit.ram_bytes, "ram_size": chip.ram_bytes,
-            "stack_bytes": firmware.unit.stack_bytes}
+            "stack_bytes": firmware.unit.stack_bytes, "built_for_size": plan.compact}
 
 
 def verify_data(report, source, plan: Plan) -> dict:
