@@ -108,3 +108,47 @@ def test_250_random_keyframes_fit_8_kb_built_for_size_and_verify():
     moves = built.plan.moves[:3]
     report = built.verify(sum(m.frames for m in moves) + 3)
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
+def _big_serial_program(seed: int = 7) -> str:
+    """hexapod_serial.servo with 14 gait variants of 10 random 24-servo poses each, played once at
+    power-up and then on a byte each: too big for 8 KB built for speed."""
+    import random
+    rng = random.Random(seed)
+    text = (Path(__file__).resolve().parent.parent / "examples" / "hexapod_serial.servo").read_text()
+    head, main = text[:text.index("home rest")], text[text.index("home rest"):]
+    names = [line.split()[1] for line in head.splitlines() if line.startswith("servo ")]
+    poses, seqs = [], []
+    for v in range(14):
+        moves = []
+        for j in range(10):
+            poses.append(f"pose v{v}_{j} {{ " + ", ".join(f"{n}: {rng.randrange(80, 111)}deg" for n in names) + " }")
+            moves.append(f"  move v{v}_{j} in {rng.choice([400, 400, 500])}ms")
+        moves.append("  move stand in 500ms ease in-out")      # where the select's branches start from
+        seqs.append(f"sequence gait{v} {{\n" + "\n".join(moves) + "\n}")
+    main = main.replace('  send "R"\n', '  send "R"\n' + "".join(f"  play gait{v}\n" for v in range(3)))
+    ons = "".join(f'      on "{chr(ord("A") + v)}" {{ play gait{v}; send "{chr(ord("A") + v)}" }}\n' for v in range(14))
+    main = main.replace('      on other', ons + '      on other')
+    return head + "\n".join(poses) + "\n" + "\n".join(seqs) + "\n" + main
+
+
+def test_a_big_program_with_a_serial_line_and_selects_is_built_for_size_and_verifies():
+    """Built for speed it does not fit; built for size it does, at the 20 ms it asks for, and its
+    first moves (three gaits, runs of records sharing flags and F, eased ends) verify."""
+    from conftest import compile_file
+    import tempfile
+    import os
+    with tempfile.TemporaryDirectory() as tmp:
+        path = os.path.join(tmp, "big.servo")
+        Path(path).write_text(_big_serial_program())
+        built, fe, diags = compile_file(path)       # api.build: for size, as speed does not fit
+        assert built is not None, [d.message for d in diags if d.is_error]
+        source, reporter = api.load_source(path)
+        fast = api.front_end(source, reporter).plan
+        assert not fast.compact
+        assert api.assemble(api.generate(fast, source, reporter), reporter) is None    # built for speed: too big
+        assert [d.code for d in reporter.diagnostics if d.is_error] == ["rom-overflow"]
+    assert built.plan.compact and built.plan.period_us == 20000
+    assert "MOREC" in built.firmware.unit.text
+    report = built.verify(40 + 3 * 250 + 10)
+    assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
