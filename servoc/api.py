@@ -200,7 +200,9 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
     if not room.fits:
         bigger = [c.display for c in CHIPS.values() if c.code_bytes >= room.needed]
         reporter.error("rom-overflow",
-                       f"the firmware needs {room.needed} bytes of code memory, the {chip.display} has {chip.code_bytes}: "
+                       f"the firmware needs {room.needed} bytes of code memory"
+                       + (" even built for size" if unit.for_size else "")
+                       + f", the {chip.display} has {chip.code_bytes}: "
                        f"start-up {image.symbols['runtime_start']}, runtime {room.runtime}, program {room.program}, "
                        f"motion data {room.data} ("
                        + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")",

@@ -52,6 +52,7 @@ class AsmUnit:
     work_from: str = ""             # where the longest work between frames starts, or why it is unbounded
     min_period_us: int | None = None   # the shortest frame period this code holds (None: unbounded)
     target: Target = DEFAULT_TARGET    # the chip it is built for
+    for_size: bool = False          # built for size (Plan.compact)
 
 
 _hex8 = layout.hex8
@@ -477,7 +478,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
                    budget, work_from,
                    shortest,
-                   target)
+                   target, plan.compact)
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:

@@ -176,7 +176,9 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
                                            "shortest_exact_p_us": 2540 * p, "difference_us": 60 * p,
                                            "resolution_us": 1, "over_pulses_cycles": 30, "default_p_us": 5300}
                                           for p in (1, 3)]},
-        "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "bytes_per_keyframe_24_servos": 36.0,
+        "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "runtime_bytes_24_servos_for_size": 15,
+                   "period_us_at_max_keyframes": 8000, "built_for_size_at_max_keyframes": True,
+                   "bytes_per_keyframe_24_servos": 36.0,
                    "keyframes_fit_estimate": 146, "keyframes_fit_confirmed": 146, "ram_bytes_8_servos": 196,
                    "ram_bytes_24_servos": 230},
         "compiler": {"moves": 100, "errors": [], "seconds": {s: 0.01 for s in suite.STAGES},
@@ -190,6 +192,7 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     lines = text.splitlines()
     assert lines[0].startswith("| figure | hobby.c") and lines[1].startswith("|---")
     assert all(line.count("|") == 5 for line in lines)
+    assert any("146 / 146 (built for size, P = 8000 us)" in line for line in lines)
     assert "| max abs width error, all channels (us) | " in text
     assert "777 (to 8 us)" in text and "146 / 146" in text
     assert ("| servoc: shortest P reported / shortest exact in ucsim / difference, worst case, 24 servos on P0-P2, "

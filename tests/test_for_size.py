@@ -152,3 +152,14 @@ def test_a_big_program_with_a_serial_line_and_selects_is_built_for_size_and_veri
     assert "MOREC" in built.firmware.unit.text
     report = built.verify(40 + 3 * 250 + 10)
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
+def test_too_big_even_built_for_size_says_so():
+    from servoc.source import SourceFile
+    from servoc.diagnostics import Reporter
+    source = SourceFile("many.servo", suite.keyframe_source(300))
+    reporter = Reporter(source)
+    fe, fw = api.build(source, reporter)
+    errors = [d for d in reporter.diagnostics if d.is_error]
+    assert fw is None and fe.plan.compact and [d.code for d in errors] == ["rom-overflow"]
+    assert "code memory even built for size" in errors[0].message
