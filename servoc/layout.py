@@ -243,7 +243,7 @@ def share_headers(records: list[dict]) -> list[dict]:
             first = records[i]
             data = [hex8(first["flags"] | 1 << MORE_BIT), str(j - i - 1)] + first["data"][1:]
             out.append({**first, "data": data, "more": True,
-                        "notes": first["notes"] + [f"its flags and F also the {j - i - 1} after it's"]})
+                        "notes": first["notes"] + [f"its flags and F shared by the {j - i - 1} records after it"]})
             out += [{**r, "data": r["data"][h:], "notes": r["notes"] + ["flags and F as the record before"]}
                     for r in records[i + 1:j]]
         i = j

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings
 
-from conftest import build_text, front_end_text
+from conftest import build_text, front_end_text, pose, servo_decls
 from servoc import api, layout
 from test_costs import ADVERSARIAL, at_period, programs
 
@@ -61,6 +61,25 @@ def test_adversarial_programs_built_for_size_verify_at_their_reported_minimum(na
     # the sort stays unrolled: no backward branch in it
     sort = text[text.index("\nsort"):text.index("RET", text.index("\nsort"))]
     assert "DJNZ" not in sort and "SJMP" not in sort
+
+
+SCATTERED_PINS = [(0, 1), (0, 4), (0, 7), (1, 0), (1, 3), (1, 6), (2, 2), (2, 5), (2, 7)]
+SCATTERED_NAMES = [f"s{p}_{b}" for p, b in SCATTERED_PINS]
+SCATTERED = (servo_decls(SCATTERED_PINS, options="speed 0.0001s/60deg")
+             + pose("a", {n: 10 + 25 * i for i, n in enumerate(SCATTERED_NAMES)})
+             + pose("b", {n: 240 - 23 * i for i, n in enumerate(SCATTERED_NAMES)})
+             + pose("c", {n: 125 for n in SCATTERED_NAMES[::3]})
+             + "sequence s { move c in {1P}us; hold {2P}us; move b in {3P}us ease in-out }\n"
+             + "main { move a in {1P}us; loop { repeat 2 { play s; move a in {2P}us }; move c in {1P}us; "
+             + "move b in {1P}us; move a in {1P}us } }\n")
+
+
+@pytest.mark.parametrize("line", ["", "target stc89c52rc clock 11.0592MHz"])
+def test_servos_on_scattered_pins_built_for_size_verify_at_their_minimum(line):
+    """Ports whose servos are not their pins 0, 1, ...: frame_io copies them one by one, the
+    motion loops still go over all 8 pins of each port; moves that name some servos (masks)."""
+    built = _verify_for_size((line + "\n" if line else "") + SCATTERED, 150)
+    assert "LCALL   load" not in built.firmware.unit.text
 
 
 @settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
