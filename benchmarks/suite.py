@@ -18,6 +18,7 @@ from __future__ import annotations
 import random
 import statistics
 import time
+from pathlib import Path
 
 from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
                        measure_baseline, positions_source)
@@ -27,6 +28,7 @@ from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
 
 ROM_SIZE = target.CHIPS[target.DEFAULT_CHIP].code_bytes
+EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
 
 def compile_text(text: str, name: str = "bench.servo",
@@ -86,33 +88,58 @@ def keyframe_source(k: int, seed: int = 1) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _keyframe_build(k: int, for_size: bool = False) -> tuple[api.Firmware | None, list[str]]:
-    _fe, fw, reporter = compile_text(keyframe_source(k), "keyframes.servo", for_size)
-    return fw, [d.code for d in reporter.diagnostics if d.is_error]
+def gait_source(k: int, seed: int = 3) -> str:
+    """The hexapod of examples/hexapod.servo walking `k` tripod steps, each with its own angles
+    (6 moves a step, each naming the few servos that move), all in main's loop."""
+    rng = random.Random(seed)
+    text = (EXAMPLES / "hexapod.servo").read_text(encoding="utf-8")
+    out, body = [text[:text.index("sequence tripod_step")]], []
+    for v in range(k):
+        up, fwd, back, down = rng.randrange(35, 46), rng.randrange(105, 116), rng.randrange(65, 76), rng.randrange(55, 66)
+        out.append(f"pose a_up{v} = stand with {{ tripod_a_femurs: {up}deg }}\n"
+                   f"pose a_fwd{v} = a_up{v} with {{ tripod_a_coxae: {fwd}deg, tripod_b_coxae: {back}deg }}\n"
+                   f"pose a_down{v} = a_fwd{v} with {{ tripod_a_femurs: {down}deg }}\n"
+                   f"pose b_up{v} = a_down{v} with {{ tripod_b_femurs: {up}deg }}\n"
+                   f"pose b_fwd{v} = b_up{v} with {{ tripod_b_coxae: {fwd}deg, tripod_a_coxae: {back}deg }}\n"
+                   f"pose b_down{v} = b_fwd{v} with {{ tripod_b_femurs: {down}deg }}\n")
+        body += [f"    move {p}{v} in {t}ms" for p, t in (("a_up", 120), ("a_fwd", 200), ("a_down", 120),
+                                                        ("b_up", 120), ("b_fwd", 200), ("b_down", 120))]
+    out.append("main {\n  move rest in 1s\n  move stand in 800ms ease out\n  loop {\n" + "\n".join(body) + "\n  }\n}\n")
+    return "".join(out)
 
 
-def memory(quick: bool, progress=None) -> dict:
-    say = progress or (lambda s: None)
-    say("ROM and RAM: positions program, keyframe programs")
-    _fe8, fw8 = build_servoc()
-    _fe24, fw24 = build_servoc(hold_source(3, None), "hold.servo")
-    k = 10 if quick else 20
-    # the most keyframes are built for size (what `servoc compile` does once the fast build is too big)
-    fw_k, err_k = _keyframe_build(k, for_size=True)
-    fw_2k, err_2k = _keyframe_build(2 * k, for_size=True)
+def _build(text: str, how: str) -> tuple[api.FrontEnd, api.Firmware | None, list[str]]:
+    """Compile as `servoc compile` does (`how` "compile": for speed, for size if that does not
+    fit), or only for speed ("speed") or only for size ("size")."""
+    if how == "speed":
+        source = SourceFile("bench.servo", text)
+        reporter = Reporter(source)
+        fe = api.front_end(source, reporter)
+        unit = api.generate(fe.plan, source, reporter)
+        fw = None if unit is None else api.assemble(unit, reporter)
+    else:
+        fe, fw, reporter = compile_text(text, "bench.servo", how == "size")
+    return fe, fw, [d.code for d in reporter.diagnostics if d.is_error]
+
+
+def most_that_fit(make_source, k: int, how: str, say) -> dict:
+    """The most items `make_source(n)` can hold in 8 KB built `how` (see `_build`): estimated from
+    the bytes k and 2k items take (built for speed, or for size when `how` is not "speed"), then
+    confirmed by compiling."""
+    est = "speed" if how == "speed" else "size"
+    (_, fw_k, err_k), (_, fw_2k, err_2k) = _build(make_source(k), est), _build(make_source(2 * k), est)
     if fw_k is None or fw_2k is None:
-        raise BuildError(f"keyframe programs did not compile: {err_k} {err_2k}")
-    per_kf = (fw_2k.rom_bytes - fw_k.rom_bytes) / k
-    fixed = fw_k.rom_bytes - k * per_kf
-    estimate = int((ROM_SIZE - fixed) // per_kf)
-    say(f"keyframes that fit 8 KB: estimate {estimate}, confirming by compiling")
-    fits = {}
+        raise BuildError(f"{k} and {2 * k} items did not compile: {err_k} {err_2k}")
+    per_item = (fw_2k.rom_bytes - fw_k.rom_bytes) / k
+    estimate = int((ROM_SIZE - (fw_k.rom_bytes - k * per_item)) // per_item)
+    say(f"  built {how}: estimate {estimate}, confirming by compiling")
+    fits: dict[int, bool] = {}
 
     def compiles(n: int) -> bool:
         if n not in fits:
-            fw, errors = _keyframe_build(n)
+            _, fw, errors = _build(make_source(n), how)
             if fw is None and errors != ["rom-overflow"]:
-                raise BuildError(f"{n} keyframes: unexpected errors {errors}")
+                raise BuildError(f"{n} items: unexpected errors {errors}")
             fits[n] = fw is not None
         return fits[n]
 
@@ -123,27 +150,33 @@ def memory(quick: bool, progress=None) -> dict:
     else:
         while not compiles(n):
             n -= 1
-    _fe_max, fw_max, _ = compile_text(keyframe_source(n), "keyframes.servo")
-    return {
+    fe, fw, _ = _build(make_source(n), how)
+    return {"bytes_per_item": round(per_item, 2), "runtime_bytes": fw_k.runtime_bytes, "estimate": estimate,
+            "confirmed": n, "rom_bytes": fw.rom_bytes, "ram_bytes": fw.unit.ram_bytes,
+            "period_us": fw.unit.period_us, "built_for_size": fe.plan.compact}
+
+
+def memory(quick: bool, progress=None) -> dict:
+    say = progress or (lambda s: None)
+    say("ROM and RAM: positions program")
+    _fe8, fw8 = build_servoc()
+    _fe24, fw24 = build_servoc(hold_source(3, None), "hold.servo")
+    out = {
         "runtime_bytes_8_servos": fw8.runtime_bytes,
         "runtime_bytes_24_servos": fw24.runtime_bytes,
-        "runtime_bytes_24_servos_for_size": fw_k.runtime_bytes,
-        "period_us_at_max_keyframes": fw_max.unit.period_us,
-        "built_for_size_at_max_keyframes": _fe_max.plan.compact,
         "rom_bytes_8_servos_positions": fw8.rom_bytes,
         "ram_bytes_8_servos": fw8.unit.ram_bytes,
         "ram_bytes_24_servos": fw24.unit.ram_bytes,
         "stack_bytes_24_servos": fw24.unit.stack_bytes,
-        "keyframe_k": k,
-        "rom_bytes_k_keyframes": fw_k.rom_bytes,
-        "rom_bytes_2k_keyframes": fw_2k.rom_bytes,
-        "bytes_per_keyframe_24_servos": round(per_kf, 2),
-        "fixed_bytes_24_servos": round(fixed, 1),
-        "keyframes_fit_estimate": estimate,
-        "keyframes_fit_confirmed": n,
-        "rom_bytes_at_max_keyframes": fw_max.rom_bytes,
-        "ram_bytes_at_max_keyframes": fw_max.unit.ram_bytes,
     }
+    # random 24-servo keyframes and the hexapod's varied gait: built for speed only, and as
+    # `servoc compile` builds them (for size, once they no longer fit built for speed)
+    for name, make_source, k in (("keyframes", keyframe_source, 10 if quick else 20),
+                                 ("gait_steps", gait_source, 5 if quick else 10)):
+        for how in ("speed", "compile"):
+            say(f"{name} that fit 8 KB")
+            out[f"{name}_{how}"] = most_that_fit(make_source, k, how, say)
+    return out
 
 
 # ---------------------------------------------------------------- compiler time
@@ -295,13 +328,14 @@ def table(r: dict) -> str:
     fb, mem, comp = {**r["frame_budget"], "clocks": r.get("clock_budget", [])}, r["memory"], r["compiler"]
     rows += _budget_rows(fb)
     rows += [
-        ("servoc: ROM runtime bytes, 8 / 24 servos / 24 servos built for size", "", "",
-         f"{mem['runtime_bytes_8_servos']} / {mem['runtime_bytes_24_servos']} / {mem['runtime_bytes_24_servos_for_size']}"),
-        ("servoc: ROM bytes per 24-servo keyframe", "", "", f"{mem['bytes_per_keyframe_24_servos']}"),
-        ("servoc: 24-servo keyframes in 8 KB, estimated / largest that compiles", "", "",
-         f"{mem['keyframes_fit_estimate']} / {mem['keyframes_fit_confirmed']}"
-         + (f" (built for size, P = {mem['period_us_at_max_keyframes']} us)"
-            if mem.get("built_for_size_at_max_keyframes") else "")),
+        ("servoc: ROM runtime bytes, 8 / 24 servos / 24 servos built for size (keyframes)", "", "",
+         f"{mem['runtime_bytes_8_servos']} / {mem['runtime_bytes_24_servos']} / {mem['keyframes_compile']['runtime_bytes']}"),
+        *[(f"servoc: {what} in 8 KB, built for speed / as compiled (estimated / largest that compiles; "
+            f"bytes each; period)", "", "",
+            " / ".join(f"{m['estimate']}/{m['confirmed']} ({m['bytes_per_item']} B; "
+                       f"{'for size, ' if m['built_for_size'] else ''}P = {m['period_us']} us)"
+                       for m in (mem[f"{key}_speed"], mem[f"{key}_compile"])))
+          for what, key in (("random 24-servo keyframes", "keyframes"), ("hexapod gait steps (6 moves)", "gait_steps"))],
         ("servoc: RAM bytes, 8 / 24 servos", "", "", f"{mem['ram_bytes_8_servos']} / {mem['ram_bytes_24_servos']}"),
     ]
     secs, share = comp["seconds"], comp["share"]

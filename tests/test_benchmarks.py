@@ -143,12 +143,18 @@ def test_hold_search_brackets():
 
 def test_keyframes_and_compile_stages():
     mem = suite.memory(quick=True)
-    assert mem["bytes_per_keyframe_24_servos"] > 0
-    k = mem["keyframes_fit_confirmed"]
-    assert mem["rom_bytes_at_max_keyframes"] <= target.DEFAULT.chip.code_bytes
-    fw, errors = suite._keyframe_build(k + 1)
-    assert fw is None and errors == ["rom-overflow"]
-    assert abs(k - mem["keyframes_fit_estimate"]) <= 3
+    for key in ("keyframes", "gait_steps"):
+        speed, compiled = mem[f"{key}_speed"], mem[f"{key}_compile"]
+        for m, how in ((speed, "speed"), (compiled, "compile")):
+            assert m["bytes_per_item"] > 0 and m["rom_bytes"] <= target.DEFAULT.chip.code_bytes
+            assert abs(m["confirmed"] - m["estimate"]) <= 3
+            _, fw, errors = suite._build(suite.keyframe_source(m["confirmed"] + 1) if key == "keyframes"
+                                         else suite.gait_source(m["confirmed"] + 1), how)
+            assert fw is None and errors == ["rom-overflow"]
+        # built for speed, more would not fit; `servoc compile` builds those for size
+        assert not speed["built_for_size"] and compiled["built_for_size"]
+        assert compiled["confirmed"] > speed["confirmed"]
+    assert mem["keyframes_compile"]["confirmed"] >= 250
     assert 0 < mem["ram_bytes_8_servos"] <= mem["ram_bytes_24_servos"] <= 256
 
     comp = suite.compiler_time(quick=True)
@@ -176,11 +182,12 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
                                            "shortest_exact_p_us": 2540 * p, "difference_us": 60 * p,
                                            "resolution_us": 1, "over_pulses_cycles": 30, "default_p_us": 5300}
                                           for p in (1, 3)]},
-        "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "runtime_bytes_24_servos_for_size": 15,
-                   "period_us_at_max_keyframes": 8000, "built_for_size_at_max_keyframes": True,
-                   "bytes_per_keyframe_24_servos": 36.0,
-                   "keyframes_fit_estimate": 146, "keyframes_fit_confirmed": 146, "ram_bytes_8_servos": 196,
-                   "ram_bytes_24_servos": 230},
+        "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "ram_bytes_8_servos": 196,
+                   "ram_bytes_24_servos": 230,
+                   **{f"{key}_{how}": {"bytes_per_item": 24.0, "runtime_bytes": 15, "estimate": 146, "confirmed": 146,
+                                       "rom_bytes": 8000, "ram_bytes": 240, "period_us": 8000,
+                                       "built_for_size": how == "compile"}
+                      for key in ("keyframes", "gait_steps") for how in ("speed", "compile")}},
         "compiler": {"moves": 100, "errors": [], "seconds": {s: 0.01 for s in suite.STAGES},
                      "share": {s: 1 / 6 for s in suite.STAGES}, "total_seconds": 0.06, "without_sdcc_seconds": 0.05},
     }
@@ -192,9 +199,9 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     lines = text.splitlines()
     assert lines[0].startswith("| figure | hobby.c") and lines[1].startswith("|---")
     assert all(line.count("|") == 5 for line in lines)
-    assert any("146 / 146 (built for size, P = 8000 us)" in line for line in lines)
+    assert any("146/146 (24.0 B; P = 8000 us) / 146/146 (24.0 B; for size, P = 8000 us)" in line for line in lines)
     assert "| max abs width error, all channels (us) | " in text
-    assert "777 (to 8 us)" in text and "146 / 146" in text
+    assert "777 (to 8 us)" in text and "146/146" in text
     assert ("| servoc: shortest P reported / shortest exact in ucsim / difference, worst case, 24 servos on P0-P2, "
             "run-time F (us) |  |  | 10020 / 9999 (to 8 us) / +21 (+0.2%) |") in text
     assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 (+2.4%) |" in text
