@@ -179,8 +179,8 @@ def added() -> list[str]:
     b = units["serial 4800"].budget
     p = units["serial 4800"].target.cycles(units["serial 4800"].min_period_us)
     out.append(f"- serial handler: head {b.serial_head} cycles, longest run {b.serial_run} cycles; its load in "
-               f"one frame of {p} cycles at most {costs.serial_load(b, p)} cycles "
-               f"({costs.serial_load(b, p) * 100 / p:.1f} %); longest wait for it "
+               f"one frame of {p} cycles at most {costs.serial_load(units['serial 4800'].target, b, p)} cycles "
+               f"({costs.serial_load(units['serial 4800'].target, b, p) * 100 / p:.1f} %); longest wait for it "
                f"{costs.serial_latency(units['serial 4800'].target, b)} cycles, a byte every {b.byte_cycles}")
     return out
 

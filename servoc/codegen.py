@@ -348,28 +348,35 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     serial = plan.program.serial
     taken = select_ram(plan)
     stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, watches(plan))
-    room = costs.stack_room(serial is not None, taken)
-    if stack_bytes > room:     # lint's `too-deep` reports this first
+    if stack_bytes > costs.stack_room(serial is not None, taken):     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
-                                  f"the firmware has {room}")
-    # the last of three ports gets a sort buffer of its own (B) where the stack has room for it
-    bport = plan.ports[-1] if len(plan.ports) == 3 and stack_bytes + costs.BUFB_RAM <= room else None
+                                  f"the firmware has {costs.stack_room(serial is not None, taken)}")
     if serial is not None and send_run(plan) > costs.QUEUE:
         raise layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
                                  f"the transmit queue holds {costs.QUEUE}")
+    # the runtime, and the RAM, leave out what no record or statement uses
+    uses = {"eased": bool(ctx.ease_tables), "repeats": ctx.repeats,
+            "holds": any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records),
+            "nodur": any(r["flags"] & layout.FLAG["NODUR"] for r in ctx.records),
+            "sends": serial is not None and sends(plan.main, plan, ctx.sends_memo)}
 
-    ram = layout.RamAllocator(layout.DIRECT_END + (costs.SERIAL_RAM if serial is not None else 0) + taken)
+    ram = layout.RamAllocator(layout.STATE_BASE - stack_bytes)     # what the stack leaves
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED"), 0)
     ram.next = layout.WORK_BASE
+    if serial is not None:      # first, at a multiple of its size: the serial handler indexes it with ORL
+        assert ram.next % costs.QUEUE == 0
+        ram.alloc("RXQ", costs.QUEUE, "the receive queue")
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
-    ram.alloc("SEGK", 2, "frame number k in the current move")
     ram.alloc("FLEFT", 2, "frames left in the current move or hold")
-    ram.alloc("ETAB", 2, "eased curve table of the current move, minus 1")
-    ram.alloc("EVAL", 1, "e(k/F) x 256 this frame")
-    ram.alloc("TMPD", 1, "scratch: |delta|")
-    ram.alloc("TMPL", 1, "scratch")
+    if uses["eased"]:
+        ram.alloc("SEGK", 2, "frame number k in the current move")
+        ram.alloc("ETAB", 2, "eased curve table of the current move, minus 1")
+        ram.alloc("EVAL", 1, "e(k/F) x 256 this frame")
+    if uses["nodur"]:       # F found at run time: the frames its largest |delta| needs, per speed class
+        for cls in range(len(plan.speed_tables)):
+            ram.alloc(f"DMAX{cls}", 1, f"the largest |delta| of speed class {cls} in the current record")
     ram.alloc("LPTR", 2, "the record list being run: the next record")
     more = any(r.get("more") for r in ctx.records)
     if more:
@@ -377,40 +384,45 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     watch = _select_ram(ctx, ram)
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
+    _engine_ram(ram)
+    s = None if serial is None else _serial(serial, ram, uses["sends"])
+    most = max(sum(1 for c in plan.channels if c.port == port) for port in plan.ports) if plan.ports else 1
+    # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
+    ram.alloc("ITEMS", 1 + 3 * (most - 1) + 3, "the handler's items for the port being pulsed", direct=False)
+    if uses["sends"]:
+        ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
+    stack_base = ram.next
+    # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
+    room = layout.STATE_BASE - stack_base
+    bport = plan.ports[-1] if len(plan.ports) == 3 and stack_bytes + costs.BUFB_RAM <= room else None
     e = _engine(plan, ram, period_cycles, bport)
     e["framed"] = ctx.flagged
-    s = None if serial is None else _serial(serial, ram)
-    # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
-    ram.alloc("ITEMS", 1 + 3 * (e["most"] - 1) + 3, "the handler's items for the port being pulsed",
-              direct=False)
-    if serial is not None:
-        ram.alloc("RXQ", costs.QUEUE, "the receive queue", direct=False)
-        ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
-    stack_base = ram.next if serial is not None or taken else layout.STACK_BASE
     chans = []
     for c in plan.channels:
         pin = 8 * c.port + c.bit
         bit = {name: layout.bit_address(layout.ADDR[name], pin) for name in ("ACT", "MOVB", "DIRB", "RMASK")}
         chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + pin,
                       "state": layout.STATE_BASE + layout.STATE_BYTES * pin, "act_bit": bit["ACT"],
-                      "mov_bit": bit["MOVB"], "dir_bit": bit["DIRB"], "rm_bit": bit["RMASK"]})
+                      "mov_bit": bit["MOVB"], "dir_bit": bit["DIRB"], "rm_bit": bit["RMASK"],
+                      "dmax": f"DMAX{c.speed_class}"})
     reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
                     "names": ", ".join(s.name for s in plan.program.servos if s.port == port)}
                    for port in sorted({s.port for s in plan.program.servos})]
 
-    nodur = any(r["flags"] & layout.FLAG["NODUR"] for r in ctx.records)
     fneed = []
-    if nodur:
+    if uses["nodur"]:
         for cls, table in enumerate(plan.speed_tables):
             page = (plan.program.target.chip.code_bytes >> 8) - 2 * (len(plan.speed_tables) - cls)   # at the top
-            fneed.append({"cls": cls, "page": page, "label": f"fneed{cls}", "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
+            # the runtime looks up only each class's largest |delta|: the table must not fall
+            assert all(a <= b for a, b in zip(table, table[1:])), "a frames-needed table falls"
+            fneed.append({"cls": cls, "page": page, "label": f"fneed{cls}", "dmax": f"DMAX{cls}",
+                          "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
                           "t_dav": f"{float(plan.class_t_dav_us[cls]):.1f}"})
         if max(max(t) for t in plan.speed_tables) > 0xFFFF:
             raise layout.SlowServo("a servo is too slow for the frames-needed tables")
-    pin_page = ["0"] * 24
+    pin_dmax = ["0"] * 24
     for c in plan.channels:
-        if fneed:
-            pin_page[c.port * 8 + c.bit] = ">" + fneed[c.speed_class]["label"]
+        pin_dmax[c.port * 8 + c.bit] = f"DMAX{c.speed_class}"
 
     ease_tables = [{"label": lab, "ease": ease, "frames": frames,
                     "values": list(next(st.ease_table for st in steps(plan)
@@ -427,12 +439,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
                   state_base=layout.STATE_BASE, state_bytes=layout.STATE_BYTES, stack_base=stack_base, s=s,
-                  compact=plan.compact, more=more, repeats=ctx.repeats or not plan.compact,
-                  eased=bool(ease_tables) or not plan.compact,
-                  holds=any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records) or not plan.compact, more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
+                  compact=plan.compact, more=more, **{k: uses[k] for k in ("repeats", "eased", "holds")},
+                  more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   looks=ctx.looks, watch=watch, fcall="frame_w" if watch else "frame_io",
-                  lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_page=pin_page,
+                  lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_dmax=pin_dmax,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
                                                  "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},
@@ -462,7 +473,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                                      None if len(plan.ports) != 1 or starts[plan.ports[0]] is None
                                      else costs.start_loads(target, starts[plan.ports[0]]),
                                      0 if s is None else s["byte_cycles"], bport is not None,
-                                     sends(plan.main, plan, ctx.sends_memo))
+                                     uses["sends"], uses["holds"])
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
@@ -512,6 +523,13 @@ def _port_pins(plan: Plan, port: int) -> list[dict]:
             for i, b in enumerate(bits)]
 
 
+def _engine_ram(ram: layout.RamAllocator) -> None:
+    """The edge handler's and frame_io's variables."""
+    ram.alloc("RISEM", 1, "the lines of the next port to rise from buffer A that have a target")
+    ram.alloc("EMC", 1, "ports the handler has taken from sort buffer A (counts on)")
+    ram.alloc("SRT", 1, "ports frame_io has sorted into it (counts on)")
+
+
 def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None) -> dict:
     """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2).
     `bport`: the port sorted into buffer B (None: every port goes through buffer A)."""
@@ -531,9 +549,6 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
         ports[-1]["rest_add"] = (costs.STOP - ports[-1]["rnext"]) % 0x10000   # no fall: straight to the next rise
     most = max((p["s"] for p in ports), default=1)
-    ram.alloc("RISEM", 1, "the lines of the next port to rise from buffer A that have a target")
-    ram.alloc("EMC", 1, "ports the handler has taken from sort buffer A (counts on)")
-    ram.alloc("SRT", 1, "ports frame_io has sorted into it (counts on)")
     ram.symbols += [("WN", layout.SORT_BASE, "sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)"),
                     ("WM", layout.SORT_BASE + 1, "sort buffer A: the lines of pair i at WM + 2i")]
     if bport is not None:
@@ -563,6 +578,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "ctime": "\n".join("        " + line for line in ctime),
+        "ctime_kept": "\n".join("        " + line for line in ctime[1 - target.grid:]),     # DPTR is ctab already
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
                    "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in costs.SORTING_NETWORKS[n]]}
                   for n in sizes],
@@ -580,13 +596,14 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
 
 def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loads: tuple[costs.PortLoad, ...],
                  starts: frozenset | None = None, byte_cycles: int = 0, last_in_b: bool = False,
-                 sends: bool = False) -> tuple[costs.Budget | None, str]:
+                 sends: bool = False, holds: bool = True) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
     (costs.port_load); its sort is the longest path less the swaps no frame makes. `starts`: one
     port's move starts (costs.start_loads), so that the work of a path that starts a move is
     paired with that move's first frame (None: every path with the worst frame). `byte_cycles`:
-    a byte's time on the serial line (0: the program has none); `sends`: the program has a `send`."""
+    a byte's time on the serial line (0: the program has none); `sends`: the program has a `send`;
+    `holds`: the code has hold records (without, every path that reads a record reads a move's)."""
     try:
         code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record))
         work, at = code.between_frames()
@@ -595,7 +612,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
         paired = {}
         if starts:      # the paths that read a move record (a hold's HOLDF set, or not known, is not one)
             by = code.by_record()
-            moving = {tag: v for tag, v in by.items() if tag is not None and ("HOLDF", False) in tag}
+            moving = {tag: v for tag, v in by.items() if tag is not None and (("HOLDF", False) in tag or not holds)}
 
             def work_of(eased: bool, runtime_f: bool) -> int:    # the paths a record of this kind can take
                 return max((v for tag, v in moving.items()
@@ -626,19 +643,20 @@ def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:
     return sum(bodies[:len(bodies) - swaps])
 
 
-def _serial(serial, ram: layout.RamAllocator) -> dict:
+def _serial(serial, ram: layout.RamAllocator, sending: bool) -> dict:
     """The serial line's numbers (serial.asm.j2) and its counters, taken from the stack (its queues
-    are allocated with the other buffers)."""
+    are allocated with the other buffers). `sending`: the program sends (else no transmit side)."""
     q = costs.QUEUE
     ram.alloc("RXW", 1, "bytes received and queued (counts on)")
     ram.alloc("RXR", 1, "bytes the program took from the receive queue (counts on)")
-    ram.alloc("TXW", 1, "bytes the program queued to send (counts on)")
-    ram.alloc("TXR", 1, "bytes the serial handler sent from the queue (counts on)")
     ram.alloc("RXB", 1, "the byte just received")
-    ram.alloc("TXON", 1, "1 while a byte is on the line")
+    if sending:
+        ram.alloc("TXW", 1, "bytes the program queued to send (counts on)")
+        ram.alloc("TXR", 1, "bytes the serial handler sent from the queue (counts on)")
+        ram.alloc("TXON", 1, "1 while a byte is on the line")
     return {"baud": serial.baud, "th1": serial.th1, "smod": serial.smod, "rate": f"{float(serial.actual):.1f}",
             "byte_cycles": target_mod.byte_cycles(serial.th1, serial.smod), "queue": q, "mask": q - 1,
-            "full_bit": q.bit_length() - 1}
+            "full_bit": q.bit_length() - 1, "sends": sending}
 
 
 def _bytes(n: int) -> str:

@@ -246,7 +246,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     """The largest of the terms (module docstring), each window of a frame `period` long with the
     serial handler's runs in it (`serial_load`; none without a serial line)."""
     def runs(cycles: int) -> int:
-        return serial_load(budget, max(cycles, 0)) if budget.byte_cycles else 0
+        return serial_load(target, budget, max(cycles, 0)) if budget.byte_cycles else 0
 
     m = len(budget.lines)
     if m == 0:
@@ -305,19 +305,23 @@ def busy_stretch(target, budget: Budget) -> int:
 
 def serial_latency(target, budget: Budget) -> int:
     """The longest from a byte's RI to the serial handler's `CLR RI`: the edge handler's longest
-    stretch, the instruction under way, a run of the serial handler for TI under way, then its head.
-    No byte is lost while this is within one byte time (the next byte can complete no sooner)."""
-    return busy_stretch(target, budget) + SERIAL_WAIT + budget.serial_run + budget.serial_head
+    stretch, the instruction under way, a run of the serial handler for TI under way (when the
+    program sends), then its head. No byte is lost while this is within one byte time (the next
+    byte can complete no sooner)."""
+    return (busy_stretch(target, budget) + SERIAL_WAIT + (budget.serial_run if budget.serial_sends else 0)
+            + budget.serial_head)
 
 
-def serial_load(budget: Budget, cycles: int) -> int:
+def serial_load(target, budget: Budget, cycles: int) -> int:
     """The serial handler's cycles within `cycles` at the most: a run for each byte that can come
     in and, if the program sends, each that can go out (TI is set by a byte sent, never else),
-    and the instruction each run waits for. Bytes end a byte time apart at the least, and a run
-    starts within a byte time of its byte (serial_latency), so a window of c cycles meets
-    ceil(c / byte) + 1 runs each way."""
-    runs = (2 if budget.serial_sends else 1) * (-(-cycles // budget.byte_cycles) + 1)
-    return runs * (budget.serial_run + SERIAL_WAIT)
+    and the instruction each run waits for. Bytes end a byte time apart at the least, and a byte's
+    run has ended within `reach` of it (serial_latency, then the rest of the run: less than a byte
+    time), so the runs that take cycles in a window of c cycles are those of the bytes that end
+    in the c + reach cycles before its end: ceil((c + reach) / byte) each way."""
+    reach = serial_latency(target, budget) - budget.serial_head + budget.serial_run
+    each = min(-(-cycles // budget.byte_cycles) + 1, -(-(cycles + reach) // budget.byte_cycles))
+    return (2 if budget.serial_sends else 1) * each * (budget.serial_run + SERIAL_WAIT)
 
 
 def default_period_us(min_period: int) -> int:

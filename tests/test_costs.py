@@ -71,7 +71,7 @@ ADVERSARIAL = {
     + "move hi in 400ms } }\n",
     # nested too deep for sort buffer B to fit above the stack: the last port shares buffer A
     "deep-24": servos(24) + all_at("a", 24, lambda i: i) + all_at("b", 24, lambda i: 249 - i)
-    + "main { loop { " + "repeat 2 { " * 8 + "move b in {1P}us; move a in {1P}us" + " }" * 8 + " } }\n",
+    + "main { loop { " + "repeat 2 { " * 11 + "move b in {1P}us; move a in {1P}us" + " }" * 11 + " } }\n",
     # a meanwhile body on three ports (frame_w after each frame) with buffer B, cut by nothing
     "meanwhile-24": servos(24) + "input b = P3.2\n" + all_at("a", 24, lambda i: 14 * (i % 8))
     + all_at("z", 24, lambda i: 250 - 14 * (i % 8))

@@ -295,7 +295,7 @@ def test_motion_programs_match_golden_frames(prog):
 
 def test_runtime_frames_path_is_exercised():
     """A sequence with a move without duration played from poses at different distances:
-    its F is found at run time (frames-needed tables, need_frames) and still matches the plan."""
+    its F is found at run time (frames-needed tables, each speed class's largest |delta|) and still matches the plan."""
     text = """\
 servo a = P1.0
 servo b = P1.1 speed 0.1s/60deg
@@ -317,7 +317,7 @@ main {
 }
 """
     built = build_text(text)
-    assert "need_frames" in built.firmware.unit.text
+    assert "DMAX0" in built.firmware.unit.text and "dm_rf" in built.firmware.unit.text
     assert built.firmware.unit.fneed_pages
     frames_of_mid = sorted({inst.frames for inst in built.plan.moves if inst.step.pose == "mid"})
     assert len(frames_of_mid) >= 2 and all(f > 1 for f in frames_of_mid)

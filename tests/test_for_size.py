@@ -11,10 +11,11 @@ from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from conftest import build_text, front_end_text, pose, servo_decls
 from servoc import api, layout
-from test_costs import ADVERSARIAL, at_period, programs
+from test_costs import ADVERSARIAL, all_at, at_period, own_minimum, programs
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 import suite  # noqa: E402  the benchmark's random 24-servo keyframe programs
@@ -182,3 +183,36 @@ def test_too_big_even_built_for_size_says_so():
     errors = [d for d in reporter.diagnostics if d.is_error]
     assert fw is None and fe.plan.compact and [d.code for d in errors] == ["rom-overflow"]
     assert "code memory even built for size" in errors[0].message
+
+
+@st.composite
+def two_class_programs(draw):
+    """Moves whose F is found at run time on servos of two speed classes spread over two ports: the
+    firmware keeps each class's largest |delta| and looks its frames up once per record. A servo
+    left out of the first pose gets its first target in such a move (set at once: it adds nothing)."""
+    n = draw(st.integers(6, 10))
+    slow = [i % 2 == 1 for i in range(n)]
+    decl = "".join(f"servo s{i} = P{1 + i // 8}.{i % 8}{' speed 0.3s/60deg' if slow[i] else ''}\n"
+                   for i in range(n))
+    b = [draw(st.integers(0, 250)) for _ in range(n)]
+    poses = [[20 + 11 * i for i in range(n)], b, [230 - 13 * i for i in range(n)]]      # `go` from a and from c
+    first = ", ".join(f"s{i}: {poses[0][i]}" for i in range(n - 1))        # s{n-1} has no target yet
+    return (decl + f"pose a {{ {first} }}\n" + all_at("b", n, poses[1].__getitem__)
+            + all_at("c", n, poses[2].__getitem__)
+            + "sequence go { move b }\nmain { move a; loop { play go; move c; play go; move a } }\n")
+
+
+@settings(max_examples=4, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(two_class_programs())
+def test_run_time_f_with_two_speed_classes_verifies_built_for_speed_and_for_size(template):
+    """Every move once, in both builds, each at its own minimum: F is the most frames any class's
+    largest |delta| needs, to the frame (the planner's rule, `plan.move_frames_at`)."""
+    period = own_minimum(template)
+    fast = build_text(at_period(template, period))
+    frames = sum(m.frames for m in fast.plan.moves) + 2
+    assert not fast.plan.compact and any(m.step.frames is None for m in fast.plan.moves)
+    assert "DMAX1" in fast.firmware.unit.text
+    report = fast.verify(frames)
+    assert report.ok and report.max_error_cycles == 0, (period, report.summary(), [str(m) for m in report.mismatches[:5]])
+    small = _verify_for_size(template, frames)
+    assert "sp_dm" in small.firmware.unit.text

@@ -15,6 +15,7 @@ For every program (built and simulated through servoc.api), straight from the po
 from __future__ import annotations
 
 import itertools
+import re
 import subprocess
 import tempfile
 from pathlib import Path
@@ -39,8 +40,12 @@ SAFE = dict(deadline=None, derandomize=True, phases=[Phase.explicit, Phase.gener
 FRAMES = 2000                   # frames from the first pulse, each program
 MIN_WIDTH, MAX_WIDTH = BASE_US, BASE_US + DIV_US * N_MAX     # 500 .. 2500 us
 RESET_LOW = 20
-STACK_TOP = layout.STATE_BASE   # the stack lives in STACK_BASE .. STATE_BASE - 1
-STACK_BOTTOM = layout.STACK_BASE
+STACK_TOP = layout.STATE_BASE   # the stack lives from where the RAM the program uses ends up to STATE_BASE - 1
+
+
+def stack_bottom(unit) -> int:
+    """Where the firmware's stack starts: its STACK (the end of the RAM it allocates)."""
+    return int(re.search(r"^STACK\s+=\s+0x([0-9A-F]+)", unit.text, re.M)[1], 16)
 
 
 # ============================================================ the stack, watched in ucsim
@@ -56,7 +61,7 @@ def _limit_vcd(cycles: int) -> str:
             f"$upscope $end\n$enddefinitions $end\n#{cycles * 1000 - 500}\nb00000001 !\n")
 
 
-def stack_bytes_written(hex_text: str, cycles: int) -> set[int]:
+def stack_bytes_written(hex_text: str, cycles: int, bottom: int) -> set[int]:
     """The IRAM addresses of the stack the firmware writes during `cycles` machine cycles.
 
     One write breakpoint per address (`break iram w ADDR`); each prints its address and deletes
@@ -64,7 +69,7 @@ def stack_bytes_written(hex_text: str, cycles: int) -> set[int]:
     the run costs about as much as one without breakpoints. PUSH, LCALL and interrupts write the
     stack through IRAM, so they are all seen."""
     lines = ['file "fw.ihx"']
-    for number, addr in enumerate(range(STACK_BOTTOM, STACK_TOP), start=1):
+    for number, addr in enumerate(range(bottom, STACK_TOP), start=1):
         lines += [f"break iram w {addr:#04x}", f"commands expr {_MARK + addr};delete {number};run"]
     lines += ['set hardware vcd[0] input "limit.vcd"', "set hardware vcd[0] break", "set hardware vcd[0] start",
               "run", f"expr {_END} /u sim_ticks", "info breakpoints", "kill"]
@@ -81,10 +86,10 @@ def stack_bytes_written(hex_text: str, cycles: int) -> set[int]:
     ticks = int(out[end + 1])
     assert ticks >= cycles * sim.CLOCKS_PER_CYCLE, f"the run stopped early at {ticks} ticks:\n" + "\n".join(out[-20:])
     written = {int(line) - _MARK for line in out[:end]
-               if line.isdigit() and _MARK + STACK_BOTTOM <= int(line) < _MARK + STACK_TOP}
+               if line.isdigit() and _MARK + bottom <= int(line) < _MARK + STACK_TOP}
     # The breakpoints left are exactly those of the bytes never written (the numbering was right).
     left = {int(m, 16) for m in _breakpoint_addresses(out[end:])}
-    assert left == set(range(STACK_BOTTOM, STACK_TOP)) - written, (sorted(left), sorted(written))
+    assert left == set(range(bottom, STACK_TOP)) - written, (sorted(left), sorted(written))
     return written
 
 
@@ -158,12 +163,13 @@ def check_stack(plan, firmware, cycles: int, text: str, reached: bool) -> None:
     bound is tight up to the edge handler's share, which only an interrupt at the deepest point uses)."""
     unit = firmware.unit
     assert unit.stack_bytes == costs.stack_bytes(plan.nesting) <= costs.STACK_BYTES
-    written = stack_bytes_written(firmware.hex_text, cycles)
+    bottom = stack_bottom(unit)
+    written = stack_bytes_written(firmware.hex_text, cycles, bottom)
     if unit.budget is not None and unit.budget.last_in_b:   # sort buffer B and its rise mask: not stack
         assert written >= set(range(layout.BUFB_BASE - 1, layout.BUFB_BASE + 3)), "buffer B unused"
         written = {a for a in written if a < STACK_TOP - costs.BUFB_RAM}
-    assert {STACK_BOTTOM, STACK_BOTTOM + 1} <= written, "no call seen on the stack: the watch does not work"
-    deepest = max(written) - STACK_BOTTOM + 1
+    assert {bottom, bottom + 1} <= written, "no call seen on the stack: the watch does not work"
+    deepest = max(written) - bottom + 1
     assert deepest <= unit.stack_bytes, (
         f"the firmware used {deepest} bytes of stack, {unit.stack_bytes} were reserved\n--- source:\n{text}")
     if reached:

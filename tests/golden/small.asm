@@ -14,7 +14,7 @@ T2CON   = 0xC8
 HBANK   = 0x08              ; register bank 1, the edge handler's: R0..R7 at HBANK..HBANK+7
 CUR     = 0x30              ; current N of pin p (0..23) at CUR + p
 STATE   = 0xA0              ; motion state of pin p at STATE + 4 p: Q|N0, REM|DMAG, ERR lo, ERR hi
-STACK   = 0x72              ; the stack: STACK up to STATE
+STACK   = 0x5F              ; the stack: STACK up to STATE
 ACT     = 0x20              ; per port: lines that have a target (the rise mask); bit address = pin
 MOVB    = 0x23              ; per port: lines moving in the current move; bit address 0x18 + pin
 DIRB    = 0x26              ; per port: lines moving down; bit address 0x30 + pin
@@ -23,19 +23,19 @@ FLAGS   = 0x2C              ; move flags, bits below
 SEGF    = 0x2D              ; F of the current move
 RUNF    = 0x2F              ; the runtime's flags (bit-addressable): FRAMED
 ERR0    = 0x48              ; DDA start of the current linear move: floor(-F / 2) mod 65536
-SEGK    = 0x4A              ; frame number k in the current move
-FLEFT   = 0x4C              ; frames left in the current move or hold
+FLEFT   = 0x4A              ; frames left in the current move or hold
+SEGK    = 0x4C              ; frame number k in the current move
 ETAB    = 0x4E              ; eased curve table of the current move, minus 1
 EVAL    = 0x50              ; e(k/F) x 256 this frame
-TMPD    = 0x51              ; scratch: |delta|
-TMPL    = 0x52              ; scratch
+DMAX0   = 0x51              ; the largest |delta| of speed class 0 in the current record
+DMAX1   = 0x52              ; the largest |delta| of speed class 1 in the current record
 LPTR    = 0x53              ; the record list being run: the next record
 RISEM   = 0x55              ; the lines of the next port to rise from buffer A that have a target
 EMC     = 0x56              ; ports the handler has taken from sort buffer A (counts on)
 SRT     = 0x57              ; ports frame_io has sorted into it (counts on)
+ITEMS   = 0x58              ; the handler's items for the port being pulsed
 WN      = 0x10              ; sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)
 WM      = 0x11              ; sort buffer A: the lines of pair i at WM + 2i
-ITEMS   = 0x58              ; the handler's items for the port being pulsed
 EASED   = 0x60              ; FLAGS.0: the current move is eased
 NODUR   = 0x61              ; FLAGS.1: F is found at run time
 LASTF   = 0x62              ; FLAGS.2: this is the move's last frame
@@ -112,6 +112,8 @@ rl_end: RET
 ; [ease table - 1], per port in use a mask of the pins the pose names (none
 ; when it names every servo), then their target N.
 do_move:
+        MOV     DMAX0, #0                ; the largest |delta| of class 0 so far
+        MOV     DMAX1, #0                ; the largest |delta| of class 1 so far
         JNB     EASED, dm_e
         CLR     A
         MOVC    A, @A+DPTR
@@ -148,6 +150,9 @@ dm_pins:
         MOV     0x20, C
         MOV     C, DIRF
         MOV     0x38, C
+        CJNE    A, DMAX0, su_c8              ; 2  C: |delta| below its class's largest
+su_c8: JC      su_8                ; 2
+        MOV     DMAX0, A                 ; 1
 su_8:
         JNB     0x53, su_11              ; 2  tilt (P1.3)
         MOV     R0, #0x3B            ; 1
@@ -159,6 +164,9 @@ su_8:
         MOV     0x23, C
         MOV     C, DIRF
         MOV     0x3B, C
+        CJNE    A, DMAX1, su_c11              ; 2  C: |delta| below its class's largest
+su_c11: JC      su_11                ; 2
+        MOV     DMAX1, A                 ; 1
 su_11:
         JNB     0x5E, su_22              ; 2  claw (P2.6)
         MOV     R0, #0x46            ; 1
@@ -170,9 +178,42 @@ su_11:
         MOV     0x2E, C
         MOV     C, DIRF
         MOV     0x46, C
+        CJNE    A, DMAX1, su_c22              ; 2  C: |delta| below its class's largest
+su_c22: JC      su_22                ; 2
+        MOV     DMAX1, A                 ; 1
 su_22:
         MOV     LPTR, DPL               ; the record list goes on after this record
         MOV     LPTR+1, DPH
+        JNB     NODUR, dm_f             ; F found at run time: for each speed class the frames
+        MOV     DPL, DMAX0                ; its largest |delta| needs (the table rises with |delta|)
+        MOV     DPH, #>fneed0
+        CLR     A
+        MOVC    A, @A+DPTR
+        MOV     R6, A                   ; low byte
+        INC     DPH
+        CLR     A
+        MOVC    A, @A+DPTR              ; high byte
+        MOV     SEGF, R6                ; F = the most of them
+        MOV     SEGF+1, A
+        MOV     DPL, DMAX1                ; its largest |delta| needs (the table rises with |delta|)
+        MOV     DPH, #>fneed1
+        CLR     A
+        MOVC    A, @A+DPTR
+        MOV     R6, A                   ; low byte
+        INC     DPH
+        CLR     A
+        MOVC    A, @A+DPTR              ; high byte
+        CJNE    A, SEGF+1, dm_h1
+        MOV     A, R6
+        CJNE    A, SEGF, dm_l1
+dm_l1: JC      dm_x1
+        MOV     SEGF, R6
+        SJMP    dm_x1
+dm_h1: JC      dm_x1
+        MOV     SEGF+1, A
+        MOV     SEGF, R6
+dm_x1:
+dm_f:
         MOV     A, SEGF                 ; F = max(1, F)
         ORL     A, SEGF+1
         JNZ     dm_2f
@@ -282,6 +323,7 @@ setup_pin:
         CLR     DIRF
         JC      sp_has
         MOV     @R0, A                  ; first target: set at once
+        CLR     A                       ; it does not move
         RET
 sp_has: CLR     C
         SUBB    A, @R0                  ; delta = N1 - N0
@@ -291,45 +333,13 @@ sp_has: CLR     C
         JNC     sp_up
         CPL     A                       ; |delta| = N0 - N1
         INC     A
-sp_up:  MOV     TMPD, A
-        MOV     A, @R0
-        MOV     @R1, A                  ; N0
-        INC     R1
-        MOV     @R1, TMPD               ; |delta|
+sp_up:  INC     R1
+        MOV     @R1, A                  ; |delta|
         DEC     R1
-        JNB     NODUR, sp_ret
-        LCALL   need_frames
+        XCH     A, @R0                  ; CUR holds |delta| for two instructions
+        MOV     @R1, A                  ; N0
+        XCH     A, @R0                  ; A = |delta| (for the F found at run time)
 sp_ret: RET
-
-; need_frames: SEGF = max(SEGF, frames pin R0 needs for TMPD DAV at its top speed)
-need_frames:
-        PUSH    DPL
-        PUSH    DPH
-        MOV     A, R0
-        ADD     A, #0xD0          ; pin = R0 - CUR
-        MOV     DPTR, #pin_page
-        MOVC    A, @A+DPTR
-        MOV     DPH, A                  ; the pin's speed class: low bytes on this page,
-        MOV     DPL, #0                 ; high bytes on the next
-        MOV     A, TMPD
-        MOVC    A, @A+DPTR
-        MOV     TMPL, A
-        INC     DPH
-        MOV     A, TMPD
-        MOVC    A, @A+DPTR              ; need, high byte
-        POP     DPH
-        POP     DPL
-        CJNE    A, SEGF+1, nf_cmp
-        MOV     A, TMPL
-        CJNE    A, SEGF, nf_lo
-        RET
-nf_lo:  JC      nf_ret
-        MOV     SEGF, TMPL
-        RET
-nf_cmp: JC      nf_ret
-        MOV     SEGF+1, A
-        MOV     SEGF, TMPL
-nf_ret: RET
 
 ; dda_pin: linear DDA terms of one moving pin, R1 -> its STATE (N0, |delta|):
 ; Q = |delta| div F, REM = |delta| mod F (F > 255: Q = 0, REM = |delta|), and the
@@ -1184,8 +1194,6 @@ etab1 = etab1_data - 1          ; e(k/F) x 256 for k = 1..19, ease in-out
 etab1_data:
         .db     2, 6, 14, 24, 37, 53, 70, 88, 108, 128, 148, 168, 186, 203, 219, 232
         .db     242, 250, 254
-pin_page:                               ; per pin: page of its speed class's frames-needed table
-        .db     0, 0, 0, 0, 0, 0, 0, 0, >fneed0, 0, 0, >fneed1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, >fneed1, 0
 data_end::
 
         .bndry  256                     ; whole pages after the motion data (they never overlap the code)
