@@ -338,10 +338,12 @@ def default_period_us(min_period: int) -> int:
 # the edge handler, which may come at any instruction, HANDLER_STACK more. The selects'
 # RAM (plan.select_ram) and the serial line's are taken from the stack's 46 bytes. Code
 # generation reads the runtime's depth from the code (codegen.runtime_stack) and
-# holds it to these figures.
+# holds it to these figures. These 46 bytes are what `too-deep` promises whatever the
+# program uses; the firmware itself starts the stack where the RAM it allocates ends
+# (no eased moves, no `send`: fewer variables), so most programs have more.
 STACK_BYTES = 46
 BUFB_RAM = 17               # sort buffer B (8 pairs of N and lines) and its rise mask: the top of the
-                            # stack's bytes, taken only where the program leaves that much room
+                            # stack's bytes, taken only where the program's stack leaves that much room
 RUNTIME_STACK = 8
 WATCH_STACK = 5
 HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL

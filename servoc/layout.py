@@ -11,10 +11,12 @@ RAM (AT89C52, 256 bytes):
     0x20-0x2C  bit-addressable per-port masks (ACT, MOVB, DIRB, RMASK) and FLAGS
     0x2D-0x2F  F of the current move
     0x30-0x47  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
-    0x48-0x71  direct variables and the handler's items (allocated in order)
-    0x72-0x9F  the stack (STACK_BYTES), growing up; with `serial`, its queues and
-               counters take the first SERIAL_RAM bytes of it; with three ports, where
-               the program leaves room, sort buffer B and its rise mask the last 17
+    0x48-      direct variables (those the program uses: the receive queue first, at a
+               multiple of its size) and the handler's items, allocated in order
+        -0x9F  the stack, growing up from where they end: at least STACK_BYTES less the
+               serial line's and the selects' RAM (0x72-0x9F at the most RAM); with three
+               ports, where the program's stack leaves room, sort buffer B and its rise
+               mask the last 17
     0xA0-0xFF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
 
 A record list is a run of move and hold records in code memory; each record

@@ -372,3 +372,25 @@ def test_a_program_that_never_sends_is_charged_for_received_bytes_only(clock):
         assert report.ok, (reply, [str(m) for m in report.mismatches[:3]])
         assert report.pulses > 0
         assert sent(trace) == ("H" * 8 if reply else "")
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz"])
+def test_24_servos_that_only_receive_get_buffer_b_and_hold_the_pulses_alone_under_bursts(clock):
+    """A program that never sends has no transmit side (queue, counters, TI path): the RAM that
+    leaves is enough for sort buffer B above the stack of the benchmark's stress program (every
+    servo moving every frame, repeats four deep), so its shortest period is the pulses alone, and
+    there every pulse is exact while 4 bytes come back to back every 9 ms."""
+    import sys
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+    import budget       # noqa: E402  the benchmark's stress programs and its busy line
+
+    period = budget.budget_period(3, 8, target=clock, serial=True)
+    built = build_text(budget.stress_source(3, 8, period, target=clock, serial=True))
+    unit = built.firmware.unit
+    assert unit.budget.last_in_b and not unit.budget.serial_sends
+    assert "TXQ" not in unit.text and "ui_send" not in unit.text and "send_byte" not in unit.text
+    target = built.plan.program.target
+    assert target.cycles(period) <= 3 * costs.port_span(target) + 1 and built.plan.period_us == period
+    assert budget.serial_exact_at(3, period, clock, frames=120)
+    assert not budget.serial_exact_at(3, period - 60, clock, frames=120)     # the ladder can fail
