@@ -315,13 +315,26 @@ def serial_latency(target, budget: Budget) -> int:
 def serial_load(target, budget: Budget, cycles: int) -> int:
     """The serial handler's cycles within `cycles` at the most: a run for each byte that can come
     in and, if the program sends, each that can go out (TI is set by a byte sent, never else),
-    and the instruction each run waits for. Bytes end a byte time apart at the least, and a byte's
-    run has ended within `reach` of it (serial_latency, then the rest of the run: less than a byte
-    time), so the runs that take cycles in a window of c cycles are those of the bytes that end
-    in the c + reach cycles before its end: ceil((c + reach) / byte) each way."""
-    reach = serial_latency(target, budget) - budget.serial_head + budget.serial_run
-    each = min(-(-cycles // budget.byte_cycles) + 1, -(-(cycles + reach) // budget.byte_cycles))
+    and the instruction each run waits for. Bytes end a byte time apart at the least, and a run
+    starts within a byte time of its byte (serial_latency), so a window of c cycles meets
+    ceil(c / byte) + 1 runs each way; fewer when a byte's run surely ends sooner (`run_reach`):
+    then only the bytes that end in the c + reach cycles before the window's end have a run in it."""
+    each = -(-cycles // budget.byte_cycles) + 1
+    reach = run_reach(target, budget)
+    if reach is not None:
+        each = min(each, -(-(cycles + reach) // budget.byte_cycles))
     return (2 if budget.serial_sends else 1) * each * (budget.serial_run + SERIAL_WAIT)
+
+
+def run_reach(target, budget: Budget) -> int | None:
+    """The longest from a byte's RI to the end of its run: the edge handler's longest stretch, the
+    instruction under way, a TI run under way (when the program sends), and the run. That holds
+    when the gap each rise leaves before the earliest fall takes the rest of the run (whatever
+    runs between the entries before it only shortens what is left); None when it may not."""
+    rest = SERIAL_WAIT + (budget.serial_run if budget.serial_sends else 0) + budget.serial_run
+    if any(target.width_cycles(0) - rise < rest for rise in budget.rises):
+        return None
+    return busy_stretch(target, budget) + rest
 
 
 def default_period_us(min_period: int) -> int:
