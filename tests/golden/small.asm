@@ -184,7 +184,9 @@ su_c22: JC      su_22                ; 2
 su_22:
         MOV     LPTR, DPL               ; the record list goes on after this record
         MOV     LPTR+1, DPH
-        JNB     NODUR, dm_f             ; F found at run time: for each speed class the frames
+        JB      NODUR, dm_rf            ; F found at run time: for each speed class the frames
+        LJMP    dm_f                    ; (the classes' code may be out of a short jump's reach)
+dm_rf:
         MOV     DPL, DMAX0                ; its largest |delta| needs (the table rises with |delta|)
         MOV     DPH, #>fneed0
         CLR     A
