@@ -376,7 +376,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         ram.alloc("EVAL", 1, "e(k/F) x 256 this frame")
     if uses["nodur"]:       # F found at run time: the frames its largest |delta| needs, per speed class
         for cls in range(len(plan.speed_tables)):
-            ram.alloc(f"DMAX{cls}", 1, f"the largest |delta| of speed class {cls} in the current record")
+            ram.alloc(_dmax(cls), 1, f"the largest |delta| of speed class {cls} in the current record")
     ram.alloc("LPTR", 2, "the record list being run: the next record")
     more = any(r.get("more") for r in ctx.records)
     if more:
@@ -386,9 +386,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
     s = None if serial is None else _serial(serial, ram, uses["sends"])
-    most = max(sum(1 for c in plan.channels if c.port == port) for port in plan.ports) if plan.ports else 1
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
-    ram.alloc("ITEMS", 1 + 3 * (most - 1) + 3, "the handler's items for the port being pulsed", direct=False)
+    ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
         ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
     stack_base = ram.next
@@ -404,7 +403,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + pin,
                       "state": layout.STATE_BASE + layout.STATE_BYTES * pin, "act_bit": bit["ACT"],
                       "mov_bit": bit["MOVB"], "dir_bit": bit["DIRB"], "rm_bit": bit["RMASK"],
-                      "dmax": f"DMAX{c.speed_class}"})
+                      "dmax": _dmax(c.speed_class)})
     reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
                     "names": ", ".join(s.name for s in plan.program.servos if s.port == port)}
                    for port in sorted({s.port for s in plan.program.servos})]
@@ -415,14 +414,14 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             page = (plan.program.target.chip.code_bytes >> 8) - 2 * (len(plan.speed_tables) - cls)   # at the top
             # the runtime looks up only each class's largest |delta|: the table must not fall
             assert all(a <= b for a, b in zip(table, table[1:])), "a frames-needed table falls"
-            fneed.append({"cls": cls, "page": page, "label": f"fneed{cls}", "dmax": f"DMAX{cls}",
+            fneed.append({"cls": cls, "page": page, "label": f"fneed{cls}", "dmax": _dmax(cls),
                           "lo": [v & 0xFF for v in table], "hi": [v >> 8 for v in table],
                           "t_dav": f"{float(plan.class_t_dav_us[cls]):.1f}"})
         if max(max(t) for t in plan.speed_tables) > 0xFFFF:
             raise layout.SlowServo("a servo is too slow for the frames-needed tables")
     pin_dmax = ["0"] * 24
     for c in plan.channels:
-        pin_dmax[c.port * 8 + c.bit] = f"DMAX{c.speed_class}"
+        pin_dmax[c.port * 8 + c.bit] = _dmax(c.speed_class)
 
     ease_tables = [{"label": lab, "ease": ease, "frames": frames,
                     "values": list(next(st.ease_table for st in steps(plan)
@@ -437,7 +436,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit, bfull_bit=framed_bit + 1,
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
-                  handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE, minus_cur=-layout.CUR_BASE & 0xFF,
+                  handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,
                   state_base=layout.STATE_BASE, state_bytes=layout.STATE_BYTES, stack_base=stack_base, s=s,
                   compact=plan.compact, more=more, **{k: uses[k] for k in ("repeats", "eased", "holds")},
                   more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
@@ -523,6 +522,16 @@ def _port_pins(plan: Plan, port: int) -> list[dict]:
             for i, b in enumerate(bits)]
 
 
+def _most_lines(plan: Plan) -> int:
+    """The servo lines of the port that has the most (the handler's items and `emit_list` are sized by it)."""
+    return max((len(_port_pins(plan, port)) for port in plan.ports), default=1)
+
+
+def _dmax(cls: int) -> str:
+    """The RAM byte holding the largest |delta| of speed class `cls` in the current record."""
+    return f"DMAX{cls}"
+
+
 def _engine_ram(ram: layout.RamAllocator) -> None:
     """The edge handler's and frame_io's variables."""
     ram.alloc("RISEM", 1, "the lines of the next port to rise from buffer A that have a target")
@@ -548,7 +557,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         ports[-1]["looped"] = plan.compact and [pin["bit"] for pin in ports[-1]["pins"]] == list(range(ports[-1]["s"]))
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
         ports[-1]["rest_add"] = (costs.STOP - ports[-1]["rnext"]) % 0x10000   # no fall: straight to the next rise
-    most = max((p["s"] for p in ports), default=1)
+    most = _most_lines(plan)
     ram.symbols += [("WN", layout.SORT_BASE, "sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)"),
                     ("WM", layout.SORT_BASE + 1, "sort buffer A: the lines of pair i at WM + 2i")]
     if bport is not None:
@@ -565,8 +574,9 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
                  "ANL     A, #0x07", f"ADDC    A, #>{target.width_cycles(0)}", "XCH     A, R7"]
     else:
         near_dn = next(d for d in range(1, 256) if int(d * target.div_cycles) >= costs.SPLIT)
-        ctime = ["MOV     DPTR, #ctab             ; t = C(N) from the table, in R7:A", "MOV     R7, A",
+        ctime = ["MOV     R7, A                   ; t = C(N) from the table (DPTR = ctab), in R7:A",
                  "MOVC    A, @A+DPTR", "XCH     A, R7", "INC     DPH", "MOVC    A, @A+DPTR", "XCH     A, R7"]
+    table = [] if target.grid else ["MOV     DPTR, #ctab"]
     sizes = sorted({p["s"] for p in ports})
     return {
         "window": 2 ** costs.WINDOW_BITS, "cascade": [(k, 2 ** k) for k in range(costs.WINDOW_BITS)],
@@ -577,8 +587,8 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
         "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
-        "ctime": "\n".join("        " + line for line in ctime),
-        "ctime_kept": "\n".join("        " + line for line in ctime[1 - target.grid:]),     # DPTR is ctab already
+        "ctime": "\n".join("        " + line for line in table + ctime),
+        "ctime_kept": "\n".join("        " + line for line in ctime),     # where DPTR is ctab already
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
                    "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in costs.SORTING_NETWORKS[n]]}
                   for n in sizes],
@@ -644,8 +654,8 @@ def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:
 
 
 def _serial(serial, ram: layout.RamAllocator, sending: bool) -> dict:
-    """The serial line's numbers (serial.asm.j2) and its counters, taken from the stack (its queues
-    are allocated with the other buffers). `sending`: the program sends (else no transmit side)."""
+    """The serial line's numbers (serial.asm.j2) and its counters (its queues are allocated with
+    the other buffers). `sending`: the program sends (else no transmit side)."""
     q = costs.QUEUE
     ram.alloc("RXW", 1, "bytes received and queued (counts on)")
     ram.alloc("RXR", 1, "bytes the program took from the receive queue (counts on)")

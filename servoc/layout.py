@@ -36,12 +36,10 @@ SORT_PAIR = 2                   # bytes of a pair: pair i at +2i, its N first
 CUR_BASE = 0x30                 # current N per pin
 STATE_BYTES = 4
 STATE_BASE = RAM_SIZE - 24 * STATE_BYTES     # motion state, 4 bytes per pin: 0xA0..0xFF
-STACK_BASE = STATE_BASE - costs.STACK_BYTES  # the stack below it: 0x72..0x9F
 BUFB_BASE = STATE_BASE - 16     # sort buffer B (three ports, where the stack has room): 16 bytes
                                 # at the top of the stack's room, its rise mask below; like A at
                                 # 0x10 mod 0x20, so that bit 4 of a pointer just past either is clear
 assert SORT_BASE % 0x20 == BUFB_BASE % 0x20 == 0x10
-DIRECT_END = STACK_BASE         # direct variables end where the stack starts
 DIRECT_LIMIT = 0x80             # above it, RAM is reached only through @R0/@R1 (direct 0x80.. are the SFRs)
 WORK_BASE = CUR_BASE + 24       # variables after CUR
 
@@ -162,11 +160,11 @@ class PeriodTooLong(LayoutError):
 
 
 class RamAllocator:
-    """A bump allocator over RAM from WORK_BASE up to `end` (DIRECT_END, or further where the serial
-    line and the selects take bytes from the stack). A variable the code names directly must end
-    by DIRECT_LIMIT; buffers reached only through @R0/@R1 (direct=False) may go past it."""
+    """A bump allocator over RAM from WORK_BASE up to `end` (where the stack the program needs
+    starts). A variable the code names directly must end by DIRECT_LIMIT; buffers reached only
+    through @R0/@R1 (direct=False) may go past it."""
 
-    def __init__(self, end: int = DIRECT_END) -> None:
+    def __init__(self, end: int) -> None:
         self.next = WORK_BASE
         self.end = end
         self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)

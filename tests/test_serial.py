@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import sys
 from pathlib import Path
 
 import pytest
@@ -19,6 +20,9 @@ from conftest import build_text, front_end_text, simulate_events
 from servoc import api, cli, costs, events, layout, verify
 from servoc.flow import send_gap, send_run
 from servoc.target import byte_cycles, timer1_baud, working_bauds
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+import budget as bench  # noqa: E402  the benchmark's stress programs and its busy line
 
 pytestmark = pytest.mark.toolchain
 
@@ -381,19 +385,15 @@ def test_24_servos_that_only_receive_get_buffer_b_and_hold_the_pulses_alone_unde
     leaves is enough for sort buffer B above the stack of the benchmark's stress program (every
     servo moving every frame, repeats four deep), so its shortest period is the pulses alone, and
     there every pulse is exact while 4 bytes come back to back every 9 ms."""
-    import sys
-    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
-    import budget       # noqa: E402  the benchmark's stress programs and its busy line
-
-    period = budget.budget_period(3, 8, target=clock, serial=True)
-    built = build_text(budget.stress_source(3, 8, period, target=clock, serial=True))
+    period = bench.budget_period(3, 8, target=clock, serial=True)
+    built = build_text(bench.stress_source(3, 8, period, target=clock, serial=True))
     unit = built.firmware.unit
     assert unit.budget.last_in_b and not unit.budget.serial_sends
     assert "TXQ" not in unit.text and "ui_send" not in unit.text and "send_byte" not in unit.text
     target = built.plan.program.target
     assert target.cycles(period) <= 3 * costs.port_span(target) + 1 and built.plan.period_us == period
-    assert budget.serial_exact_at(3, period, clock, frames=120)
-    assert not budget.serial_exact_at(3, period - 60, clock, frames=120)     # the ladder can fail
+    assert bench.serial_exact_at(3, period, clock, frames=120)
+    assert not bench.serial_exact_at(3, period - 60, clock, frames=120)     # the ladder can fail
 
 
 def test_a_run_counts_in_a_window_only_if_it_can_still_be_going_on():
