@@ -353,8 +353,8 @@ def test_the_fastest_rate_at_11_0592_mhz_holds_its_period_under_bursts():
 @pytest.mark.parametrize("clock", ["", "target stc89c52 clock 11.0592MHz\n"])
 def test_a_program_that_never_sends_is_charged_for_received_bytes_only(clock):
     """Without a `send` TI is never set, so the serial handler runs only for bytes received: 24
-    servos at 4800 baud (one sort buffer: the work after the last sort, with the runs in its window,
-    sets the period), bytes back to back in bursts. Without and with a `send`, each at the shortest
+    servos at 4800 baud (the work, with the runs that can come in its window, sets the period),
+    bytes back to back in bursts. Without and with a `send`, each at the shortest
     period the budget gives it (shorter without), every pulse is exact and every byte taken."""
     def program(reply: str) -> str:
         servos = [f"s{p}{b}" for p in range(3) for b in range(8)]
