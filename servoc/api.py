@@ -22,6 +22,7 @@ from fractions import Fraction
 from . import check as _check
 from . import codegen, costs, layout, lint as _lint, syntax, toolchain
 from . import plan as _plan
+from . import observe as _observe
 from . import sim as _sim
 from . import verify as _verify
 from .diagnostics import Reporter
@@ -271,47 +272,48 @@ def stimulus(plan_: Plan, events: list = ()) -> Stimulus:
 
 
 def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
-             stim: Stimulus = Stimulus()) -> _sim.SimTrace:
+             stim: Stimulus = Stimulus(), probes: _observe.Probes | None = None) -> _sim.SimTrace:
     """Run an Intel HEX image in ucsim for `cycles` machine cycles of `target`, recording every port
     write and every byte sent (a 6T chip runs as ucsim's 12-clock core at twice its crystal: the
-    same machine cycle). Should ucsim make a change of `stim` late (it can, when a port write falls
+    same machine cycle), and, with `probes` (`probes(firmware)`), every time the firmware reached a
+    probed address. Should ucsim make a change of `stim` late (it can, when a port write falls
     in the same instruction), the run is made again with the changes a cycle or two later, which
-    the firmware reads no differently."""
+    the firmware reads no differently. The trace keeps the changes as made (`inputs`, `uart`)."""
     for shift in range(4):
         pins = tuple((at + shift * (at > 1), port, level) for at, port, level in stim.pins)
         uart = None if stim.uart is None else tuple((at + shift, on) for at, on in stim.uart)
         try:
-            return _sim.run(hex_text, cycles + 4, xtal_hz=target.sim_hz, inputs=pins, uart=uart, rx=stim.rx,
-                            timeout=120 + cycles / 1_000_000)    # ucsim runs some 4 million cycles a second
+            trace = _sim.run(hex_text, cycles + 4, xtal_hz=target.sim_hz, inputs=pins, uart=uart, rx=stim.rx,
+                             timeout=120 + cycles / 1_000_000,    # ucsim runs some 4 million cycles a second
+                             probes=() if probes is None else probes.points)
+            trace = dataclasses.replace(trace, inputs=pins, uart=uart)
+            if probes is not None:
+                trace = dataclasses.replace(trace, observation=_observe.observe(probes, trace))
+            return trace
         except _sim.MissedInput:
             if shift == 3:
                 raise
     raise AssertionError("unreachable")
 
 
+def probes(firmware: Firmware) -> _observe.Probes:
+    """Where `servoc verify` watches this firmware run (`observe.probes_for`)."""
+    return _observe.probes_for(firmware.image.listing, firmware.unit.text, firmware.unit.selects)
+
+
 def check_events(plan_: Plan, trace: _sim.SimTrace, frames: int, events: list,
                  line_of=None) -> _verify.VerifyReport:
-    """Compare a run driven by `events` with the plan: the branch taken at each select is read from
-    the trace (`verify.infer_choices`), then each `on` must start within 2 P of its event, and
-    every input pin must read what the events drove on it. The report lists the selects reached
-    and what they took (`line_of(span)`: a span's line), and the events no select took."""
+    """Compare a run driven by `events` with the plan, from what the firmware was seen to do (the
+    trace of a `simulate` with `probes`): see `verify.check_run`."""
     return events_report(plan_, trace, frames, events, line_of)[1]
 
 
 def events_report(plan_: Plan, trace: _sim.SimTrace, frames: int, events: list,
                   line_of=None) -> tuple[tuple, _verify.VerifyReport]:
-    """(the choices found, the report) of `check_events`."""
-    import dataclasses
-    choices, report = _verify.infer_choices(plan_, trace, frames, events=events)
-    t1 = _verify.first_rise_us(plan_, trace)
-    late = _verify.check_event_delays(plan_, choices, events, t1)
-    extra = tuple(_verify.Mismatch(0, "-", "-", None, None, text) for text in late)
-    extra += tuple(_verify.driven_pins(plan_, trace, stimulus(plan_, events).pins))
-    end = None if t1 is None else t1 + (report.frames - 1) * plan_.period_us
-    return choices, dataclasses.replace(
-        report, mismatches=report.mismatches + extra,
-        reactions=tuple(_verify.reactions(plan_, choices, events, t1, line_of)),
-        warnings=() if end is None else tuple(_verify.unseen(plan_, choices, events, t1, end)))
+    """(the branches the selects took, in the order reached; the report) of `check_events`."""
+    if trace.observation is None:
+        raise ValueError("a run with events is checked from the firmware's probes: simulate it with probes")
+    return _verify.check_run(plan_, trace, trace.observation, frames, list(events), line_of)
 
 
 def cycles_needed(plan_: Plan, frames: int) -> int:

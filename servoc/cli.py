@@ -31,7 +31,7 @@ from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import has_selects
 from .steps import AfterBranch, branch_text, Plan, SelectStep, SendStep, steps
 from .starter import starter
-from .verify import SETTLE_MARGIN, verify_settle, verify_span
+from .verify import SETTLE_MARGIN, coverage, verify_settle, verify_span
 from .target import fmt_us
 from .units import DAV_DEG, fmt_ms
 
@@ -294,7 +294,7 @@ def _main(argv: list[str], run: _Run) -> int:
         return _flash(args, run, source, fe.plan, firmware)
     if args.command == "compile":
         return _compile(args, run, source, fe.plan, firmware)
-    return _verify(args, run, source, fe.plan, hex_text or firmware.hex_text)
+    return _verify(args, run, source, fe.plan, hex_text or firmware.hex_text, firmware)
 
 
 def _check_options(args) -> None:
@@ -385,12 +385,14 @@ def _compile(args, run: _Run, source, plan: Plan, firmware) -> int:
     return 0
 
 
-def _verify(args, run: _Run, source, plan: Plan, hex_text: str) -> int:
-    """`servoc verify`: run the HEX in ucsim (with --events, as they say) and compare every pulse
-    and every byte sent with the plan."""
+def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int:
+    """`servoc verify`: run the HEX in ucsim (with --events, as they say), watching what the
+    firmware does at its selects, and compare every pulse and every byte sent with the plan of
+    the branches it took; say what the run did not reach."""
+    from . import events as _events
+    from .observe import ProbeError, hex_matches
     events = None
     if getattr(args, "events", None):
-        from . import events as _events
         try:
             with open(args.events, encoding="utf-8-sig") as fh:
                 events = _events.parse(fh.read(), plan.program.inputs, plan.program.serial is not None)
@@ -400,29 +402,47 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str) -> int:
             raise _Stop(f"{args.events} is not UTF-8 text") from None
         except _events.EventsError as exc:
             raise _Stop(f"{args.events}: {exc}") from None
-    span = verify_span(plan, args.frames, events)
+    try:
+        span = verify_span(plan, args.frames, events)
+        stim = api.stimulus(plan, span.events)
+    except _events.EventsError as exc:
+        raise _Stop(f"{args.events}: {exc}") from None
+    try:
+        probes = api.probes(firmware)
+    except ProbeError as exc:
+        raise _Stop(f"cannot watch the firmware run: {exc}; report this program as a bug") from None
+    watched = bool(firmware.unit.selects) or plan.program.serial is not None
+    if hex_text != firmware.hex_text and not hex_matches(probes, hex_text):
+        if firmware.unit.selects:
+            raise _Stop(f"{args.hex} is not the firmware servoc builds from {source.path}: verify cannot watch its "
+                        "selects (compile the program again, or verify it without --hex)")
+        watched = False
     progress = _color(sys.stderr) and not run.json
     line_of = (lambda sp: source.line_col(sp.start)[0])
+
+    def text_of(sp) -> str:
+        return source.line_text(line_of(sp)).split("#")[0].strip()
+
     frames = span.frames
-    for _ in range(3):      # with events: until the consequences of the last one are checked
-        stim = api.stimulus(plan, span.events)
+    choices: tuple = ()
+    for _ in range(3):      # until the consequences of the last event are checked
         try:
             if progress:
                 sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
             cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
-            trace = api.simulate(hex_text, cycles, plan.program.target, stim)
+            trace = api.simulate(hex_text, cycles, plan.program.target, stim, probes if watched else None)
             if progress:
                 sys.stderr.write(" " * 60 + "\r")
         except api.ToolNotFound as exc:
             raise _Stop(str(exc), "missing-tool") from None
         except api.SimError as exc:
             raise _Stop(f"ucsim could not run the firmware: {exc}") from None
-        if events is None:
+        if not watched:
             report = api.check_trace(plan, trace, frames)
             break
         choices, report = api.events_report(plan, trace, frames, span.events, line_of)
         settle = verify_settle(plan, choices)
-        if args.frames or settle is None or settle + SETTLE_MARGIN <= frames or frames >= span.limit:
+        if args.frames or not events or settle is None or settle + SETTLE_MARGIN <= frames or frames >= span.limit:
             break
         frames = min(span.limit, settle + SETTLE_MARGIN)
     unchecked = list(span.notes)
@@ -431,7 +451,8 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str) -> int:
         if settle is not None and settle + SETTLE_MARGIN > frames:
             unchecked.append(f"the branch taken last runs past the {frames} frames checked (it waits again at "
                              f"frame {settle}): its end is not checked")
-    report = dataclasses.replace(report, unchecked=tuple(unchecked))
+    missed, ended = coverage(plan, choices, frames, line_of, text_of)
+    report = dataclasses.replace(report, unchecked=tuple(unchecked + missed), ended=ended)
     if args.vcd:
         from .events import byte_arrivals
         from .target import byte_cycles
@@ -461,6 +482,8 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str) -> int:
         print(f"  warning: {w}")
     for u in report.unchecked:
         print(f"  not checked: {u}")
+    if report.ended:
+        print(f"  when the run ended: {report.ended}")
     return 0 if report.ok else 1
 
 
@@ -730,7 +753,9 @@ def verify_data(report, source, plan: Plan) -> dict:
                            for m in report.mismatches],
             "selects": [{"line": r.line, "frame": r.frame, "time_us": round(r.time_us, 3), "branch": r.branch,
                          "event": r.event, "waited_frames": r.waited} for r in report.reactions],
-            "warnings": list(report.warnings), "not_checked": list(report.unchecked)}
+            "warnings": list(report.warnings), "not_checked": list(report.unchecked),
+            "partial": report.ok and bool(report.unchecked), "span_s": round(report.span_s, 6),
+            "ended": report.ended}
 
 
 def _plan_line(plan: Plan) -> str:

@@ -53,6 +53,7 @@ class AsmUnit:
     min_period_us: int | None = None   # the shortest frame period this code holds (None: unbounded)
     target: Target = DEFAULT_TARGET    # the chip it is built for
     for_size: bool = False          # built for size (Plan.compact)
+    selects: tuple = ()             # (label, SelectStep) of each select laid out, for verify's probes
 
 
 _hex8 = layout.hex8
@@ -119,6 +120,7 @@ class _Ctx:
     slots: dict = field(default_factory=dict)         # id(select) -> its level (select_slots)
     edge_ports: tuple = ()           # ports with an input some `on press`/`on release` watches
     looks: list = field(default_factory=list)         # every select's op, for its look routine
+    selects: list = field(default_factory=list)       # (label, SelectStep) of every select laid out
     watches: int = 0                 # selects with a meanwhile body so far (their ids: 1, 2, ...)
     repeats: bool = False            # a `repeat` is laid out (it counts its passes with rep_next)
 
@@ -311,6 +313,7 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
           "meanwhile": meanwhile,
           "samples": [{"i": ctx.edge_ports.index(p), "port": p} for p in ports]}
     ctx.looks.append(op)
+    ctx.selects.append((lab, st))
     return op
 
 
@@ -488,7 +491,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
                    budget, work_from,
                    shortest,
-                   target, plan.compact)
+                   target, plan.compact, tuple(ctx.selects))
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:

@@ -22,7 +22,7 @@ A line of bytes must not begin before the bytes before it are through.
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 
 from . import model
@@ -45,6 +45,7 @@ class InputEvent:
     time_us: Fraction
     input: str
     active: bool
+    line: int = field(default=0, compare=False)     # its line in the events file
 
 
 @dataclass(frozen=True)
@@ -52,6 +53,7 @@ class ByteEvent:
     """Bytes the host sends back to back, the first starting at `time_us`."""
     time_us: Fraction
     data: bytes
+    line: int = field(default=0, compare=False)     # its line in the events file
     input = None        # not an input's change
 
 
@@ -97,7 +99,7 @@ def parse(text: str, inputs: tuple[model.Input, ...], serial: bool = False) -> l
         if tm is not None and (tm.group(3).startswith('"') or tm.group(3)[:1].isdigit()):
             if not serial:
                 raise EventsError(number, "bytes on the serial line, but the program declares no `serial`")
-            out.append(ByteEvent(Fraction(tm.group(1)) * _SCALE[tm.group(2)], _bytes(tm.group(3), number)))
+            out.append(ByteEvent(Fraction(tm.group(1)) * _SCALE[tm.group(2)], _bytes(tm.group(3), number), number))
             last = _in_order(last, out[-1].time_us, number)
             continue
         m = _LINE.match(line)
@@ -110,7 +112,7 @@ def parse(text: str, inputs: tuple[model.Input, ...], serial: bool = False) -> l
             raise EventsError(number, f"`{name}` is not an input of the program (inputs: {known})")
         if level not in ("active", "inactive"):
             raise EventsError(number, f"`{level or ''}`: say `active` or `inactive`")
-        out.append(InputEvent(Fraction(value) * _SCALE[unit], name, level == "active"))
+        out.append(InputEvent(Fraction(value) * _SCALE[unit], name, level == "active", number))
         last = _in_order(last, out[-1].time_us, number)
     return sorted(out, key=lambda e: e.time_us)
 
@@ -145,8 +147,9 @@ def uart_windows(events: list, byte_cycles: int, target: Target) -> tuple[bytes,
             continue
         start = max(2, target.cycles(ev.time_us))
         if start < busy_until:
-            raise EventsError(0, f"the bytes at {float(ev.time_us) / 1000:g} ms start before those before them are "
-                                 f"through (a byte takes {byte_cycles * float(target.cycle_us) / 1000:.3f} ms)")
+            raise EventsError(ev.line, f"the bytes at {float(ev.time_us) / 1000:g} ms start before those before them "
+                                       f"are through (a byte takes {byte_cycles * float(target.cycle_us) / 1000:.3f} "
+                                       "ms at the program's rate): start them later")
         data += ev.data
         windows += [(start, True), (start + (len(ev.data) - 1) * byte_cycles + byte_cycles // 2, False)]
         busy_until = start + len(ev.data) * byte_cycles

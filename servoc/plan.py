@@ -588,7 +588,8 @@ class ListDecider(Decider):
         return token[0]
 
 
-def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list | None = None) -> Iterator[GoldenFrame]:
+def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list | None = None,
+           seen: dict | None = None) -> Iterator[GoldenFrame]:
     """Every frame of the program, from the first timer frame; after main, the last repeats forever.
 
     A select cannot know which event comes: `expand` takes the next of `choices` at each select it
@@ -599,7 +600,8 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
     it are reached (and take their choices) as the body runs, and the outer select looks first
     after each frame. A `send` adds its byte to the next frame's `sent`. Raises ValueError for a
     choice the select cannot make. `reached`, if given, gets (frames yielded so far, the select)
-    each time a select is reached."""
+    each time a select is reached. `seen`, if given, gets id(statement) of each statement started
+    and id(branch) of each branch taken; a loop's value counts the passes it completed."""
     decider = choices if isinstance(choices, Decider) else ListDecider(choices)
     count = len(plan.channels)
     state: list[int | None] = [None] * count
@@ -640,10 +642,14 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
             yield frame(st.span)
             j += 1
             taken = decider.look(token, j, made)
+        if seen is not None:
+            seen[id(st.branches[taken])] = 0
         yield from run(st.branches[taken].body)
 
     def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         for st in body:
+            if seen is not None:
+                seen.setdefault(id(st), 0)
             if isinstance(st, SendStep):
                 pending.append(st.byte)
                 continue
@@ -676,6 +682,8 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                         yield fr
                     if before is None:      # a pass that took no frame waits for the next frame
                         yield frame(last_span)
+                    if seen is not None:
+                        seen[id(st)] += 1
             else:
                 yield from run(plan.sequence(st.sequence).body)
 

@@ -77,7 +77,7 @@ import re
 import subprocess
 import tempfile
 from collections.abc import Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .toolchain import find_tool, rom_used
@@ -87,6 +87,7 @@ __all__ = [
     "CPU_TYPE",
     "PORT_SFR",
     "PortWrite",
+    "Probe",
     "SimError",
     "SimTrace",
     "XTAL_HZ",
@@ -107,6 +108,7 @@ _MARK_BASE = 3141500  # marker printed before each event: _MARK_BASE + port
 _MARK_END = _MARK_BASE + 99  # marker printed before the final tick count
 _MARK_INPUT = _MARK_BASE + 50  # marker printed after the run stopped for an input change
 _MARK_TX = _MARK_BASE + 60     # marker printed before the tick count of each write to SBUF
+_MARK_PROBE = _MARK_BASE + 70  # marker printed before a probe's tag, tick count and RAM bytes
 SBUF = 0x99
 
 _TICKS_WRAP = 1 << 32  # sim_ticks is a 32-bit unsigned value
@@ -140,6 +142,17 @@ class PortWrite:
 
 
 @dataclass(frozen=True)
+class Probe:
+    """The firmware reached a probed code address: `tag` (the caller's number for that address),
+    `cycle` (machine cycles from reset to the start of the instruction there, before it runs) and
+    `ram` (the internal RAM bytes asked for, read at that moment)."""
+
+    tag: int
+    cycle: int
+    ram: tuple[int, ...] = ()
+
+
+@dataclass(frozen=True)
 class SimTrace:
     """All port writes of one simulation run, and its length in cycles."""
 
@@ -147,6 +160,10 @@ class SimTrace:
     cycles: int
     sent: tuple[tuple[int, int], ...] = ()   # (cycle, byte) of each byte the UART sent: the end of
                                              # the instruction that wrote SBUF
+    probes: tuple[Probe, ...] = ()           # each time the firmware reached a probed address, in order
+    inputs: tuple = ()                       # (cycle, port, outside level) changes ucsim made, as made
+    uart: tuple | None = None                # (cycle, on) changes of the UART's input flag, as made
+    observation: object = None               # what the probes saw (observe.Observation), when probed
 
     def port_writes(self, port: int) -> list[PortWrite]:
         """The writes to one port, in order."""
@@ -216,8 +233,12 @@ def _check_pin(port: int, bit: int) -> None:
 
 
 def _script(hex_name: str, limit_name: str, ports: Iterable[int],
-            actions: tuple[tuple[int, str], ...] = (), uart: bool = False) -> str:
+            actions: tuple[tuple[int, str], ...] = (), uart: bool = False,
+            probes: tuple[tuple[int, int, tuple[int, ...]], ...] = ()) -> str:
     lines = [f'file "{hex_name}"']
+    for address, tag, ram in probes:
+        reads = "".join(f" /u iram[{a:#04x}]" for a in ram)
+        lines += [f"break {address:#06x}", f"commands expr {_MARK_PROBE} /u {tag} /u {len(ram)} /u sim_ticks{reads};run"]
     for port in ports:
         sfr = PORT_SFR[port]
         report = f"commands expr {_MARK_BASE + port} /u sim_ticks /u sfr[{sfr}];run"
@@ -277,6 +298,7 @@ def run(
     inputs: Iterable[tuple[int, int, int]] = (),
     uart: Iterable[tuple[int, bool]] | None = None,
     rx: bytes = b"",
+    probes: Iterable[tuple[int, int, tuple[int, ...]]] = (),
 ) -> SimTrace:
     """Simulate `hex_text` from reset for at least `cycles` machine cycles.
 
@@ -294,6 +316,10 @@ def run(
     True) and the next (cycle, False) of `uart` (ucsim's "check input at every cycle" flag):
     one byte starts at the first, and one more each byte time until the second. Every byte
     the UART sends is in `SimTrace.sent`. All changes come at least 8 cycles apart.
+
+    `probes`: (code address, tag, internal RAM addresses): each time the firmware is about to run
+    the instruction at an address, a `Probe` with its tag, the cycle and those RAM bytes is added
+    to `SimTrace.probes`.
     """
     if not isinstance(cycles, int) or isinstance(cycles, bool) or cycles < 1:
         raise ValueError(f"cycles must be a positive int, got {cycles!r}")
@@ -314,7 +340,8 @@ def run(
             raise ValueError("input changes must come at least 8 cycles apart, inside the run")
         (tmpdir / "limit.vcd").write_text(_limit_vcd(cycles, xtal_hz, tuple(at for at, _ in changes)),
                                           encoding="ascii")
-        (tmpdir / "run.cmd").write_text(_script("fw.ihx", "limit.vcd", port_list, changes, uart is not None),
+        (tmpdir / "run.cmd").write_text(_script("fw.ihx", "limit.vcd", port_list, changes, uart is not None,
+                                                tuple(probes)),
                                         encoding="ascii")
         argv = [s51, "-b", "-t", CPU_TYPE, "-X", str(xtal_hz), "-C", "run.cmd"]
         if uart is not None:
@@ -359,7 +386,7 @@ def run(
     if uart is not None:
         ticks = [int(lines[i + 1]) for i, ln in enumerate(lines) if ln == str(_MARK_TX) and i + 1 < len(lines)]
         # the UART writes the byte out as its stop bit ends: the last write may still be on the line
-        trace = SimTrace(trace.writes, trace.cycles, tuple(zip((_to_cycles(t) for t in ticks), tx)))
+        trace = replace(trace, sent=tuple(zip((_to_cycles(t) for t in ticks), tx)))
     return trace
 
 
@@ -379,7 +406,9 @@ def _parse(out: str, err: str, returncode: int, cycles: int, n_bytes: int) -> Si
 
     markers = {str(_MARK_BASE + p): p for p in PORT_SFR}
     end_marker = str(_MARK_END)
+    probe_marker = str(_MARK_PROBE)
     writes: list[PortWrite] = []
+    probes: list[Probe] = []
     lines = out.splitlines()
     n = len(lines)
     wrap = 0
@@ -398,6 +427,15 @@ def _parse(out: str, err: str, returncode: int, cycles: int, n_bytes: int) -> Si
                 last_raw = raw
                 writes.append(PortWrite(_to_cycles(raw + wrap), port, value & 0xFF))
                 i += 3
+                continue
+            if s == probe_marker:
+                tag, count, raw = int(lines[i + 1]), int(lines[i + 2]), int(lines[i + 3])
+                if raw < last_raw:
+                    wrap += _TICKS_WRAP
+                last_raw = raw
+                ram = tuple(int(lines[i + 4 + k]) & 0xFF for k in range(count))
+                probes.append(Probe(tag, _to_cycles(raw + wrap), ram))
+                i += 4 + count
                 continue
             if s == end_marker:
                 raw = int(lines[i + 1])
@@ -421,7 +459,7 @@ def _parse(out: str, err: str, returncode: int, cycles: int, n_bytes: int) -> Si
     if total < cycles:
         reason = _stop_reason(lines, markers, end_marker)
         raise SimError(f"simulation stopped at cycle {total} before the limit {cycles}: {reason}", _tail(everything))
-    return SimTrace(writes=tuple(writes), cycles=total)
+    return SimTrace(writes=tuple(writes), cycles=total, probes=tuple(probes))
 
 
 _NOISE_PREFIXES = ("Simulation started", "Loading from", "Simulated ", "Host usage", "run", "expr ")

@@ -13,14 +13,16 @@ must never change.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 from dataclasses import dataclass, field
 
-from .plan import Choice, Decider, expand, UNDECIDED
-
-from .steps import AfterBranch, branch_text, Plan
+from . import costs
+from .observe import Observation
+from .plan import Choice, expand, UNDECIDED
+from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
 from .sim import SimTrace
-from .costs import QUEUE, rise_offsets
+from .costs import rise_offsets
 from .target import byte_cycles
 RESET_LOW_US = 20          # servo lines low this soon after reset
 MAX_JITTER_US = 2          # a rise may stand this far from its frame slot
@@ -57,10 +59,26 @@ class VerifyReport:
     reactions: tuple = ()               # with events: each select reached and what it took (Reaction)
     warnings: tuple = ()                # with events: events no select took, as text
     unchecked: tuple = ()               # what the run did not check, as text
+    period_cycles: int = 0              # the planned frame period, in machine cycles
+    ended: str = ""                     # where the program was when the run ended
 
     @property
     def ok(self) -> bool:
         return not self.mismatches
+
+    @property
+    def span_s(self) -> float:
+        """The time the frames checked span, in seconds."""
+        return self.frames * self.period_cycles * self.cycle_us / 1e6
+
+    def verdict(self) -> str:
+        """OK, OK (partial: ...) or FAILED."""
+        if not self.ok:
+            return "FAILED"
+        if self.unchecked:
+            n = len(self.unchecked)
+            return f"OK (partial: {n} thing{'s' if n != 1 else ''} not checked, listed below)"
+        return "OK"
 
     def summary(self) -> str:
         period = "n/a" if self.period_min is None else (
@@ -68,7 +86,7 @@ class VerifyReport:
         if self.period_min is not None and self.unit != "us":
             period += f" = {self.period_mean * self.cycle_us:.1f} µs"
         sent = "" if self.bytes_sent is None else f", {self.bytes_sent} byte{'s' if self.bytes_sent != 1 else ''} sent checked"
-        return (f"{'OK' if self.ok else 'FAILED'}: {self.frames} frames, {self.pulses} pulses checked{sent}, "
+        return (f"{self.verdict()}: {self.frames} frames ({self.span_s:.3f} s), {self.pulses} pulses checked{sent}, "
                 f"max error {self.max_error_cycles} cycles, period {period}, "
                 + ("no servo lines" if self.reset_low_cycles is None
                    else f"servo lines low {self.reset_low_cycles} {self.unit} after reset"))
@@ -156,7 +174,7 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = (), driven
         if golden:
             mismatches.append(Mismatch(1, "-", "-", None, None, "no pulse at all"))
         return VerifyReport(0, 0, 0, None, None, None, reset_low, tuple(mismatches), unit,
-                            cycle_us=float(target.cycle_us))
+                            cycle_us=float(target.cycle_us), period_cycles=target.cycles(plan.period_us))
     t1 = min(firsts)
     period = target.cycles(plan.period_us)
     checked, max_err = 0, 0
@@ -202,7 +220,7 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = (), driven
     mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
     return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
                         max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit, sent,
-                        float(target.cycle_us))
+                        float(target.cycle_us), period_cycles=period)
 
 
 def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: int,
@@ -243,321 +261,138 @@ def _show(b: int) -> str:
     return f'"{chr(b)}"' if 32 < b < 127 and chr(b) not in "\\\"" else str(b)
 
 
-# ---------------------------------------------------------------- runs with events
+# ---------------------------------------------------------------- runs with events, observed
 
-def _first_bad(report: VerifyReport) -> int:
-    frames = [m.frame for m in report.mismatches if m.frame >= 1]
-    return min(frames) if frames else report.frames + 1
-
-
-def first_rise_us(plan: Plan, trace: SimTrace) -> float | None:
-    """The first frame's rise of the first port, from reset, in µs (None: no pulse)."""
-    target = plan.program.target
-    offsets = rise_offsets(plan.ports, target)
+def first_rise(plan: Plan, trace: SimTrace) -> int | None:
+    """The first frame's rise of the first port, in machine cycles from reset (None: no pulse)."""
+    offsets = rise_offsets(plan.ports, plan.program.target)
     firsts = [ps[0][0] - offsets[c.port] for c in plan.channels if (ps := trace.pulses(c.port, c.bit))]
-    return None if not firsts else float(min(firsts) * target.cycle_us)
+    return min(firsts) if firsts else None
 
 
-def selects_reached(plan: Plan, choices: tuple, frames: int) -> tuple[int, list]:
-    """(the first pulse's frame, the selects reached as (frames before it, select)) of the run
-    `choices` make, up to one select past them or `frames` frames from the first pulse."""
-    reached: list = []
-    lead = first_pulse_frame(plan, choices) or 0
-    for _ in itertools.islice(expand(plan, choices, reached), lead + frames):
-        if len(reached) > len(choices):
-            break
-    return lead, reached
-
-
-def infer_choices(plan: Plan, trace: SimTrace, frames: int, limit: int = 200,
-                  events: list | None = None) -> tuple[tuple, VerifyReport]:
-    """The branch the firmware took at each select, found from the trace: select by select, in
-    the order reached, the choice (branch, frames waited) whose golden frames match the trace the
-    furthest; between choices that match as far (two branches can make the same pulses), one
-    whose input was active by then. Returns the choices and the report for them."""
-    t1 = first_rise_us(plan, trace) if events else None
-    arrivals = _arrivals(plan, events or [])
-    if t1 is not None:
-        modelled = model_choices(plan, trace, frames, events, t1)
-        if modelled is not None:
-            return modelled
-
-    def plausible(select, cand, start, lead) -> bool:
-        branch = select.branches[cand.branch]
-        if t1 is None or isinstance(branch, AfterBranch):
-            return True
-        begins = t1 + (start + cand.frames - lead) * plan.period_us
-        return any(at <= begins for at in _occurrences(branch, events, arrivals))
-
-    choices: tuple = ()
-    report = verify(plan, trace, frames, choices)
-    for _ in range(limit):
-        if report.ok:
-            break
-        bad = _first_bad(report)
-        lead, reached = selects_reached(plan, choices, frames)
-        if len(reached) <= len(choices):
-            break                               # no select left to decide: a real mismatch
-        start, select = reached[len(choices)]
-        waited = max(0, lead + bad - 1 - start)
-        cands = [Choice(k, w) for k, br in enumerate(select.branches) if not isinstance(br, AfterBranch)
-                 for w in range(max(0, waited - 3), waited + 2)
-                 if select.after is None or w <= max(1, select.after.frames)]
-        if select.after is not None:
-            cands.append(Choice(len(select.branches) - 1, max(1, select.after.frames)))
-        best = None
-        for cand in cands:
-            r = verify(plan, trace, frames, choices + (cand,))
-            key = (_first_bad(r), plausible(select, cand, start, lead), -abs(cand.frames - waited))
-            if best is None or key > best[0]:
-                best = (key, cand, r)
-        if best is not None and not best[0][1]:
-            # The best fit has no event behind it: a branch whose first frames change nothing can
-            # look like waiting longer. Look further back for one that has.
-            for k, br in enumerate(select.branches):
-                if isinstance(br, AfterBranch) or t1 is None:
-                    continue
-                near: set[int] = set()          # a frame or three after each time its event came
-                for at in _occurrences(br, events, arrivals):
-                    first = int((at - t1) / plan.period_us) + lead - start
-                    near.update(w for w in range(first - 1, first + 4) if 1 <= w < max(1, waited - 3))
-                for w in sorted(near):
-                    cand = Choice(k, w)
-                    if not plausible(select, cand, start, lead):
-                        continue
-                    r = verify(plan, trace, frames, choices + (cand,))
-                    key = (_first_bad(r), True, -abs(w - waited))
-                    if key[0] >= best[0][0] and key > best[0]:
-                        best = (key, cand, r)
-        if best is None or best[0][0] < bad:
-            break
-        choices, report = choices + (best[1],), best[2]
-    return choices, report
-
-
-PHASES = 64     # where in the frame the firmware may look at its inputs: tried at P/64 apart
-
-
-def _arrivals(plan: Plan, events: list) -> list[tuple[float, int]]:
-    """(µs from reset its stop bit ends, byte) of each byte the host sends, in order."""
-    from .events import byte_arrivals
-    serial = plan.program.serial
-    if serial is None:
-        return []
-    return byte_arrivals(events, byte_cycles(serial.th1, serial.smod), plan.program.target)
-
-
-class _EventDecider(Decider):
-    """What the firmware decides at each select when it looks at its events at a fixed phase of
-    the frame: right after each frame_io returns (the select's own wait, or frame_w during a
-    meanwhile body: the outer select first), and once as it is reached. Bytes queue up as they
-    arrive (QUEUE at the most) whether a select waits or not; a look drops the oldest bytes no
-    `on` names (none with `on other`), then takes the first `on` whose event is there: an input
-    active, an edge between the sample before and this one, the oldest byte if an `on` names it,
-    or (`on other`) any other byte; `after` at its F-th frame. Records the choices in the order
-    the selects are reached."""
-
-    def __init__(self, plan: Plan, events: list, arrivals: list, t1: float, phase: float, lead: int) -> None:
-        self.plan, self.t1, self.phase, self.lead = plan, t1, phase, lead
-        self.arrivals = arrivals
-        self.came = 0
-        self.queue: list[int] = []
-        self.by_input: dict[str, list] = {}
-        for e in events:
-            if e.input is not None:
-                self.by_input.setdefault(e.input, []).append(e)
-        self.choices: list = []
-
-    def at(self, frames: int) -> float:
-        return self.t1 + (frames - 1 - self.lead) * self.plan.period_us + self.phase
-
-    def active(self, name: str, t: float) -> bool:
-        state = False
-        for e in self.by_input.get(name, ()):
-            if float(e.time_us) > t:
-                break
-            state = e.active
-        return state
-
-    def reach(self, select, frames: int):
-        self.choices.append(None)
-        inputs = {b.event.input for b in select.branches if not isinstance(b, AfterBranch) and b.event.edge}
-        return {"select": select, "index": len(self.choices) - 1,
-                "prev": {name: self.active(name, self.at(frames)) for name in inputs}}
-
-    def look(self, token, j: int, frames: int) -> int | None:
-        select, t = token["select"], self.at(frames)
-        while self.came < len(self.arrivals) and self.arrivals[self.came][0] <= t:
-            if len(self.queue) < QUEUE:
-                self.queue.append(self.arrivals[self.came][1])
-            self.came += 1
-        ons = [(k, br.event) for k, br in enumerate(select.branches) if not isinstance(br, AfterBranch)]
-        named = {ev.byte for _, ev in ons if ev.byte is not None}
-        other = any(ev.other for _, ev in ons)
-        while self.queue and not other and self.queue[0] not in named:
-            self.queue.pop(0)                   # no `on` waits for it: dropped
-        now = {name: self.active(name, t) for name in token["prev"]}
-        pick = None
-        for k, ev in ons:
-            if ev.input is not None and ev.edge is None:
-                hit = self.active(ev.input, t)
-            elif ev.input is not None:
-                want = ev.edge == "press"
-                hit = now[ev.input] == want and token["prev"][ev.input] != want
-            elif ev.other:
-                hit = bool(self.queue) and self.queue[0] not in named
-            else:
-                hit = bool(self.queue) and self.queue[0] == ev.byte
-            if hit:
-                if ev.input is None:
-                    self.queue.pop(0)
-                pick = k
-                break
-        if pick is None and select.after is not None and j == select.after.frames:
-            pick = len(select.branches) - 1
-        token["prev"] = now
-        if pick is not None:
-            self.choices[token["index"]] = Choice(pick, j)
-        return pick
-
-    def decided(self) -> tuple:
-        out = [c if c is not None else Choice(0, UNDECIDED) for c in self.choices]
-        while out and out[-1].frames >= UNDECIDED:
-            out.pop()
-        return tuple(out)
-
-
-def model_choices(plan: Plan, trace: SimTrace, frames: int, events: list, t1: float) -> tuple | None:
-    """The choices the firmware makes if it looks at its events once a frame at a fixed phase
-    (`_EventDecider`), found in one run of the golden model per phase. The phase is not known
-    here, so each of PHASES phases is tried; the first whose run matches the trace exactly is
-    returned (None: none does)."""
-    arrivals = _arrivals(plan, events)
-    tried: set = set()
-    lead = first_pulse_frame(plan) or 0
-    for step in range(PHASES):
-        phase = plan.period_us * step / PHASES
-        for _ in range(2):          # once more if the choices move the first pulse
-            decider = _EventDecider(plan, events, arrivals, t1, phase, lead)
-            for _ in itertools.islice(expand(plan, decider), lead + frames + 2):
-                pass
-            choices = decider.decided()
-            now = first_pulse_frame(plan, choices) or 0
-            if now == lead:
-                break
-            lead = now
-        if choices in tried:
-            continue
-        tried.add(choices)
-        report = verify(plan, trace, frames, choices)
-        if report.ok:
-            return choices, report
-    return None
-
-
-def _waited(choices: tuple) -> int:
-    """The frames the decided choices wait, in all."""
-    return sum(c.frames for c in choices if c.frames < UNDECIDED)
+def choices_of(obs: Observation) -> tuple[Choice, ...]:
+    """The branch each select took, in the order reached, as `plan.expand` takes them: the look
+    that took it (0: as it was reached) is the number of frames it waited; a select still waiting
+    when the run ended waits for ever."""
+    return tuple(Choice(v.branch, len(v.looks) - 1) if v.branch is not None and v.looks
+                 else Choice(0, UNDECIDED) for v in obs.visits)
 
 
 @dataclass(frozen=True)
-class _Take:
-    """A select the run reached and the branch it took (times in µs from reset)."""
-    select: object
-    branch: object
-    waits: float                # the select began to wait (the first rise of the frame it was reached in)
-    begins: float               # the branch's first rise
-    frame: int                  # that frame, from the first pulse (1-based)
-    waited: int                 # frames of waiting
+class HostByte:
+    """A byte the host sent: the cycle its stop bit ends, the byte, the events file's line."""
+    arrives: int
+    byte: int
+    line: int = 0
 
 
-def _takes(plan: Plan, choices: tuple, t1_us: float) -> list[_Take]:
-    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
-    return [_Take(select, select.branches[choice.branch], t1_us + (start - lead) * plan.period_us,
-                  t1_us + (start + choice.frames - lead) * plan.period_us, start + choice.frames - lead + 1, choice.frames)
-            for (start, select), choice in zip(reached, choices) if choice.frames < UNDECIDED]
-
-
-def _occurrences(branch, events: list, arrivals: list) -> list[float]:
-    """Each time the event of an `on` branch happened: its input becoming active, or its byte arriving."""
-    ev = branch.event
-    if ev.input is not None:
-        active = ev.edge != "release"
-        return [float(e.time_us) for e in events if e.input == ev.input and e.active == active]
-    return [at for at, b in arrivals if ev.other or b == ev.byte]
-
-
-def _event_times(take: _Take, events: list, arrivals: list, bytes_taken: dict) -> list[float]:
-    """When the event of an `on` branch taken happened before it began: its input becoming active,
-    or the byte it took arriving."""
-    if take.branch.event.input is not None:
-        return [at for at in _occurrences(take.branch, events, arrivals) if at <= take.begins]
-    return [arrivals[bytes_taken[id(take)]][0]] if id(take) in bytes_taken else []
-
-
-def _bytes_taken(takes: list[_Take], arrivals: list) -> dict[int, int]:
-    """id(take) -> index in `arrivals` of the byte each `on "x"` or `on other` taken took. The queue
-    is first in, first out, and a byte a select looked at and did not take is gone: each take took
-    the first byte after the one taken before it that it names (`on other`: that its select's other
-    `on`s do not name)."""
-    out: dict[int, int] = {}
-    first = 0
-    for take in takes:
-        ev = getattr(take.branch, "event", None)
-        if ev is None or ev.input is not None:
-            continue
-        named = {b.event.byte for b in take.select.branches if not isinstance(b, AfterBranch) and not b.event.other}
-        k = next((k for k in range(first, len(arrivals)) if arrivals[k][0] <= take.begins
-                  and (arrivals[k][1] not in named if ev.other else arrivals[k][1] == ev.byte)), None)
-        if k is not None:
-            out[id(take)] = k
-            first = k + 1
-    return out
-
-
-def event_delays(plan: Plan, choices: tuple, events: list, t1_us: float) -> list[tuple[str, float, float | None]]:
-    """For each `on` branch taken: (its event as written, its first rise from reset in µs, the µs
-    from its event (its input becoming active, its byte's stop bit), or from the select beginning
-    to wait if the event came before, to that rise; None when no event came before it).
-    `t1_us`: the first frame's rise."""
-    out = []
-    arrivals = _arrivals(plan, events)
-    takes = _takes(plan, choices, t1_us)
-    bytes_taken = _bytes_taken(takes, arrivals)
-    for take in takes:
-        if isinstance(take.branch, AfterBranch):
-            continue
-        came = _event_times(take, events, arrivals, bytes_taken)
-        out.append((take.branch.event.text, take.begins, take.begins - max(came[-1], take.waits) if came else None))
-    return out
-
-
-def check_event_delays(plan: Plan, choices: tuple, events: list, t1_us: float | None) -> list[str]:
-    """Each `on` branch taken must start within 2 P of its input becoming active, or of the select
-    beginning to wait if the input was active already (the spec's sampling rule): the problems
-    found, as text. `t1_us`: the first frame's rise, from reset."""
-    if t1_us is None:
+def host_bytes(plan: Plan, trace: SimTrace, events: list) -> list[HostByte]:
+    """Every byte the host sent in the run, from the UART windows ucsim opened (`trace.uart`)."""
+    serial = plan.program.serial
+    if serial is None or not trace.uart:
         return []
-    problems: list[str] = []
-    for text, begins, delay in event_delays(plan, choices, events, t1_us):
-        if delay is None:
-            problems.append(f"`on {text}` taken at {begins / 1000:.3f} ms with no event before it")
-        elif delay > 2 * plan.period_us:
-            problems.append(f"`on {text}` started {delay / 1000:.3f} ms after its event, more than 2 P")
-    return problems
+    per = byte_cycles(serial.th1, serial.smod)
+    starts = [at for at, on in trace.uart if on]
+    lines = [ev for ev in events if getattr(ev, "data", None) is not None]
+    return [HostByte(start + (k + 1) * per, b, getattr(ev, "line", 0))
+            for start, ev in zip(starts, lines) for k, b in enumerate(ev.data)]
 
 
-# ---------------------------------------------------------------- what happened in a run with events
+class _Levels:
+    """The outside level of each input over the run, as ucsim made it (`trace.inputs`)."""
+
+    def __init__(self, plan: Plan, trace: SimTrace) -> None:
+        self.inputs = {i.name: i for i in plan.program.inputs}
+        self.changes: dict[str, list[tuple[int, bool]]] = {}
+        for name, inp in self.inputs.items():
+            out: list[tuple[int, bool]] = []
+            for at, port, level in trace.inputs:
+                if port == inp.port:
+                    active = bool((level >> inp.bit) & 1) == inp.active_high
+                    if not out or out[-1][1] != active:
+                        out.append((at, active))
+            self.changes[name] = out
+
+    def during(self, name: str, lo: int, hi: int) -> set[bool]:
+        """Whether the input was active, at any cycle from `lo` to `hi`."""
+        now, out = False, set()
+        for at, active in self.changes.get(name, ()):
+            if at <= lo:
+                now = active
+            elif at <= hi:
+                out.add(active)
+        out.add(now)
+        return out
+
+    def since(self, name: str, active: bool, at: int) -> int | None:
+        """The last cycle at or before `at` the input became `active` (None: never)."""
+        found = None
+        for c, a in self.changes.get(name, ()):
+            if c > at:
+                break
+            if a == active:
+                found = c
+        return found
+
+
+def _rule(select, j: int, queue: tuple[int, ...], now, prev, depth: int) -> set[tuple[int | None, int]]:
+    """What a look may decide by the rules: a set of (the branch taken or None, the bytes it takes
+    from the queue). `j`: the look's number (0 as the select is reached); `queue`: the bytes
+    queued; `now(name)` / `prev(name)`: the input's possible states at this look's sample and the
+    one before; `depth`: the most bytes one look drops (the queue's size)."""
+    ons = [(k, b.event) for k, b in enumerate(select.branches) if not isinstance(b, AfterBranch)]
+    named = {ev.byte for _, ev in ons if ev.byte is not None}
+    other = any(ev.other for _, ev in ons)
+    drop = 0
+    if not named and not other:
+        drop = len(queue)               # no `on` names a byte: every byte is dropped
+    elif not other:
+        while drop < len(queue) and drop < depth and queue[drop] not in named:
+            drop += 1                   # the oldest bytes no `on` names
+    head = queue[drop] if drop < len(queue) and (other or queue[drop] in named) else None
+    out: set[tuple[int | None, int]] = set()
+    for k, ev in ons:
+        if ev.input is None:
+            hit = head is not None and (head not in named if ev.other else head == ev.byte)
+            status = {hit}
+            took = drop + 1
+        else:
+            want = ev.edge != "release"
+            if ev.edge is None:
+                status = {a == want for a in now(ev.input)}
+            else:
+                status = {a == want and b != want for a in now(ev.input) for b in prev(ev.input)}
+            took = drop
+        if True in status:
+            out.add((k, took))
+        if False not in status:
+            return out
+    after = select.after
+    if after is not None and j >= after.frames:
+        out.add((len(select.branches) - 1, drop))
+    else:
+        out.add((None, drop))
+    return out
+
+
+def _text(select, k: int | None) -> str:
+    return "to wait on" if k is None else f"`{branch_text(select.branches[k])}`"
+
 
 @dataclass(frozen=True)
 class Reaction:
-    """A select reached in the run, and what it did."""
+    """A select reached in the run, and what it did (times in machine cycles from reset)."""
     line: int                   # the select's line in the source (0: unknown)
     frame: int                  # the first frame of the branch, from the first pulse (1-based)
-    time_us: float              # that frame's first rise, from reset
+    cycle: int                  # that frame's first rise
     branch: str                 # as written: `on "w"`, `on button`, `after 2s`
     event: str                  # what chose it: `"w" arrived at 1.234 s`, `button active at ...`, `no event`
     waited: int                 # frames the select waited
+    cycle_us: float = 1.0       # a machine cycle in µs
+
+    @property
+    def time_us(self) -> float:
+        return self.cycle * self.cycle_us
 
     def __str__(self) -> str:
         at = f"line {self.line}: " if self.line else ""
@@ -565,62 +400,245 @@ class Reaction:
                 f"after {self.waited} frame{'s' if self.waited != 1 else ''} of waiting: {self.event}")
 
 
-def reactions(plan: Plan, choices: tuple, events: list, t1_us: float | None, line_of=None) -> list[Reaction]:
-    """Each select the run reached, in order, with the branch it took and the event behind it."""
-    if t1_us is None:
-        return []
-    arrivals = _arrivals(plan, events)
-    takes = _takes(plan, choices, t1_us)
-    bytes_taken = _bytes_taken(takes, arrivals)
-    out = []
-    for take in takes:
-        branch = take.branch
-        if isinstance(branch, AfterBranch):
-            why = "no event came"
+@dataclass
+class RunCheck:
+    """What `check_run` found: problems (the firmware's), reactions, warnings, where it ended."""
+    problems: list[Mismatch] = field(default_factory=list)
+    reactions: list[Reaction] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    ended: str = ""
+
+
+def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events: list,
+              line_of=None) -> tuple[tuple[Choice, ...], VerifyReport]:
+    """Check a run from what the firmware did (`obs`): every look decided what the rules require
+    for what had come by then (a byte queued, an input's level at its sample and the sample
+    before, `after` at its F-th look; where something changed during a look, either is right),
+    took the bytes the rules say, and every byte the host sent was received and queued unless
+    the queue was full; every `on` branch began within 2 P of its event; and the pulses and
+    bytes sent are the plan of the branches taken (`verify`). `line_of(span)`: a span's line."""
+    target = plan.program.target
+    period = target.cycles(plan.period_us)
+    choices = choices_of(obs)
+    report = verify(plan, trace, frames, choices, driven=trace.inputs or None)
+    lead = first_pulse_frame(plan, choices) or 0
+    t1 = first_rise(plan, trace)
+    end = trace.cycles if t1 is None else min(trace.cycles, t1 + frames * period)
+    line = (lambda span: 0) if line_of is None else line_of
+    found = RunCheck([Mismatch(0, "select", "-", None, None, p) for p in obs.problems])
+    levels = _Levels(plan, trace)
+    sent = host_bytes(plan, trace, events)
+    queue = costs.QUEUE
+
+    def when(c: int) -> str:
+        return f"{c * target.cycle_us / 1e6:.4f} s"
+
+    def frame_of(c: int) -> int:
+        return 0 if t1 is None else (c - t1) // period + 1
+
+    def bad(c: int, what: str) -> None:
+        found.problems.append(Mismatch(max(0, frame_of(c)), "select", "-", None, None, what))
+
+    # The plan reaches the selects in the order the firmware did.
+    reached: list = []
+    for _ in itertools.islice(expand(plan, choices, reached), lead + frames):
+        pass
+    for (_, want), visit in zip(reached, obs.visits):
+        if want.span != visit.select.span:
+            bad(visit.reached, f"the firmware reached the select at line {line(visit.select.span)} where the plan "
+                               f"reaches the one at line {line(want.span)}")
+            break
+
+    # Each byte the host sent, as the serial handler received it.
+    enqueued: list[int] = []                    # queue position -> index into `sent`
+    for i, got in enumerate(obs.received):
+        if i >= len(sent):
+            bad(got.cycle, f"the serial handler received byte {_show(got.byte)} at {when(got.cycle)}, which the "
+                           "host never sent")
+            break
+        host = sent[i]
+        if got.byte != host.byte:
+            bad(got.cycle, f"the serial handler received {_show(got.byte)} where the host sent {_show(host.byte)}")
+        if got.queued:
+            enqueued.append(i)
+        elif got.queued_before < queue:
+            bad(got.cycle, f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped with only "
+                           f"{got.queued_before} queued: the queue holds {queue}")
         else:
-            came = _event_times(take, events, arrivals, bytes_taken)
+            found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped: the queue "
+                                  f"already held {queue} bytes no select had taken")
+    per = 0 if plan.program.serial is None else byte_cycles(plan.program.serial.th1, plan.program.serial.smod)
+    for host in sent[len(obs.received):]:
+        if host.arrives + per < trace.cycles:
+            bad(host.arrives, f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was never received")
+
+    # Each look decided what the rules require.
+    used: set[int] = set()                      # queue positions some look took or dropped
+    for visit in obs.visits:
+        sel = visit.select
+        where = line(sel.span)
+        for j, look in enumerate(visit.looks):
+            if look.exit is None:
+                continue                        # the run ended during it
+            new = [got.byte for got in obs.received if look.entry < got.cycle < look.exit and got.queued]
+            before = visit.looks[j - 1] if j else None
+            lo_prev, hi_prev = (visit.reached, look.entry) if before is None else (before.entry, before.exit or before.entry)
+            allowed: set = set()
+            for extra in range(len(new) + 1):
+                allowed |= _rule(sel, j, look.queue + tuple(new[:extra]),
+                                 lambda n: levels.during(n, look.entry, look.exit),
+                                 lambda n: levels.during(n, lo_prev, hi_prev), queue)
+            took = look.rxr_after - look.rxr
+            if (look.outcome, took) not in allowed:
+                want = sorted({_text(sel, k) for k, _ in allowed})
+                what = ("" if plan.program.serial is None else
+                        f", queued {' '.join(_show(b) for b in look.queue) or 'nothing'}")
+                bad(look.entry, f"the select at line {where}, look {j} at {when(look.entry)}{what}: the firmware "
+                                f"decided {_text(sel, look.outcome)}"
+                                + (f" and took {took} byte{'s' if took != 1 else ''}" if plan.program.serial else "")
+                                + f", the rules require {' or '.join(want)}")
+            used.update(range(look.rxr, look.rxr_after))
+            if look.outcome is not None:
+                break
+        if visit.branch is not None and visit.looks and visit.looks[-1].outcome not in (None, visit.branch):
+            bad(visit.taken, f"the select at line {where} decided {_text(sel, visit.looks[-1].outcome)} but ran "
+                             f"{_text(sel, visit.branch)}")
+
+    # Each branch taken: its event, and its first frame within 2 P of it.
+    for visit in sorted((v for v in obs.visits if v.branch is not None), key=lambda v: v.taken):
+        sel, look = visit.select, visit.looks[-1] if visit.looks else None
+        branch = sel.branches[visit.branch]
+        rise = None if t1 is None else t1 - ((t1 - visit.taken) // period) * period
+        event, why = None, "no event came"
+        if isinstance(branch, OnBranch) and look is not None:
             ev = branch.event
-            what = ("a byte no other `on` names arrived" if ev.other else f"byte {ev.text} arrived"
-                    if ev.input is None else f"`{ev.input}` {'inactive' if ev.edge == 'release' else 'active'}")
-            why = f"{what} at {came[-1] / 1e6:.4f} s" if came else "no event before it"
-        line = 0 if line_of is None else line_of(take.select.span)
-        out.append(Reaction(line, take.frame, take.begins, branch_text(branch), why, take.waited))
-    return out
+            if ev.input is None:
+                pos = look.rxr_after - 1
+                host = sent[enqueued[pos]] if 0 <= pos < len(enqueued) else None
+                if host is not None:
+                    event = host.arrives
+                    why = (f"byte {_show(host.byte)} arrived at {when(host.arrives)}"
+                           + (f" (events line {host.line})" if host.line else ""))
+            else:
+                active = ev.edge != "release"
+                event = levels.since(ev.input, active, look.exit or look.entry)
+                why = (f"`{ev.input}` {'active' if active else 'inactive'}"
+                       + ("" if event is None else f" at {when(event)}"))
+        if rise is not None and event is not None:
+            delay = rise - max(event, visit.reached)
+            if delay > 2 * period:
+                bad(rise, f"`{branch_text(branch)}` of the select at line {line(sel.span)} began "
+                          f"{delay * target.cycle_us / 1000:.3f} ms after its event at {when(event)}, "
+                          f"more than 2 P ({2 * period} cycles)")
+        found.reactions.append(Reaction(line(sel.span), frame_of(rise) if rise is not None else 0,
+                                        rise if rise is not None else visit.taken, branch_text(branch), why,
+                                        len(visit.looks) - 1, float(target.cycle_us)))
 
-
-def unseen(plan: Plan, choices: tuple, events: list, t1_us: float | None, end_us: float) -> list[str]:
-    """Events of the run no select took: an input's activation while no select waited for it, a
-    byte no `on` took (dropped, or still queued at the end). Events after `end_us` are not counted."""
-    if t1_us is None:
-        return []
-    takes = [t for t in _takes(plan, choices, t1_us) if not isinstance(t.branch, AfterBranch)]
-    out: list[str] = []
-    window = 2 * plan.period_us
-    for name in sorted({e.input for e in events if e.input is not None}):
-        changes = [e for e in events if e.input == name]
-        for k, e in enumerate(changes):
-            if not e.active or float(e.time_us) > end_us:
+    # What the run did not use: bytes dropped or still queued, inputs no look saw.
+    for pos, i in enumerate(enqueued):
+        host = sent[i]
+        taker = next((v for v in obs.visits for lk in v.looks if lk.rxr <= pos < lk.rxr_after), None)
+        if taker is None:
+            found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was still queued when "
+                                  "the run ended")
+        elif not any(lk.rxr_after - 1 == pos and lk.outcome is not None
+                     and isinstance(taker.select.branches[lk.outcome], OnBranch)
+                     and taker.select.branches[lk.outcome].event.input is None for lk in taker.looks):
+            found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped by the "
+                                  f"select at line {line(taker.select.span)}: none of its `on`s names it")
+    for name in sorted(levels.changes):
+        changes = levels.changes[name]
+        for k, (at, active) in enumerate(changes):
+            if not active or at >= end:
                 continue
-            off = next((float(x.time_us) for x in changes[k + 1:] if not x.active), end_us)
-            if not any(t.branch.event.input == name and float(e.time_us) <= t.begins <= off + window for t in takes):
-                out.append(f"`{name}` active from {float(e.time_us) / 1e6:.4f} s to {off / 1e6:.4f} s: "
-                           "no select took it (none was waiting for it then)")
-    arrivals = _arrivals(plan, events)
-    used = set(_bytes_taken(takes, arrivals).values())
-    for k, (t, b) in enumerate(arrivals):
-        if k not in used and t <= end_us:
-            out.append(f"byte {_show(b)} (arrived at {t / 1e6:.4f} s) was taken by no select: dropped (no `on` of the "
-                       "select that looked at it named it, or the queue was full) or still queued when the run ended")
-    return out
+            off = changes[k + 1][0] if k + 1 < len(changes) else end
+            waiting = [v for v in obs.visits if v.reached <= off and (v.taken is None or v.taken >= at)
+                       and any(isinstance(b, OnBranch) and b.event.input == name for b in v.select.branches)]
+            saw = any(lk.entry <= off and (lk.exit or lk.entry) >= at for v in waiting for lk in v.looks)
+            took = any(v.branch is not None and isinstance(v.select.branches[v.branch], OnBranch)
+                       and v.select.branches[v.branch].event.input == name and at <= v.taken for v in waiting)
+            if took:
+                continue
+            span = f"`{name}` active from {when(at)} to {when(off)}"
+            if not waiting:
+                found.warnings.append(f"{span}: no select was waiting for it then")
+            elif not saw:
+                found.warnings.append(f"{span}: shorter than a frame, it fell between two looks of the select at "
+                                      f"line {line(waiting[0].select.span)} (presses are sampled once a frame)")
+    report = dataclasses.replace(report, mismatches=report.mismatches + tuple(found.problems),
+                                 reactions=tuple(sorted(found.reactions, key=lambda r: r.cycle)),
+                                 warnings=tuple(found.warnings))
+    return choices, report
+
+
+def coverage(plan: Plan, choices: tuple, frames: int, line_of=None, text_of=None) -> tuple[list[str], str]:
+    """What a run of `frames` frames from the first pulse, the selects deciding `choices`, did
+    not reach: (each statement never started, each branch never taken, each loop that completed
+    no pass, as text; where the program was at the end)."""
+    line = (lambda span: 0) if line_of is None else line_of
+    show = (lambda span: "") if text_of is None else text_of
+    seen: dict = {}
+    lead = first_pulse_frame(plan, choices) or 0
+    reached: list = []
+    last = None
+    for last in itertools.islice(expand(plan, choices, reached, seen), lead + frames):
+        pass
+    out: list[str] = []
+    walked: set[str] = set()
+
+    def say(span, what: str) -> None:
+        text = show(span)
+        out.append(f"line {line(span)}: {what}" + (f" (`{text}`)" if text else ""))
+
+    def walk(body) -> None:
+        for st in body:
+            if id(st) not in seen:
+                say(st.span, "never reached")
+                continue
+            if isinstance(st, LoopStep):
+                if seen[id(st)] == 0:
+                    say(st.span, "a loop whose first pass did not end in the span checked")
+                walk(st.body)
+            elif isinstance(st, RepeatStep):
+                walk(st.body)
+            elif isinstance(st, PlayStep) and st.sequence not in walked:
+                walked.add(st.sequence)
+                walk(plan.sequence(st.sequence).body)
+            elif isinstance(st, SelectStep):
+                if st.meanwhile is not None:
+                    walk(st.meanwhile)
+                for br in st.branches:
+                    if id(br) not in seen:
+                        say(br.span, f"`{branch_text(br)}` never taken")
+                    else:
+                        walk(br.body)
+
+    walk(plan.main)
+    waiting = [sel for i, (_, sel) in enumerate(reached) if i < len(choices) and choices[i].frames >= UNDECIDED]
+    if waiting:
+        sel = waiting[-1]
+        ends = ", ".join(f"`{branch_text(b)}`" for b in sel.branches)
+        ended = f"waiting at the select at line {line(sel.span)} for {ends}"
+    elif last is not None:
+        ended = f"at line {line(last.span)}" + (f" (`{show(last.span)}`)" if show(last.span) else "")
+    else:
+        ended = "before its first frame"
+    return out, ended
 
 
 def settle_frame(plan: Plan, choices: tuple) -> int | None:
-    """The frame, from the first pulse, at which the run that `choices` make is waiting at a select
-    no choice decides (every branch taken has run to its end); None when it never gets there (a
-    branch that loops forever, or main ends first: then its last frame)."""
-    lead, reached = selects_reached(plan, choices, _waited(choices) + 100_000)
-    if len(reached) > len(choices):
-        return reached[len(choices)][0] - lead + 1
+    """The frame, from the first pulse, at which the run that `choices` make waits at a select
+    again after the last branch taken (the first select no choice decides, or that was still
+    waiting when the run ended); None when it never gets there (a branch that loops forever, or
+    main ends first)."""
+    stop = next((i for i, c in enumerate(choices) if c.frames >= UNDECIDED), len(choices))
+    decided = tuple(choices[:stop])
+    lead = first_pulse_frame(plan, decided) or 0
+    waited = sum(c.frames for c in decided)
+    reached: list = []
+    for _ in itertools.islice(expand(plan, decided, reached), lead + waited + 100_000):
+        if len(reached) > stop:
+            return reached[stop][0] - lead + 1
     return None
 
 
@@ -646,33 +664,42 @@ def verify_span(plan: Plan, asked: int | None, events: list | None) -> RunSpan:
     tail, or up to its loop and two passes (`plan.verify_frames`), or, with events, on past the
     last event until every branch an event chose has run to its end (`settle_frame`, found after
     a run) - never more than MAX_SPAN_CYCLES of simulation, and it says what it leaves out."""
+    from .events import EventsError
     from .plan import verify_frames
     target = plan.program.target
     period = target.cycles(plan.period_us)
     lead = first_pulse_frame(plan) or 0
     notes: list[str] = []
+
+    def secs(frames: int) -> str:
+        return f"{frames * period * target.cycle_us / 1e6:.1f} s"
+
     if asked:
         frames = limit = asked
+        if plan.total_frames is not None and plan.total_frames > asked:
+            notes.append(f"the program runs {plan.total_frames} frames ({secs(plan.total_frames)}); verify checked the "
+                         f"first {asked} ({secs(asked)}, --frames)")
     else:
         limit = max(1, MAX_SPAN_CYCLES // period - lead - 2)
         frames = verify_frames(plan)
         if plan.total_frames is not None and plan.total_frames + 1 > limit:
-            notes.append(f"the program runs {plan.total_frames} frames ({plan.total_frames * plan.period_us / 1e6:.1f} s); "
-                         f"verify checks the first {limit} ({limit * plan.period_us / 1e6:.1f} s): use --frames N "
+            notes.append(f"the program runs {plan.total_frames} frames ({secs(plan.total_frames)}); "
+                         f"verify checks the first {limit} ({secs(limit)}): use --frames N "
                          "for more (ucsim runs some 4 million machine cycles a second)")
         if events:
-            last = max(float(e.time_us) for e in events)
-            frames = max(frames, int((last + 2_000_000) / plan.period_us) + 1)
+            last = max(target.cycles(e.time_us) for e in events)
+            frames = max(frames, (last + target.cycles(2_000_000)) // period + 1)
         frames = min(frames, limit)
-    applied = list(events or [])
     if events:
-        end_us = (lead + frames) * plan.period_us
-        applied = [e for e in events if float(e.time_us) < end_us]
-        if len(applied) < len(events):
-            later = len(events) - len(applied)
-            notes.append(f"{later} event{'s' if later != 1 else ''} at or after {end_us / 1e6:.3f} s, the end of the "
-                         f"{frames} frames checked: not applied" + ("" if asked else " (use --frames N for a longer run)"))
-    return RunSpan(frames, limit, applied, tuple(notes))
+        end = (lead + frames) * period
+        for e in events:
+            if target.cycles(e.time_us) >= end:
+                raise EventsError(getattr(e, "line", 0),
+                                  f"this event at {float(e.time_us) / 1e6:g} s comes after the {frames} frames verify "
+                                  f"runs ({end * target.cycle_us / 1e6:.3f} s)"
+                                  + (": ask for more with --frames" if asked else
+                                     f": verify runs at most {secs(limit)} of the program"))
+    return RunSpan(frames, limit, list(events or []), tuple(notes))
 
 
 def verify_settle(plan: Plan, choices: tuple) -> int | None:

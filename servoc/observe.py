@@ -1,0 +1,250 @@
+"""What the firmware did, observed in the simulator: Firmware -> Probes, SimTrace -> Observation.
+
+`servoc verify` does not guess which branch a select took from the pulses: it sets probes (ucsim
+breakpoints that print the cycle and some RAM bytes, then run on) at the code addresses of each
+select, found in the assembler's listing:
+
+- `selN`, where the select is reached;
+- `selN_ev`, where each of its looks begins (the receive queue's counters and bytes are read
+  there), and every `RET` of that look routine, where it ends (with what it decided: the
+  instruction before the `RET` loads A with 1 + the branch, or clears it);
+- `selN_bK`, the first instruction of branch K;
+- in the serial handler, `ui_got` (a byte was just taken from SBUF: the byte and the queue's
+  counters) and `ui_drop` (it was queued, or not: the counters again).
+
+`observe` turns the probes of a run into `Observation`: every select reached, in order (`Visit`),
+with each look's window of cycles and the queue it saw, and the branch it took; and every byte
+the serial handler received, with whether it was queued. `verify` then checks these against the
+rules, and uses the branches taken to lay out the plan of the run.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+from .sim import SimTrace
+
+REACH, LOOK, EXIT, BRANCH, RX_GOT, RX_END = "reach", "look", "exit", "branch", "rx_got", "rx_end"
+
+# A listing line (sdas8051 -l, relocated .rst): address in columns 6..11, the source line's number
+# in 34..38, the source from 40.
+_LABEL = re.compile(r"^([A-Za-z_]\w*)::?\s*(.*)$")
+_EQU = re.compile(r"^(RXQ|RXR|RXW|RXB)\s*=\s*0x([0-9A-Fa-f]+)", re.M)
+_QUEUE = re.compile(r"RXQ is a multiple of (\d+)")
+
+
+class ProbeError(Exception):
+    """The firmware cannot be observed: its listing lacks what the probes need."""
+
+
+@dataclass(frozen=True)
+class Probes:
+    """Where to probe a firmware and what each probe means."""
+    points: tuple[tuple[int, int, tuple[int, ...]], ...]   # (address, tag, RAM bytes to read) for sim.run
+    meaning: dict[int, tuple[str, str, int | None]]        # tag -> (kind, select label, branch or outcome)
+    selects: dict[str, object]                             # label -> its SelectStep
+    queue: int = 0                                         # the receive queue's size (0: no serial line)
+    code: dict[int, bytes] = field(default_factory=dict)   # address -> the code bytes there, to check a HEX
+
+
+def _listing_lines(listing: str):
+    """(address or None, source text without comment) of each source line of a listing."""
+    for line in listing.splitlines():
+        head, src = line[:39], line[40:]
+        if not head[34:39].strip().isdigit():
+            continue
+        addr = head[6:12].strip()
+        code_bytes = bytes.fromhex("".join(head[13:30].split("[")[0].split())) if addr else b""
+        yield (int(addr, 16) if addr else None), src.split(";", 1)[0].strip(), code_bytes
+
+
+def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
+    """The probes of a firmware from its listing and assembly text; `selects`: (label, SelectStep)
+    of `codegen.AsmUnit.selects`."""
+    labels: dict[str, int] = {}
+    order: list[tuple[str, int]] = []          # labels in listing order
+    rets: dict[str, list[tuple[int, int | None]]] = {}
+    code: dict[int, bytes] = {}
+    current = None                             # the select label whose look routine we are in
+    before = ""                                # the instruction before, in that routine
+    names = {lab for lab, _ in selects}
+    for addr, text, raw in _listing_lines(listing):
+        m = _LABEL.match(text)
+        if m and addr is not None:
+            lab = m.group(1)
+            labels[lab] = addr
+            order.append((lab, addr))
+            text = m.group(2)
+            if lab.endswith("_ev") and lab[:-3] in names:
+                current, before = lab[:-3], ""
+            elif current is not None and not lab.startswith(current + "_"):
+                current = None
+        if addr is not None and raw:
+            code[addr] = raw
+        if not text or current is None:
+            continue
+        op = text.split(None, 1)
+        if op[0].upper() == "RET":
+            k = None
+            mv = re.match(r"MOV\s+A\s*,\s*#(0x[0-9A-Fa-f]+|\d+)$", before, re.I)
+            if mv:
+                k = int(mv.group(1), 0) - 1
+            elif not re.match(r"CLR\s+A$", before, re.I):
+                raise ProbeError(f"the look of {current} returns after `{before}`: cannot tell what it decided")
+            rets.setdefault(current, []).append((addr, k))
+        before = " ".join(text.split())
+    equ = {name: int(v, 16) for name, v in _EQU.findall(asm_text)}
+    queue = 0
+    if "RXQ" in equ:
+        q = _QUEUE.search(asm_text)
+        if q is None or not {"RXR", "RXW", "RXB"} <= equ.keys():
+            raise ProbeError("the serial line's RAM is not named in the assembly")
+        queue = int(q.group(1))
+    rx_state = (equ["RXR"], equ["RXW"]) if queue else ()
+    look_ram = rx_state + tuple(equ["RXQ"] + i for i in range(queue)) if queue else ()
+    points: list[tuple[int, int, tuple[int, ...]]] = []
+    meaning: dict[int, tuple[str, str, int | None]] = {}
+
+    def add(address: int, kind: str, label: str, k: int | None, ram: tuple[int, ...]) -> None:
+        tag = len(points) + 1
+        points.append((address, tag, ram))
+        meaning[tag] = (kind, label, k)
+
+    by_label = {}
+    for lab, st in selects:
+        by_label[lab] = st
+        need = [lab, f"{lab}_ev"] + [f"{lab}_b{k}" for k in range(len(st.branches))]
+        missing = [n for n in need if n not in labels]
+        if missing or not rets.get(lab):
+            raise ProbeError(f"the listing has no {', '.join(missing) or lab + ' look return'}")
+        add(labels[lab], REACH, lab, None, ())
+        add(labels[f"{lab}_ev"], LOOK, lab, None, look_ram)
+        for address, k in rets[lab]:
+            add(address, EXIT, lab, k, rx_state)
+        for k in range(len(st.branches)):
+            add(labels[f"{lab}_b{k}"], BRANCH, lab, k, ())
+    if queue:
+        for lab in ("ui_got", "ui_drop"):
+            if lab not in labels:
+                raise ProbeError(f"the listing has no {lab}")
+        add(labels["ui_got"], RX_GOT, "", None, (equ["RXB"],) + rx_state)
+        add(labels["ui_drop"], RX_END, "", None, rx_state)
+    return Probes(tuple(points), meaning, by_label, queue,
+                  {a: code[a] for a, _, _ in points if a in code})
+
+
+def hex_matches(probes: Probes, hex_text: str) -> bool:
+    """Whether a HEX image has, at every probed address, the code the probes were made for."""
+    from intelhex import IntelHex
+    import io
+    ih = IntelHex(io.StringIO(hex_text))
+    return all(bytes(ih[a + i] for i in range(len(raw))) == raw for a, raw in probes.code.items())
+
+
+# ----------------------------------------------------------------- what the probes saw
+
+@dataclass
+class Look:
+    """One look of a select: it began at `entry` and ended at `exit` (cycles), deciding `outcome`
+    (the branch's index, or None: wait on). `queue`: the bytes queued as it began, oldest first;
+    `rxr`/`rxw`: the queue's counters as it began (absolute: they do not wrap here), `rxr_after`
+    as it ended."""
+    entry: int
+    queue: tuple[int, ...] = ()
+    rxr: int = 0
+    rxw: int = 0
+    exit: int | None = None
+    outcome: int | None = None
+    rxr_after: int = 0
+
+
+@dataclass
+class Visit:
+    """A select reached: its label and step, the cycle, its looks, and the branch taken (None: it
+    still waited when the run ended) with the cycle of the branch's first instruction."""
+    label: str
+    select: object
+    reached: int
+    looks: list[Look] = field(default_factory=list)
+    branch: int | None = None
+    taken: int | None = None
+
+
+@dataclass(frozen=True)
+class Received:
+    """A byte the serial handler took from SBUF at `cycle`, with the queue's length then, and
+    whether it queued it."""
+    cycle: int
+    byte: int
+    queued_before: int
+    queued: bool
+
+
+@dataclass(frozen=True)
+class Observation:
+    visits: tuple[Visit, ...]
+    received: tuple[Received, ...]
+    problems: tuple[str, ...] = ()       # probes out of order: the firmware went where no select is
+
+
+class _Counter:
+    """Unwraps an 8-bit counter that only counts on (by less than 256 between two reads)."""
+
+    def __init__(self) -> None:
+        self.value = 0
+
+    def __call__(self, raw: int) -> int:
+        self.value += (raw - self.value) & 0xFF
+        return self.value
+
+
+def observe(probes: Probes, trace: SimTrace) -> Observation:
+    visits: list[Visit] = []
+    active: dict[str, Visit] = {}
+    received: list[Received] = []
+    problems: list[str] = []
+    rxr, rxw = _Counter(), _Counter()
+    pending = None
+    for p in trace.probes:
+        kind, label, k = probes.meaning[p.tag]
+        if kind == REACH:
+            if label in active:
+                problems.append(f"the select {label} was reached again at cycle {p.cycle} while it waited")
+            visit = Visit(label, probes.selects[label], p.cycle)
+            visits.append(visit)
+            active[label] = visit
+        elif kind == LOOK:
+            visit = active.get(label)
+            if visit is None:
+                problems.append(f"a look of {label} at cycle {p.cycle} with the select not reached")
+                continue
+            r = w = 0
+            queued: tuple[int, ...] = ()
+            if p.ram:
+                r, w = rxr(p.ram[0]), rxw(p.ram[1])
+                queued = tuple(p.ram[2 + ((r + i) % probes.queue)] for i in range(w - r))
+            visit.looks.append(Look(p.cycle, queued, r, w))
+        elif kind == EXIT:
+            visit = active.get(label)
+            if visit is None or not visit.looks or visit.looks[-1].exit is not None:
+                problems.append(f"a look of {label} ended at cycle {p.cycle} without beginning")
+                continue
+            look = visit.looks[-1]
+            look.exit, look.outcome = p.cycle, k
+            if p.ram:
+                look.rxr_after = rxr(p.ram[0])
+                rxw(p.ram[1])
+        elif kind == BRANCH:
+            visit = active.pop(label, None)
+            if visit is None:
+                problems.append(f"branch {k} of {label} entered at cycle {p.cycle} with the select not waiting")
+                continue
+            visit.branch, visit.taken = k, p.cycle
+        elif kind == RX_GOT:
+            pending = (p.cycle, p.ram[0], (p.ram[2] - p.ram[1]) & 0xFF, p.ram[2])
+        elif kind == RX_END and pending is not None:
+            received.append(Received(pending[0], pending[1], pending[2], p.ram[1] != pending[3]))
+            rxw(p.ram[1])
+            pending = None
+    return Observation(tuple(visits), tuple(received), tuple(problems))
