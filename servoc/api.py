@@ -316,9 +316,10 @@ def events_report(plan_: Plan, trace: _sim.SimTrace, frames: int, events: list,
     return _verify.check_run(plan_, trace, trace.observation, frames, list(events), line_of)
 
 
-def cycles_needed(plan_: Plan, frames: int) -> int:
-    """Machine cycles to simulate so that `frames` frames from the first pulse are complete."""
-    return _verify.cycles_needed(plan_, frames)
+def cycles_needed(plan_: Plan, frames: int, choices: tuple = ()) -> int:
+    """Machine cycles to simulate so that `frames` frames from the first pulse are complete (the
+    selects deciding `choices`, as a run with events found them)."""
+    return _verify.cycles_needed(plan_, frames, choices)
 
 
 def check_trace(plan_: Plan, trace: _sim.SimTrace, frames: int) -> _verify.VerifyReport:

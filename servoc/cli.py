@@ -425,11 +425,12 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
 
     frames = span.frames
     choices: tuple = ()
-    for _ in range(3):      # until the consequences of the last event are checked
+    cycles = 0
+    for _ in range(4):      # until the consequences of the last event are checked
         try:
             if progress:
                 sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
-            cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
+            cycles = max(api.cycles_needed(plan, frames, choices), stim.last() + 1)
             trace = api.simulate(hex_text, cycles, plan.program.target, stim, probes if watched else None)
             if progress:
                 sys.stderr.write(" " * 60 + "\r")
@@ -441,6 +442,8 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
             report = api.check_trace(plan, trace, frames)
             break
         choices, report = api.events_report(plan, trace, frames, span.events, line_of)
+        if api.cycles_needed(plan, frames, choices) > trace.cycles:
+            continue        # the branches taken put the first pulse later: run on to the frames asked
         settle = verify_settle(plan, choices)
         if args.frames or not events or settle is None or settle + SETTLE_MARGIN <= frames or frames >= span.limit:
             break

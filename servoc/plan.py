@@ -688,5 +688,7 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                 yield from run(plan.sequence(st.sequence).body)
 
     yield from run(plan.main)
+    if seen is not None:
+        seen["main ended"] = made
     while True:
         yield frame(last_span)

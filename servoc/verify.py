@@ -18,7 +18,7 @@ import itertools
 from dataclasses import dataclass, field
 
 from . import costs
-from .observe import Observation
+from .observe import Observation, Visit
 from .plan import Choice, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
 from .sim import SimTrace
@@ -103,9 +103,10 @@ def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     return None
 
 
-def cycles_needed(plan: Plan, frames: int) -> int:
-    """Machine cycles to simulate so that `frames` frames after the first pulse are complete."""
-    lead = first_pulse_frame(plan) or 0
+def cycles_needed(plan: Plan, frames: int, choices: tuple = ()) -> int:
+    """Machine cycles to simulate so that `frames` frames after the first pulse are complete (the
+    selects deciding `choices`)."""
+    lead = first_pulse_frame(plan, choices) or 0
     target = plan.program.target
     return (lead + frames + 2) * target.cycles(plan.period_us) + target.cycles(5000)
 
@@ -234,6 +235,8 @@ def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: 
     due = [(t1 + (i - lead) * period, b) for i, fr in
            enumerate(itertools.islice(expand(plan, choices), lead + frames)) for b in fr.sent]
     end = t1 + (frames - 1) * period
+    serial = plan.program.serial
+    line = byte_cycles(serial.th1, serial.smod)
     out: list[Mismatch] = []
     checked = 0
     for k, (at, b) in enumerate(due):
@@ -245,11 +248,15 @@ def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: 
             continue
         checked += 1
         when, got = trace.sent[k]
+        # the byte before it still going out at its frame's rise: it starts once that byte has ended
+        free = max(at, trace.sent[k - 1][0] + line) if k else at
         if got != b:
             out.append(Mismatch(frame, "send", "TXD", None, None, f"sent {_show(got)} where {_show(b)} was due"))
-        elif abs(when - at) > 2 * period:
+        elif not (at - 2 * period <= when <= free + 2 * period):
             out.append(Mismatch(frame, "send", "TXD", None, None,
-                                f"byte {_show(b)} started {when - at:+d} cycles from its frame's rise, more than 2 P"))
+                                f"byte {_show(b)} started {when - at:+d} cycles from its frame's rise"
+                                + ("" if free == at else f" ({when - free:+d} from the end of the byte before it)")
+                                + ", more than 2 P"))
     for when, got in trace.sent[len(due):]:
         if when + 2 * period <= end:
             out.append(Mismatch(round((when - t1) / period) + 1, "send", "TXD", None, None,
@@ -268,6 +275,12 @@ def first_rise(plan: Plan, trace: SimTrace) -> int | None:
     offsets = rise_offsets(plan.ports, plan.program.target)
     firsts = [ps[0][0] - offsets[c.port] for c in plan.channels if (ps := trace.pulses(c.port, c.bit))]
     return min(firsts) if firsts else None
+
+
+def first_rise_us(plan: Plan, trace: SimTrace) -> float | None:
+    """`first_rise` in µs."""
+    t1 = first_rise(plan, trace)
+    return None if t1 is None else t1 * float(plan.program.target.cycle_us)
 
 
 def choices_of(obs: Observation) -> tuple[Choice, ...]:
@@ -375,6 +388,67 @@ def _rule(select, j: int, queue: tuple[int, ...], now, prev, depth: int) -> set[
     return out
 
 
+def _enqueued(obs: Observation) -> list[int]:
+    """Queue position (bytes queued before it) -> index of the byte among those received."""
+    return [i for i, got in enumerate(obs.received) if got.queued]
+
+
+@dataclass(frozen=True)
+class Taken:
+    """A branch a select took: the visit, the first rise of the branch's first frame (None: no
+    pulse in the run to time it by), the cycle of its event (None: none, as for `after`) and
+    what the event was, as text."""
+    visit: Visit
+    rise: int | None
+    event: int | None
+    why: str
+
+
+def branches_taken(plan: Plan, trace: SimTrace, obs: Observation, events: list) -> list[Taken]:
+    """Every branch the firmware took, in the order taken, with its event: the byte it took (its
+    stop bit's end) or its input's last change to the state it waits for before the look."""
+    target = plan.program.target
+    period = target.cycles(plan.period_us)
+    t1 = first_rise(plan, trace)
+    sent = host_bytes(plan, trace, events)
+    enqueued = _enqueued(obs)
+    levels = _Levels(plan, trace)
+    out = []
+    for visit in sorted((v for v in obs.visits if v.branch is not None), key=lambda v: v.taken):
+        look = visit.looks[-1] if visit.looks else None
+        branch = visit.select.branches[visit.branch]
+        rise = None if t1 is None else t1 - ((t1 - visit.taken) // period) * period
+        event, why = None, "no event came"
+        if isinstance(branch, OnBranch) and look is not None:
+            ev = branch.event
+            if ev.input is None:
+                pos = look.rxr_after - 1
+                host = sent[enqueued[pos]] if 0 <= pos < len(enqueued) and enqueued[pos] < len(sent) else None
+                why = "no byte taken"
+                if host is not None:
+                    event = host.arrives
+                    why = (f"byte {_show(host.byte)} arrived at {host.arrives * target.cycle_us / 1e6:.4f} s"
+                           + (f" (events line {host.line})" if host.line else ""))
+            else:
+                active = ev.edge != "release"
+                event = levels.since(ev.input, active, look.exit or look.entry)
+                why = (f"`{ev.input}` {'active' if active else 'inactive'}"
+                       + ("" if event is None else f" at {event * target.cycle_us / 1e6:.4f} s"))
+        out.append(Taken(visit, rise, event, why))
+    return out
+
+
+def event_delays(plan: Plan, trace: SimTrace, events: list) -> list[tuple[str, float, float | None]]:
+    """For each `on` branch the firmware took (a run simulated with probes): (its event as written,
+    its first rise from reset in µs, the µs from its event, or from the select being reached if
+    the event came before, to that rise; None when there is no event to time it from)."""
+    cycle = float(plan.program.target.cycle_us)
+    return [(t.visit.select.branches[t.visit.branch].event.text, t.rise * cycle,
+             None if t.event is None else (t.rise - max(t.event, t.visit.reached)) * cycle)
+            for t in branches_taken(plan, trace, trace.observation, events)
+            if isinstance(t.visit.select.branches[t.visit.branch], OnBranch) and t.rise is not None]
+
+
 def _text(select, k: int | None) -> str:
     return "to wait on" if k is None else f"`{branch_text(select.branches[k])}`"
 
@@ -450,7 +524,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
             break
 
     # Each byte the host sent, as the serial handler received it.
-    enqueued: list[int] = []                    # queue position -> index into `sent`
+    enqueued = _enqueued(obs)                   # queue position -> index into `sent`
     for i, got in enumerate(obs.received):
         if i >= len(sent):
             bad(got.cycle, f"the serial handler received byte {_show(got.byte)} at {when(got.cycle)}, which the "
@@ -460,7 +534,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         if got.byte != host.byte:
             bad(got.cycle, f"the serial handler received {_show(got.byte)} where the host sent {_show(host.byte)}")
         if got.queued:
-            enqueued.append(i)
+            pass
         elif got.queued_before < queue:
             bad(got.cycle, f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped with only "
                            f"{got.queued_before} queued: the queue holds {queue}")
@@ -505,34 +579,17 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                              f"{_text(sel, visit.branch)}")
 
     # Each branch taken: its event, and its first frame within 2 P of it.
-    for visit in sorted((v for v in obs.visits if v.branch is not None), key=lambda v: v.taken):
-        sel, look = visit.select, visit.looks[-1] if visit.looks else None
-        branch = sel.branches[visit.branch]
-        rise = None if t1 is None else t1 - ((t1 - visit.taken) // period) * period
-        event, why = None, "no event came"
-        if isinstance(branch, OnBranch) and look is not None:
-            ev = branch.event
-            if ev.input is None:
-                pos = look.rxr_after - 1
-                host = sent[enqueued[pos]] if 0 <= pos < len(enqueued) else None
-                if host is not None:
-                    event = host.arrives
-                    why = (f"byte {_show(host.byte)} arrived at {when(host.arrives)}"
-                           + (f" (events line {host.line})" if host.line else ""))
-            else:
-                active = ev.edge != "release"
-                event = levels.since(ev.input, active, look.exit or look.entry)
-                why = (f"`{ev.input}` {'active' if active else 'inactive'}"
-                       + ("" if event is None else f" at {when(event)}"))
-        if rise is not None and event is not None:
-            delay = rise - max(event, visit.reached)
+    for took in branches_taken(plan, trace, obs, events):
+        sel, branch = took.visit.select, took.visit.select.branches[took.visit.branch]
+        if took.rise is not None and took.event is not None:
+            delay = took.rise - max(took.event, took.visit.reached)
             if delay > 2 * period:
-                bad(rise, f"`{branch_text(branch)}` of the select at line {line(sel.span)} began "
-                          f"{delay * target.cycle_us / 1000:.3f} ms after its event at {when(event)}, "
-                          f"more than 2 P ({2 * period} cycles)")
-        found.reactions.append(Reaction(line(sel.span), frame_of(rise) if rise is not None else 0,
-                                        rise if rise is not None else visit.taken, branch_text(branch), why,
-                                        len(visit.looks) - 1, float(target.cycle_us)))
+                bad(took.rise, f"`{branch_text(branch)}` of the select at line {line(sel.span)} began "
+                               f"{delay * target.cycle_us / 1000:.3f} ms after its event at {when(took.event)}, "
+                               f"more than 2 P ({2 * period} cycles)")
+        found.reactions.append(Reaction(line(sel.span), frame_of(took.rise) if took.rise is not None else 0,
+                                        took.visit.taken if took.rise is None else took.rise, branch_text(branch),
+                                        took.why, len(took.visit.looks) - 1, float(target.cycle_us)))
 
     # What the run did not use: bytes dropped or still queued, inputs no look saw.
     for pos, i in enumerate(enqueued):
@@ -619,6 +676,8 @@ def coverage(plan: Plan, choices: tuple, frames: int, line_of=None, text_of=None
         sel = waiting[-1]
         ends = ", ".join(f"`{branch_text(b)}`" for b in sel.branches)
         ended = f"waiting at the select at line {line(sel.span)} for {ends}"
+    elif "main ended" in seen:
+        ended = "main had ended: its last targets repeat"
     elif last is not None:
         ended = f"at line {line(last.span)}" + (f" (`{show(last.span)}`)" if show(last.span) else "")
     else:

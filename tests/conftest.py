@@ -62,16 +62,23 @@ def front_end_text(text: str, name: str = "prog.servo") -> tuple[api.FrontEnd, l
     return fe, reporter.diagnostics
 
 
-def simulate_events(text: str, scenario: str, frames: int, hex_text: str | None = None):
-    """Compile `text` and run it (or `hex_text`, built from it) in ucsim for `frames` frames from the
-    first pulse, driven by the events `scenario` (as `servoc verify --events`): (plan, events, trace)."""
+def simulate_events(text: str, scenario: str, frames: int, hex_text: str | None = None, firmware=None):
+    """Compile `text` and run it (or `firmware`, or `hex_text`, built from it) in ucsim for `frames`
+    frames from the first pulse, driven by the events `scenario` (as `servoc verify --events`),
+    watched by the firmware's probes: (plan, events, trace)."""
     from servoc import events
     built = build_text(text)
     plan = built.plan
     evs = events.parse(scenario, plan.program.inputs, plan.program.serial is not None)
     stim = api.stimulus(plan, evs)
+    fw = firmware or built.firmware
     cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
-    return plan, evs, api.simulate(hex_text or built.firmware.hex_text, cycles, plan.program.target, stim)
+    trace = api.simulate(hex_text or fw.hex_text, cycles, plan.program.target, stim, api.probes(fw))
+    choices = api.events_report(plan, trace, frames, evs)[0]
+    if api.cycles_needed(plan, frames, choices) > trace.cycles:     # a later first pulse: run on
+        cycles = max(api.cycles_needed(plan, frames, choices), stim.last() + 1)
+        trace = api.simulate(hex_text or fw.hex_text, cycles, plan.program.target, stim, api.probes(fw))
+    return plan, evs, trace
 
 
 def assert_exact(report, text: str = "") -> None:

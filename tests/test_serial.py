@@ -87,8 +87,7 @@ def test_scenarios_verify_exactly(name):
 
 def test_each_branch_starts_within_two_frames_of_its_byte():
     plan, trace, evs, report = run(ARM, SCENARIOS["bytes at frame boundaries"][0], 700)
-    choices, _ = verify.infer_choices(plan, trace, 700, events=evs)
-    delays = [d for _, _, d in verify.event_delays(plan, choices, evs, verify.first_rise_us(plan, trace))]
+    delays = [d for _, _, d in verify.event_delays(plan, trace, evs)]
     assert len(delays) == 2 and all(0 < d <= 2 * plan.period_us for d in delays), delays
 
 
@@ -101,14 +100,15 @@ def test_a_run_checked_against_other_bytes_fails():
 
 def test_the_queue_model_matters(monkeypatch):
     """Six bytes back to back while the robot moves: the queue keeps four, the rest are dropped.
-    The firmware's rule replayed with a longer queue no longer matches what it did."""
+    verify sees each drop, and allows it only because the queue held four: checked as if the queue
+    held eight, the same run fails."""
     scenario = f'{at_frames(40.1)} "a"\n{at_frames(42)} "b" "a" "b" "a" "b" "a"\n'
     plan, trace, evs, report = run(ARM, scenario, 700)
     assert report.ok and sent(trace).startswith("RABABAT")     # a, then b a b a: the last b a dropped
-    t1 = verify.first_rise_us(plan, trace)
-    assert verify.model_choices(plan, trace, 700, evs, t1) is not None      # the firmware's rule, replayed
-    monkeypatch.setattr(verify, "QUEUE", 8)
-    assert verify.model_choices(plan, trace, 700, evs, t1) is None
+    assert sum("the queue already held 4 bytes" in w for w in report.warnings) == 2, report.warnings
+    monkeypatch.setattr(costs, "QUEUE", 8)
+    wrong = api.check_events(plan, trace, 700, evs)
+    assert sum("dropped with only 4 queued" in m.what for m in wrong.mismatches) == 2, wrong.mismatches
 
 
 def test_a_wrong_byte_sent_is_caught():
@@ -116,7 +116,8 @@ def test_a_wrong_byte_sent_is_caught():
     wrong = build_text(ARM.replace('send "A"', 'send "Z"'))
     evs = events.parse(f'{at_frames(40)} "a"\n', (), True)
     stim = api.stimulus(good.plan, evs)
-    trace = api.simulate(wrong.firmware.hex_text, api.cycles_needed(good.plan, 300), good.plan.program.target, stim)
+    trace = api.simulate(wrong.firmware.hex_text, api.cycles_needed(good.plan, 300), good.plan.program.target, stim,
+                         api.probes(wrong.firmware))
     report = api.check_events(good.plan, trace, 300, evs)
     assert not report.ok and any('sent "Z" where "A" was due' in m.what for m in report.mismatches)
     silent = build_text(ARM.replace('send "R"\n', ""))
