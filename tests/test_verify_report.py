@@ -67,13 +67,18 @@ def test_every_reply_due_is_checked(tmp_path, capsys):
     assert any('byte "x"' in w for w in data["warnings"])
 
 
-def test_an_event_far_past_the_run_is_not_applied_and_said_so(tmp_path, capsys, monkeypatch):
-    rc, data = verify_json(tmp_path, capsys, PAN, "300ms button active\n100000s button inactive\n", "--frames", "50")
-    assert rc == 0 and data["frames"] == 50
-    assert len(data["not_checked"]) == 1 and "2 events at or after 0.265 s" in data["not_checked"][0]
+def test_an_event_past_the_run_is_a_usage_error_naming_its_line(tmp_path, capsys, monkeypatch):
+    prog = tmp_path / "p.servo"
+    prog.write_text(PAN)
+    ev = tmp_path / "p.events"
+    ev.write_text("# a press, then one far past the run\n300ms button active\n100000s button inactive\n")
+    assert main(["verify", str(prog), "--events", str(ev), "--frames", "50"]) == 2
+    err = capsys.readouterr().err
+    assert "line 2:" in err and "after the 50 frames verify runs" in err and "--frames" in err, err
     monkeypatch.setattr(verify, "MAX_SPAN_CYCLES", 5_000_000)        # the default is 60 s at 12 MHz
-    rc, data = verify_json(tmp_path, capsys, PAN, "300ms button active\n400ms button inactive\n100000s button active\n")
-    assert rc == 0 and any("not applied" in n for n in data["not_checked"])
+    assert main(["verify", str(prog), "--events", str(ev)]) == 2
+    err = capsys.readouterr().err
+    assert "line 3:" in err and "verify runs at most" in err, err
 
 
 def test_a_long_program_is_checked_over_a_stated_span(tmp_path, capsys, monkeypatch):
