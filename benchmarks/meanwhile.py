@@ -59,7 +59,7 @@ def run(plan, firmware, scenario: str, frames: int):
     evs = events.parse(scenario, plan.program.inputs, plan.program.serial is not None)
     stim = api.stimulus(plan, evs)
     trace = api.simulate(firmware.hex_text, max(api.cycles_needed(plan, frames), stim.last() + 1),
-                         plan.program.target, stim)
+                         plan.program.target, stim, api.probes(firmware))
     return evs, trace
 
 
@@ -85,8 +85,7 @@ def latency() -> list[str]:
             scenario = f"{at / 1e6:.6f}s button active\n{at / 1e6 + 0.2:.6f}s button inactive\n"
             evs, trace = run(plan, firmware, scenario, frames)
             report = api.check_events(plan, trace, frames, evs)
-            choices, _ = verify.infer_choices(plan, trace, frames, events=evs)
-            found = [d for text, _, d in verify.event_delays(plan, choices, evs, t1) if "press" in text]
+            found = [d for text, _, d in verify.event_delays(plan, trace, evs) if "press" in text]
             got = pulses(plan, trace)
             changed = next(c for (c, w), (_, w0) in zip(got, base) if w != w0)
             d_branch = found[0] if found else float("nan")

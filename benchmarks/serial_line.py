@@ -61,7 +61,7 @@ def run(fe, firmware, scenario: str, frames: int):
     evs = events.parse(scenario, plan.program.inputs, True)
     stim = api.stimulus(plan, evs)
     cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
-    trace = api.simulate(firmware.hex_text, cycles, plan.program.target, stim)
+    trace = api.simulate(firmware.hex_text, cycles, plan.program.target, stim, api.probes(firmware))
     return plan, trace, evs, api.check_events(plan, trace, frames, evs)
 
 
@@ -119,8 +119,7 @@ def latency() -> list[str]:
     times = [300_000 + k * 500_000 + (k * period) // 16 for k in range(16)]
     scenario = "".join(f'{t}us "a"\n' for t in times)
     plan, trace, evs, report = run(fe, firmware, scenario, int((times[-1] + 1_000_000) / period))
-    choices, _ = verify.infer_choices(plan, trace, report.frames, events=evs)
-    delays = [d for _, _, d in verify.event_delays(plan, choices, evs, verify.first_rise_us(plan, trace)) if d]
+    delays = [d for _, _, d in verify.event_delays(plan, trace, evs) if d]
     return [f"- verify: {report.summary()}",
             f"- {len(delays)} bytes, stop bit to the branch's first rise: min {min(delays) / 1000:.2f} ms, "
             f"max {max(delays) / 1000:.2f} ms, mean {sum(delays) / len(delays) / 1000:.2f} ms "

@@ -546,12 +546,20 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         if host.arrives + per < trace.cycles:
             bad(host.arrives, f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was never received")
 
-    # Each look decided what the rules require.
-    used: set[int] = set()                      # queue positions some look took or dropped
+    def rises(a: int, b: int) -> int:           # frames that began after cycle a, up to b
+        return (b - t1) // period - (a - t1) // period
+
+    # Each look decided what the rules require, one frame after the look before it.
     for visit in obs.visits:
         sel = visit.select
         where = line(sel.span)
         for j, look in enumerate(visit.looks):
+            if t1 is not None:
+                n = rises(visit.reached if j == 0 else visit.looks[j - 1].entry, look.entry)
+                if n != (j > 0):
+                    bad(look.entry, f"the select at line {where} made look {j} at {when(look.entry)} {n} frame"
+                                    f"{'s' if n != 1 else ''} after "
+                                    + ("it was reached, not in the same frame" if j == 0 else "the look before, not 1"))
             if look.exit is None:
                 continue                        # the run ended during it
             new = [got.byte for got in obs.received if look.entry < got.cycle < look.exit and got.queued]
@@ -571,7 +579,6 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                                 f"decided {_text(sel, look.outcome)}"
                                 + (f" and took {took} byte{'s' if took != 1 else ''}" if plan.program.serial else "")
                                 + f", the rules require {' or '.join(want)}")
-            used.update(range(look.rxr, look.rxr_after))
             if look.outcome is not None:
                 break
         if visit.branch is not None and visit.looks and visit.looks[-1].outcome not in (None, visit.branch):
