@@ -619,8 +619,12 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
             waiting = [v for v in obs.visits if v.reached <= off and (v.taken is None or v.taken >= at)
                        and any(isinstance(b, OnBranch) and b.event.input == name for b in v.select.branches)]
             saw = any(lk.entry <= off and (lk.exit or lk.entry) >= at for v in waiting for lk in v.looks)
-            took = any(v.branch is not None and isinstance(v.select.branches[v.branch], OnBranch)
-                       and v.select.branches[v.branch].event.input == name and at <= v.taken for v in waiting)
+            def decided(v) -> bool:         # the look that took the branch saw this press
+                look, br = v.looks[-1], v.select.branches[v.branch]
+                return (isinstance(br, OnBranch) and br.event.input == name
+                        and (look.entry <= off and (look.exit or look.entry) >= at
+                             or br.event.edge == "release" and look.entry >= off))
+            took = any(v.branch is not None and v.looks and decided(v) for v in waiting)
             if took:
                 continue
             span = f"`{name}` active from {when(at)} to {when(off)}"
