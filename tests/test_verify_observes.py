@@ -385,3 +385,18 @@ def test_generated_programs_right_firmware_passes_wrong_firmware_fails(case):
             continue
         _, bad = watch(built, scenario, frames, wrong)
         assert not bad.ok, f"{what} not caught:\n{text}\n{scenario}"
+
+
+def test_a_hex_whose_selects_cannot_be_watched_is_refused(tmp_path, capsys):
+    other = tmp_path / "o.servo"
+    other.write_text(NOTHING_CHANGES.replace('on "b" {', 'on "c" { send "C" }\n      on "b" {'))
+    assert main(["compile", str(other), "-o", str(tmp_path / "o.hex")]) == 0
+    capsys.readouterr()
+    rc, err = cli_verify(tmp_path, capsys, NOTHING_CHANGES, '0.4s "a"\n', "--hex", str(tmp_path / "o.hex"), "--text")
+    assert rc == 2 and "verify cannot watch its selects" in err, err
+    same = tmp_path / "same.servo"
+    same.write_text(NOTHING_CHANGES)
+    assert main(["compile", str(same), "-o", str(tmp_path / "s.hex")]) == 0
+    capsys.readouterr()
+    rc, out = cli_verify(tmp_path, capsys, NOTHING_CHANGES, '0.4s "a"\n', "--hex", str(tmp_path / "s.hex"), "--text")
+    assert rc == 0 and "OK" in out, out
