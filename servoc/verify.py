@@ -106,7 +106,10 @@ def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
 def cycles_needed(plan: Plan, frames: int, choices: tuple = ()) -> int:
     """Machine cycles to simulate so that `frames` frames after the first pulse are complete (the
     selects deciding `choices`)."""
-    lead = first_pulse_frame(plan, choices) or 0
+    try:
+        lead = first_pulse_frame(plan, choices) or 0
+    except ValueError:                      # no run of the program (verify says so)
+        lead = first_pulse_frame(plan) or 0
     target = plan.program.target
     return (lead + frames + 2) * target.cycles(plan.period_us) + target.cycles(5000)
 
@@ -287,8 +290,16 @@ def choices_of(obs: Observation) -> tuple[Choice, ...]:
     """The branch each select took, in the order reached, as `plan.expand` takes them: the look
     that took it (0: as it was reached) is the number of frames it waited; a select still waiting
     when the run ended waits for ever."""
-    return tuple(Choice(v.branch, len(v.looks) - 1) if v.branch is not None and v.looks
-                 else Choice(0, UNDECIDED) for v in obs.visits)
+    out = []
+    for v in obs.visits:
+        if v.branch is None or not v.looks:
+            out.append(Choice(0, UNDECIDED))
+            continue
+        waited = len(v.looks) - 1
+        if v.select.after is not None:          # a firmware that waited past `after` (a look checks that):
+            waited = min(waited, v.select.after.frames)     # the plan of the run waits no longer
+        out.append(Choice(v.branch, waited))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -494,8 +505,14 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     target = plan.program.target
     period = target.cycles(plan.period_us)
     choices = choices_of(obs)
-    report = verify(plan, trace, frames, choices, driven=trace.inputs or None)
-    lead = first_pulse_frame(plan, choices) or 0
+    try:
+        report = verify(plan, trace, frames, choices, driven=trace.inputs or None)
+        lead = first_pulse_frame(plan, choices) or 0
+    except ValueError as exc:               # the selects reached are not the plan's: no plan of this run
+        report = VerifyReport(0, 0, 0, None, None, None, None, (Mismatch(
+            0, "select", "-", None, None, f"the branches the firmware took are no run of the program: {exc}"),),
+            cycle_us=float(target.cycle_us), period_cycles=target.cycles(plan.period_us))
+        return choices, report
     t1 = first_rise(plan, trace)
     end = trace.cycles if t1 is None else min(trace.cycles, t1 + frames * period)
     line = (lambda span: 0) if line_of is None else line_of
@@ -646,11 +663,14 @@ def coverage(plan: Plan, choices: tuple, frames: int, line_of=None, text_of=None
     line = (lambda span: 0) if line_of is None else line_of
     show = (lambda span: "") if text_of is None else text_of
     seen: dict = {}
-    lead = first_pulse_frame(plan, choices) or 0
     reached: list = []
     last = None
-    for last in itertools.islice(expand(plan, choices, reached, seen), lead + frames):
-        pass
+    try:
+        lead = first_pulse_frame(plan, choices) or 0
+        for last in itertools.islice(expand(plan, choices, reached, seen), lead + frames):
+            pass
+    except ValueError:                      # no run of the program (verify says so): nothing to list
+        return [], ""
     out: list[str] = []
     walked: set[str] = set()
 
@@ -703,12 +723,15 @@ def settle_frame(plan: Plan, choices: tuple) -> int | None:
     main ends first)."""
     stop = next((i for i, c in enumerate(choices) if c.frames >= UNDECIDED), len(choices))
     decided = tuple(choices[:stop])
-    lead = first_pulse_frame(plan, decided) or 0
     waited = sum(c.frames for c in decided)
     reached: list = []
-    for _ in itertools.islice(expand(plan, decided, reached), lead + waited + 100_000):
-        if len(reached) > stop:
-            return reached[stop][0] - lead + 1
+    try:
+        lead = first_pulse_frame(plan, decided) or 0
+        for _ in itertools.islice(expand(plan, decided, reached), lead + waited + 100_000):
+            if len(reached) > stop:
+                return reached[stop][0] - lead + 1
+    except ValueError:                      # no run of the program (verify says so)
+        pass
     return None
 
 
