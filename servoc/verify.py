@@ -95,12 +95,24 @@ class VerifyReport:
 SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries a pulse
 
 
+_FIRST_PULSE: dict = {}     # (id(plan), choices) -> (plan, the answer): the search can take seconds
+
+
 def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     """0-based index of the first golden frame with a pulse, or None if there is none."""
+    key = (id(plan), tuple(choices))
+    hit = _FIRST_PULSE.get(key)
+    if hit is not None and hit[0] is plan:
+        return hit[1]
+    found = None
     for i, fr in enumerate(itertools.islice(expand(plan, choices), SEARCH_FRAMES)):
         if any(n is not None for n in fr.n):
-            return i
-    return None
+            found = i
+            break
+    if len(_FIRST_PULSE) > 64:
+        _FIRST_PULSE.clear()
+    _FIRST_PULSE[key] = (plan, found)
+    return found
 
 
 def cycles_needed(plan: Plan, frames: int, choices: tuple = ()) -> int:
