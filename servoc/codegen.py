@@ -29,7 +29,7 @@ from . import costs
 from . import walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .flow import (UNBOUNDED, edge_ports, fewest_frames, move_starts, port_motions, select_ram, select_slots, send_gap, send_run,
+from .flow import (UNBOUNDED, edge_ports, fewest_frames, fewest_frames_in_code, move_starts, port_motions, select_ram, select_slots, send_gap, send_run,
                    sends, takes_frames, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
@@ -114,6 +114,7 @@ class _Ctx:
     sends_memo: dict = field(default_factory=dict)    # plan.sends of each sequence
     port_channels: tuple = ()        # (port, its channels) for each port of the plan
     fewest_memo: dict = field(default_factory=dict)   # plan.fewest_frames of each sequence
+    coded_memo: dict = field(default_factory=dict)    # flow.fewest_frames_in_code of each sequence
     flagged: bool = False            # a loop tests FRAMED (frame_io sets it)
     written: int = 1                 # passes written out by the repeats around (plan.frameless_repeats)
     byte_maps: dict = field(default_factory=dict)     # the bytes selects' `on`s name -> their map
@@ -209,7 +210,7 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             lab = ctx.label("loop")
             # a pass that took no frame waits for the next one: always, or when FRAMED says so
             pad = ("frame" if not takes_frames(st.body, ctx.plan, ctx.frames_memo) else
-                   "flag" if fewest_frames(st.body, ctx.plan, ctx.fewest_memo) == 0 else "")
+                   "flag" if fewest_frames_in_code(st.body, ctx.plan, ctx.coded_memo) == 0 else "")
             ctx.flagged = ctx.flagged or pad == "flag"
             out.append({"op": "loop", "label": lab, "where": where, "pad": pad})
             _ops(ctx, st.body, out)
@@ -242,9 +243,14 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
         if isinstance(st, RepeatStep):
             lab = ctx.label("rep")
             ctx.repeats = True
-            out.append({"op": "repeat", "label": lab, "count": st.count, "where": where})
+            # every pass takes a frame, but one whose frames come from an `after` the analysis
+            # cannot count (it is counted at run time): a pass without a frame, which never
+            # happens, would wait for one, so that every path the code has reaches a frame
+            pad = "flag" if fewest_frames_in_code(st.body, ctx.plan, ctx.coded_memo) == 0 else ""
+            ctx.flagged = ctx.flagged or pad == "flag"
+            out.append({"op": "repeat", "label": lab, "count": st.count, "where": where, "pad": pad})
             _ops(ctx, st.body, out)
-            out.append({"op": "repeat_end", "label": lab, "where": where})
+            out.append({"op": "repeat_end", "label": lab, "where": where, "pad": pad})
         elif isinstance(st, PlayStep):
             out.append({"op": "play", "label": _seq_label(ctx.plan, st.sequence), "name": st.sequence, "where": where})
     flush()

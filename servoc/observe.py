@@ -42,7 +42,8 @@ class ProbeError(Exception):
 class Probes:
     """Where to probe a firmware and what each probe means."""
     points: tuple[tuple[int, int, tuple[int, ...]], ...]   # (address, tag, RAM bytes to read) for sim.run
-    meaning: dict[int, tuple[str, str, int | None]]        # tag -> (kind, select label, branch or outcome)
+    meaning: dict[int, list[tuple[str, str, int | None]]]  # tag -> what reaching it means, in order:
+                                                           # (kind, select label, branch or outcome)
     selects: dict[str, object]                             # label -> its SelectStep
     queue: int = 0                                         # the receive queue's size (0: no serial line)
     code: dict[int, bytes] = field(default_factory=dict)   # address -> the code bytes there, to check a HEX
@@ -104,12 +105,20 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
     rx_state = (equ["RXR"], equ["RXW"]) if queue else ()
     look_ram = rx_state + tuple(equ["RXQ"] + i for i in range(queue)) if queue else ()
     points: list[tuple[int, int, tuple[int, ...]]] = []
-    meaning: dict[int, tuple[str, str, int | None]] = {}
+    meaning: dict[int, list[tuple[str, str, int | None]]] = {}
+    at: dict[int, int] = {}                    # address -> its tag: a branch whose body begins with
+                                               # a select shares its first address with that select
 
     def add(address: int, kind: str, label: str, k: int | None, ram: tuple[int, ...]) -> None:
-        tag = len(points) + 1
+        if address in at:
+            tag = at[address]
+            if points[tag - 1][2] != ram:
+                raise ProbeError(f"two probes at {address:#06x} read different RAM")
+            meaning[tag].append((kind, label, k))
+            return
+        tag = at[address] = len(points) + 1
         points.append((address, tag, ram))
-        meaning[tag] = (kind, label, k)
+        meaning[tag] = [(kind, label, k)]
 
     by_label = {}
     for lab, st in selects:
@@ -130,6 +139,8 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
                 raise ProbeError(f"the listing has no {lab}")
         add(labels["ui_got"], RX_GOT, "", None, (equ["RXB"],) + rx_state)
         add(labels["ui_drop"], RX_END, "", None, rx_state)
+    for tag in meaning:                        # at one address, a branch is entered before a select in it is reached
+        meaning[tag].sort(key=lambda m: (m[0] == REACH))
     return Probes(tuple(points), meaning, by_label, queue,
                   {a: code[a] for a, _, _ in points if a in code})
 
@@ -206,8 +217,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
     problems: list[str] = []
     rxr, rxw = _Counter(), _Counter()
     pending = None
-    for p in trace.probes:
-        kind, label, k = probes.meaning[p.tag]
+    for p, (kind, label, k) in ((p, m) for p in trace.probes for m in probes.meaning[p.tag]):
         if kind == REACH:
             if label in active:
                 problems.append(f"the select {label} was reached again at cycle {p.cycle} while it waited")

@@ -318,7 +318,8 @@ def programs(draw):
         if draw(st.booleans()):
             body += f'; send "{LETTERS[k].upper()}"'
         if nested and k == 0:
-            body += ' ; select { on "z" { move home in 300ms; send "Z" } after 150ms { send "T" } }'
+            inner = 'select { on "z" { move home in 300ms; send "Z" } after 150ms { send "T" } }'
+            body = f"{inner}; {body}" if draw(st.booleans()) else f"{body}; {inner}"  # first: its reach is the branch's entry
         branches.append(f'      on "{LETTERS[k]}" {{ {body} }}')
     if with_input:
         branches.append('      on press btn { move home in 300ms; send "P" }')
@@ -400,3 +401,25 @@ def test_a_hex_whose_selects_cannot_be_watched_is_refused(tmp_path, capsys):
     capsys.readouterr()
     rc, out = cli_verify(tmp_path, capsys, NOTHING_CHANGES, '0.4s "a"\n', "--hex", str(tmp_path / "s.hex"), "--text")
     assert rc == 0 and "OK" in out, out
+
+
+LINT_OK_COMPILE_REFUSED = {
+    "empty main, one servo": "servo arm = P1.0\nmain { }\n",
+    "no servos at all": "main {}\n",
+    "a frameless after in a nested select, in a loop": (
+        'serial 4800\nservo arm = P1.0\npose p { arm: 10 }\nmain {\n  move p in 100ms\n'
+        '  loop { select { on "V" { select { on "E" { hold 6ms; send "S" } after 30ms { } } } } }\n}\n'),
+    "the same, in a repeat": (
+        'serial 4800\nservo arm = P1.0\npose p { arm: 10 }\nmain {\n  move p in 100ms\n'
+        '  repeat 3 { select { on "V" { select { on "E" { hold 6ms; send "S" } after 30ms { } } } } }\n}\n'),
+}
+
+
+@pytest.mark.parametrize("name", sorted(LINT_OK_COMPILE_REFUSED))
+def test_programs_lint_accepts_compile_and_verify(name, tmp_path, capsys):
+    text = LINT_OK_COMPILE_REFUSED[name]
+    scenario = '0.1s "V"\n0.2s "E"\n0.4s "V"\n0.8s "V"\n0.815s "E"\n' if "serial" in text else None
+    rc, data = cli_verify(tmp_path, capsys, text, scenario)
+    assert rc == 0 and data["ok"], data
+    if scenario:
+        assert [s["branch"] for s in data["selects"]].count('on "E"') == 1, data["selects"]
