@@ -232,6 +232,8 @@ def _command(argv: list[str] | None) -> int:
         rc = 2
     except SystemExit as exc:       # --help, --version: their output is all there is
         return exc.code if isinstance(exc.code, int) else 2
+    except BrokenPipeError:
+        raise                       # the reader of the output left (see main)
     except Exception as exc:  # a bug in servoc, not in the user's program
         message = (f"{type(exc).__name__}: {exc}. This is a bug in servoc; please report it with the program "
                    "that caused it.")
@@ -420,8 +422,9 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
     progress = _color(sys.stderr) and not run.json
     line_of = (lambda sp: source.line_col(sp.start)[0])
 
-    def text_of(sp) -> str:
-        return source.line_text(line_of(sp)).split("#")[0].strip()
+    def text_of(sp) -> str:            # the statement as written, its first line, at most 60 characters
+        text = " ".join(source.snippet(sp).split("\n", 1)[0].split("#")[0].split())
+        return text if len(text) <= 60 else text[:57].rstrip() + "..."
 
     frames = span.frames
     choices: tuple = ()

@@ -357,9 +357,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     serial = plan.program.serial
     taken = select_ram(plan)
     stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, watches(plan))
-    if stack_bytes > costs.stack_room(serial is not None, taken):     # lint's `too-deep` reports this first
+    nports = len(plan.ports)
+    room_promised = costs.stack_room(serial is not None, taken, nports)
+    if stack_bytes > room_promised:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
-                                  f"the firmware has {costs.stack_room(serial is not None, taken)}")
+                                  f"the firmware has {room_promised}")
+    state_base = layout.state_base(nports)
     if serial is not None and send_run(plan) > costs.QUEUE:
         raise layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
                                  f"the transmit queue holds {costs.QUEUE}")
@@ -369,11 +372,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             "nodur": any(r["flags"] & layout.FLAG["NODUR"] for r in ctx.records),
             "sends": serial is not None and sends(plan.main, plan, ctx.sends_memo)}
 
-    ram = layout.RamAllocator(layout.STATE_BASE - stack_bytes)     # what the stack leaves
+    ram = layout.RamAllocator(state_base - stack_bytes, layout.work_base(nports))     # what the stack leaves
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED"), 0)
-    ram.next = layout.WORK_BASE
+    ram.next = layout.work_base(nports)
     if serial is not None:      # first, at a multiple of its size: the serial handler indexes it with ORL
         assert ram.next % costs.QUEUE == 0
         ram.alloc("RXQ", costs.QUEUE, "the receive queue")
@@ -401,7 +404,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
     stack_base = ram.next
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
-    room = layout.STATE_BASE - stack_base
+    room = state_base - stack_base
     bport = plan.ports[-1] if len(plan.ports) == 3 and stack_bytes + costs.BUFB_RAM <= room else None
     e = _engine(plan, ram, period_cycles, bport)
     e["framed"] = ctx.flagged
@@ -409,8 +412,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     for c in plan.channels:
         pin = 8 * c.port + c.bit
         bit = {name: layout.bit_address(layout.ADDR[name], pin) for name in ("ACT", "MOVB", "DIRB", "RMASK")}
-        chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + pin,
-                      "state": layout.STATE_BASE + layout.STATE_BYTES * pin, "act_bit": bit["ACT"],
+        at = layout.ram_pin(plan.ports, c.port, c.bit)
+        chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + at,
+                      "state": state_base + layout.STATE_BYTES * at, "act_bit": bit["ACT"],
                       "mov_bit": bit["MOVB"], "dir_bit": bit["DIRB"], "rm_bit": bit["RMASK"],
                       "dmax": _dmax(c.speed_class)})
     reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
@@ -446,7 +450,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,
-                  state_base=layout.STATE_BASE, state_bytes=layout.STATE_BYTES, stack_base=stack_base, s=s,
+                  state_base=state_base, state_bytes=layout.STATE_BYTES, stack_base=stack_base, s=s,
                   compact=plan.compact, more=more, **{k: uses[k] for k in ("repeats", "eased", "holds")},
                   more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
@@ -463,7 +467,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
                            f"{costs.runtime_stack(bool(watch))} the stack bound counts")
     offsets = tuple(costs.rise_offsets(plan.ports, target).values())
-    ram_bytes = ram.total(24, stack_bytes) + (costs.BUFB_RAM if bport is not None else 0)
+    ram_bytes = ram.total(8 * nports, stack_bytes) + (costs.BUFB_RAM if bport is not None else 0)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
         breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])
@@ -526,7 +530,8 @@ def _hold(cycles: int) -> str:
 
 def _port_pins(plan: Plan, port: int) -> list[dict]:
     bits = [c.bit for c in plan.channels if c.port == port]
-    return [{"i": i, "at": layout.SORT_PAIR * i, "bit": b, "cur": layout.CUR_BASE + 8 * port + b, "bit_mask": 1 << b,
+    return [{"i": i, "at": layout.SORT_PAIR * i, "bit": b, "cur": layout.CUR_BASE + layout.ram_pin(plan.ports, port, b),
+             "bit_mask": 1 << b,
              "name": next(c.name for c in plan.channels if c.port == port and c.bit == b)}
             for i, b in enumerate(bits)]
 
@@ -558,7 +563,8 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         nxt = plan.ports[0 if last else k + 1]
         rise = costs.rise_offsets(plan.ports, target)
         ports.append({"port": port, "pins": _port_pins(plan, port), "win": f"win_p{port}", "last": last,
-                      "cur0": layout.CUR_BASE + 8 * port, "state0": layout.STATE_BASE + layout.STATE_BYTES * 8 * port,
+                      "cur0": layout.CUR_BASE + layout.ram_pin(plan.ports, port, 0),
+                      "state0": layout.state_base(len(plan.ports)) + layout.STATE_BYTES * layout.ram_pin(plan.ports, port, 0),
                       "next_port": nxt, "next_win": f"win_p{nxt}", "rise": rise[port],
                       "rnext": (period_cycles if last else rise[nxt]) - rise[port]})
         ports[-1]["s"] = len(ports[-1]["pins"])

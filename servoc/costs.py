@@ -355,6 +355,7 @@ def default_period_us(min_period: int) -> int:
 # program uses; the firmware itself starts the stack where the RAM it allocates ends
 # (no eased moves, no `send`: fewer variables), so most programs have more.
 STACK_BYTES = 46
+PORT_RAM = 40               # CUR (8) and STATE (32) of one port: RAM a port not in use leaves to the stack
 BUFB_RAM = 17               # sort buffer B (8 pairs of N and lines) and its rise mask: the top of the
                             # stack's bytes, taken only where the program's stack leaves that much room
 RUNTIME_STACK = 8
@@ -367,10 +368,11 @@ def runtime_stack(watch: bool = False) -> int:
     return RUNTIME_STACK + (WATCH_STACK if watch else 0)
 
 
-def stack_room(serial: bool = False, taken: int = 0) -> int:
-    """Bytes of stack: the serial line's queues and counters take SERIAL_RAM of them, the selects
+def stack_room(serial: bool = False, taken: int = 0, ports: int = 3) -> int:
+    """Bytes of stack with `ports` ports of servos in use: 46 with three, PORT_RAM more for each
+    port fewer; the serial line's queues and counters take SERIAL_RAM of them, the selects
     `taken` more (plan.select_ram)."""
-    return STACK_BYTES - (SERIAL_RAM if serial else 0) - taken
+    return STACK_BYTES + PORT_RAM * (3 - ports) - (SERIAL_RAM if serial else 0) - taken
 
 
 def stack_bytes(nesting: int, serial: bool = False, watch: bool = False) -> int:
@@ -378,5 +380,5 @@ def stack_bytes(nesting: int, serial: bool = False, watch: bool = False) -> int:
     return 2 * nesting + runtime_stack(watch) + HANDLER_STACK + (SERIAL_STACK if serial else 0)
 
 
-def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0) -> int:
-    return (stack_room(serial, taken) - runtime_stack(watch) - HANDLER_STACK - (SERIAL_STACK if serial else 0)) // 2
+def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3) -> int:
+    return (stack_room(serial, taken, ports) - runtime_stack(watch) - HANDLER_STACK - (SERIAL_STACK if serial else 0)) // 2

@@ -10,14 +10,16 @@ RAM (AT89C52, 256 bytes):
     0x10-0x1F  sort buffer A: a port's N and lines in pairs, then its distinct N, for the handler
     0x20-0x2C  bit-addressable per-port masks (ACT, MOVB, DIRB, RMASK) and FLAGS
     0x2D-0x2F  F of the current move
-    0x30-0x47  CUR: the current N of pin p (port x 8 + bit) at CUR_BASE + p
-    0x48-      direct variables (those the program uses: the receive queue first, at a
+    0x30-      CUR: the current N of pin p at CUR_BASE + p, 8 bytes for each port in use
+               (p = 8 x the port's place among the ports in use + bit: `ram_pin`)
+    then       direct variables (those the program uses: the receive queue first, at a
                multiple of its size) and the handler's items, allocated in order
-        -0x9F  the stack, growing up from where they end: at least STACK_BYTES less the
-               serial line's and the selects' RAM (0x72-0x9F at the most RAM); with three
-               ports, where the program's stack leaves room, sort buffer B and its rise
-               mask the last 17
-    0xA0-0xFF  STATE: 4 bytes of motion state per pin at STATE_BASE + 4 p (indirect only)
+    then       the stack, growing up from where they end to STATE: at least
+               `costs.stack_room` (46 bytes with three ports, 40 more for each port fewer)
+               less the serial line's and the selects' RAM; with three ports, where the
+               program's stack leaves room, sort buffer B and its rise mask the last 17
+    STATE-0xFF STATE: 4 bytes of motion state per pin at STATE + 4 p, 32 for each port in use
+               (0xA0 with three ports; indirect only)
 
 A record list is a run of move and hold records in code memory; each record
 starts with a flags byte (RECORD_FLAGS) and a flags byte with ENDF ends the list.
@@ -35,13 +37,28 @@ SORT_BASE = 0x10                # sort buffer A: 8 pairs (N, lines)
 SORT_PAIR = 2                   # bytes of a pair: pair i at +2i, its N first
 CUR_BASE = 0x30                 # current N per pin
 STATE_BYTES = 4
-STATE_BASE = RAM_SIZE - 24 * STATE_BYTES     # motion state, 4 bytes per pin: 0xA0..0xFF
+STATE_BASE = RAM_SIZE - 24 * STATE_BYTES     # motion state, 4 bytes per pin, with three ports: 0xA0..0xFF
 BUFB_BASE = STATE_BASE - 16     # sort buffer B (three ports, where the stack has room): 16 bytes
                                 # at the top of the stack's room, its rise mask below; like A at
                                 # 0x10 mod 0x20, so that bit 4 of a pointer just past either is clear
 assert SORT_BASE % 0x20 == BUFB_BASE % 0x20 == 0x10
 DIRECT_LIMIT = 0x80             # above it, RAM is reached only through @R0/@R1 (direct 0x80.. are the SFRs)
-WORK_BASE = CUR_BASE + 24       # variables after CUR
+WORK_BASE = CUR_BASE + 24       # variables after CUR, with three ports
+
+
+def state_base(ports: int) -> int:
+    """Where the motion state starts with `ports` ports in use (8 pins each)."""
+    return RAM_SIZE - 8 * ports * STATE_BYTES
+
+
+def work_base(ports: int) -> int:
+    """Where the variables start, after CUR, with `ports` ports in use."""
+    return CUR_BASE + 8 * ports
+
+
+def ram_pin(ports: tuple[int, ...], port: int, bit: int) -> int:
+    """A pin's index p in CUR and STATE: 8 x its port's place among the ports in use, + bit."""
+    return 8 * ports.index(port) + bit
 
 # Bit-addressable bytes: (name, address, what). A pin's bit address is (byte - 0x20) x 8 + pin.
 MASK_BYTES = (
@@ -164,8 +181,8 @@ class RamAllocator:
     starts). A variable the code names directly must end by DIRECT_LIMIT; buffers reached only
     through @R0/@R1 (direct=False) may go past it."""
 
-    def __init__(self, end: int) -> None:
-        self.next = WORK_BASE
+    def __init__(self, end: int, start: int = WORK_BASE) -> None:
+        self.next = start
         self.end = end
         self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)
 

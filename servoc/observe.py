@@ -180,6 +180,7 @@ class Visit:
     looks: list[Look] = field(default_factory=list)
     branch: int | None = None
     taken: int | None = None
+    cut: bool = False           # it waited in a meanwhile body that a select around it cut short
 
 
 @dataclass(frozen=True)
@@ -251,6 +252,9 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
                 problems.append(f"branch {k} of {label} entered at cycle {p.cycle} with the select not waiting")
                 continue
             visit.branch, visit.taken = k, p.cycle
+            for other in [v for v in active.values() if v.reached > visit.reached]:
+                other.cut = True            # in its meanwhile body, which the branch cut short
+                del active[other.label]
         elif kind == RX_GOT:
             pending = (p.cycle, p.ram[0], (p.ram[2] - p.ram[1]) & 0xFF, p.ram[2])
         elif kind == RX_END and pending is not None:

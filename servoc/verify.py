@@ -298,6 +298,9 @@ def first_rise_us(plan: Plan, trace: SimTrace) -> float | None:
     return None if t1 is None else t1 * float(plan.program.target.cycle_us)
 
 
+CUT = UNDECIDED + 1     # Choice.frames of a select cut short while it waited (in a meanwhile body)
+
+
 def choices_of(obs: Observation) -> tuple[Choice, ...]:
     """The branch each select took, in the order reached, as `plan.expand` takes them: the look
     that took it (0: as it was reached) is the number of frames it waited; a select still waiting
@@ -305,7 +308,7 @@ def choices_of(obs: Observation) -> tuple[Choice, ...]:
     out = []
     for v in obs.visits:
         if v.branch is None or not v.looks:
-            out.append(Choice(0, UNDECIDED))
+            out.append(Choice(0, CUT if v.cut else UNDECIDED))
             continue
         waited = len(v.looks) - 1
         if v.select.after is not None:          # a firmware that waited past `after` (a look checks that):
@@ -714,7 +717,7 @@ def coverage(plan: Plan, choices: tuple, frames: int, line_of=None, text_of=None
                         walk(br.body)
 
     walk(plan.main)
-    waiting = [sel for i, (_, sel) in enumerate(reached) if i < len(choices) and choices[i].frames >= UNDECIDED]
+    waiting = [sel for i, (_, sel) in enumerate(reached) if i < len(choices) and choices[i].frames == UNDECIDED]
     if waiting:
         sel = waiting[-1]
         ends = ", ".join(f"`{branch_text(b)}`" for b in sel.branches)
@@ -733,9 +736,9 @@ def settle_frame(plan: Plan, choices: tuple) -> int | None:
     again after the last branch taken (the first select no choice decides, or that was still
     waiting when the run ended); None when it never gets there (a branch that loops forever, or
     main ends first)."""
-    stop = next((i for i, c in enumerate(choices) if c.frames >= UNDECIDED), len(choices))
+    stop = next((i for i, c in enumerate(choices) if c.frames == UNDECIDED), len(choices))
     decided = tuple(choices[:stop])
-    waited = sum(c.frames for c in decided)
+    waited = sum(c.frames for c in decided if c.frames < UNDECIDED)
     reached: list = []
     try:
         lead = first_pulse_frame(plan, decided) or 0

@@ -1,4 +1,5 @@
-"""too-deep: nested repeats and plays keep their counters and return addresses on a 32-byte stack.
+"""too-deep: nested repeats and plays keep their counters and return addresses on the stack (the RAM
+the program's ports, variables and features leave: `costs.stack_room`).
 
 The checker reports it too, through `report_too_deep`, for programs nested so deeply that the
 later passes cannot walk them; lint reports the rest."""
@@ -16,11 +17,11 @@ from ..common import body_of
 
 @rule("too-deep", Severity.ERROR)
 def too_deep(plan: Plan, report: Report) -> None:
-    """Nested repeats and plays keep their counters and return addresses on a 32-byte stack."""
+    """Nested repeats and plays keep their counters and return addresses on the stack."""
     serial = plan.program.serial is not None
-    watch, taken = watches(plan), select_ram(plan)
-    if plan.nesting > costs.max_nesting(serial, watch, taken):
-        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken)
+    watch, taken, ports = watches(plan), select_ram(plan), len(plan.ports)
+    if plan.nesting > costs.max_nesting(serial, watch, taken, ports):
+        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken, ports)
 
 
 def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
@@ -29,12 +30,12 @@ def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.B
 
 
 def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span,
-            serial: bool = False, watch: bool = False, taken: int = 0) -> None:
+            serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3) -> None:
     """At the first repeat or play past the limit."""
-    limit = costs.max_nesting(serial, watch, taken)
+    limit = costs.max_nesting(serial, watch, taken, ports)
     st = walk.first_too_deep(main, body_of, limit)
     word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
-    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial, taken)}-byte "
-           f"stack has room for {limit} levels (2 bytes each); this `{word}` is level {limit + 1}",
+    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial, taken, ports)}-byte "
+           f"stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); this `{word}` is level {limit + 1}",
            st.span if st is not None else main_span, label=f"level {limit + 1}",
            help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
