@@ -128,7 +128,8 @@ def _budgeted(p: Plan) -> Plan:
         unit = codegen.generate(p)
     except layout.LayoutError as exc:
         return dataclasses.replace(p, min_period_us=p.period_us, firmware_limit=(exc.code, str(exc), exc.help))
-    return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us)
+    return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
+                               period_holds=unit.min_period_us is None or unit.period_holds)
 
 
 def lint(plan_: Plan, reporter: Reporter) -> None:
@@ -185,7 +186,7 @@ def generate(plan_: Plan, source: SourceFile, reporter: Reporter) -> codegen.Asm
         reporter.error("period-too-short", f"the firmware's work between two frames cannot be bounded: {unit.work_from}",
                        plan_.program.main_span, help="report this program as a bug in servoc")
         return None
-    if plan_.period_us < unit.min_period_us:      # lint reports it first; never write firmware that misses it
+    if not unit.period_holds:      # lint reports it first; never write firmware that misses it
         reporter.error("period-too-short",
                        f"frame period {plan_.period_us} us is shorter than the {unit.min_period_us} us the firmware needs",
                        plan_.program.frame_span, help=f"use `frame {unit.min_period_us}us` or longer")

@@ -54,6 +54,7 @@ class AsmUnit:
     target: Target = DEFAULT_TARGET    # the chip it is built for
     for_size: bool = False          # built for size (Plan.compact)
     selects: tuple = ()             # (label, SelectStep) of each select laid out, for verify's probes
+    period_holds: bool = True       # the code holds the plan's own period (the model evaluated there)
 
 
 _hex8 = layout.hex8
@@ -494,6 +495,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         _check_serial(plan, budget, period_cycles)
     try:
         shortest = None if budget is None else target.us_at_least(costs.frame_cycles(target, budget))
+        period_holds = budget is None or costs.holds(target, budget, period_cycles)
     except costs.TooSlow as exc:
         raise layout.SerialTooFast(f"at {serial.baud} baud {exc}") if s is not None else layout.HandlerTooSlow(str(exc))
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
@@ -501,7 +503,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
                    budget, work_from,
                    shortest,
-                   target, plan.compact, tuple(ctx.selects))
+                   target, plan.compact, tuple(ctx.selects), period_holds)
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:

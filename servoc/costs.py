@@ -230,16 +230,58 @@ class Budget:
 
 
 def frame_cycles(target, budget: Budget) -> int:
-    """The shortest frame period in machine cycles this code holds. With a serial line its handler's
-    runs come on top, in each window of the frame as many as bytes can come and go in it: the
-    windows' lengths depend on the period, so it is found again until it no longer grows."""
-    period = _frame_cycles(target, budget, 0)
+    """The shortest frame period in machine cycles from which on every period holds (`holds`).
+    With a serial line its handler's runs come on top, in each window of the frame as many as
+    bytes can come and go in it: the windows' lengths depend on the period, so the need is a step
+    function of it. It is found again until it no longer grows, and then every step above is
+    checked: where a longer period needs more than it has, the search goes on from there."""
+    period = _settle(target, budget, _frame_cycles(target, budget, 0))
+    while budget.byte_cycles:
+        fails = _first_failing(target, budget, period)
+        if fails is None:
+            return period
+        period = _settle(target, budget, fails)
+    return period
+
+
+def holds(target, budget: Budget, period: int) -> bool:
+    """Whether the code holds a frame of `period` machine cycles (the model evaluated at it)."""
+    return _frame_cycles(target, budget, period) <= period
+
+
+def _settle(target, budget: Budget, period: int) -> int:
+    """The first period from `period` on that holds what the period itself brings."""
     while budget.byte_cycles:
         more = _frame_cycles(target, budget, period)
         if more <= period:
             break
         period = more
     return period
+
+
+def _first_failing(target, budget: Budget, period: int) -> int | None:
+    """The first period above `period` that does not hold, or None. The need changes only where a
+    window's length crosses a byte time (`serial_load`), so only those periods are checked; the
+    need grows by at most one run of each kind per byte time while the period grows by a byte
+    time, so once a step holds with a run to spare, every longer period does."""
+    byte, reach = budget.byte_cycles, run_reach(target, budget)
+    m = len(budget.lines)
+    span = port_span(target)
+    offsets = {0} if m == 0 else {0, (m - 1) * span, (m - 2) * span}
+    shifts = {1} | ({1 - reach} if reach is not None else set())
+    step = (2 if budget.serial_sends else 1) * (budget.serial_run + SERIAL_WAIT)
+    lo = period
+    while True:
+        hi = lo + 4 * byte          # the periods where a window of length P - d crosses a step
+        points = sorted({p for d in offsets for s in shifts
+                         for k in range((lo - s - d) // byte, (hi - s - d) // byte + 2)
+                         if lo < (p := k * byte + s + d) <= hi})
+        for p in points:
+            if _frame_cycles(target, budget, p) > p:
+                return p
+        if hi - _frame_cycles(target, budget, hi) >= 2 * step:
+            return None
+        lo = hi
 
 
 def _frame_cycles(target, budget: Budget, period: int) -> int:

@@ -234,7 +234,7 @@ class Plan:
     ports: tuple[int, ...]                  # ports with channels, ascending
     period_us: int                          # frame period P in machine cycles (1 us)
     period_is_default: bool
-    min_period_us: int                      # shortest P the firmware generated for this plan holds
+    min_period_us: int                      # shortest P from which on every P holds, for the code generated
     speed_tables: tuple[tuple[int, ...], ...]   # per speed class: frames needed for |delta| = 0..250
     class_t_dav_us: tuple[Fraction, ...]    # per speed class: t_DAV
     main: tuple[Step, ...]
@@ -249,6 +249,7 @@ class Plan:
                                             # for this plan hits (layout.LayoutError), found without assembling
     compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
                                             # does not fit the code memory): loops where the fast one is unrolled
+    period_holds: bool = True               # the code generated holds P itself (below min_period_us it may not)
 
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)

@@ -423,3 +423,22 @@ def test_programs_lint_accepts_compile_and_verify(name, tmp_path, capsys):
     assert rc == 0 and data["ok"], data
     if scenario:
         assert [s["branch"] for s in data["selects"]].count('on "E"') == 1, data["selects"]
+
+
+def _nested(levels: int) -> str:
+    body = "move q in 200ms; move p in 200ms"
+    for i in range(levels):
+        body = (f"repeat 2 {{ {body} }}" if i % 2 == 0 else
+                f'select {{ on "a" {{ move p in 200ms }} on other {{ send "?"; move p in 200ms }} '
+                f"after 2s {{ move q in 200ms }} meanwhile {{ {body} }} }}")
+    return ("serial 4800\nservo s = P1.0\npose p { s: 10 }\npose q { s: 60 }\n"
+            f"main {{\n  loop {{\n    {body}\n  }}\n}}\n")
+
+
+def test_one_port_with_a_serial_line_nests_sixteen_levels(tmp_path, capsys):
+    """RAM sized to the program: one port of servos with `serial` holds 8 repeats and 8 selects
+    with `after` and meanwhile bodies nested in one another, and runs them exactly (a stack that
+    grew into the motion state would show in the pulses)."""
+    rc, data = cli_verify(tmp_path, capsys, _nested(16), '1s "x"\n1.5s "a"\n2s "x"\n')
+    assert rc == 0 and data["ok"], data
+    assert [s["branch"] for s in data["selects"]][:2] == ["on other", 'on "a"']

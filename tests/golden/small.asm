@@ -12,9 +12,9 @@ T2CON   = 0xC8
 
 ; ---------------------------------------------------------------- RAM
 HBANK   = 0x08              ; register bank 1, the edge handler's: R0..R7 at HBANK..HBANK+7
-CUR     = 0x30              ; current N of pin p (0..23) at CUR + p
-STATE   = 0xA0              ; motion state of pin p at STATE + 4 p: Q|N0, REM|DMAG, ERR lo, ERR hi
-STACK   = 0x5F              ; the stack: STACK up to STATE
+CUR     = 0x30              ; current N of pin p at CUR + p (p = 8 x the port's place among those in use + bit)
+STATE   = 0xC0              ; motion state of pin p at STATE + 4 p: Q|N0, REM|DMAG, ERR lo, ERR hi
+STACK   = 0x57              ; the stack: STACK up to STATE
 ACT     = 0x20              ; per port: lines that have a target (the rise mask); bit address = pin
 MOVB    = 0x23              ; per port: lines moving in the current move; bit address 0x18 + pin
 DIRB    = 0x26              ; per port: lines moving down; bit address 0x30 + pin
@@ -22,18 +22,18 @@ RMASK   = 0x29              ; per port: lines the current record names; bit addr
 FLAGS   = 0x2C              ; move flags, bits below
 SEGF    = 0x2D              ; F of the current move
 RUNF    = 0x2F              ; the runtime's flags (bit-addressable): FRAMED
-ERR0    = 0x48              ; DDA start of the current linear move: floor(-F / 2) mod 65536
-FLEFT   = 0x4A              ; frames left in the current move or hold
-SEGK    = 0x4C              ; frame number k in the current move
-ETAB    = 0x4E              ; eased curve table of the current move, minus 1
-EVAL    = 0x50              ; e(k/F) x 256 this frame
-DMAX0   = 0x51              ; the largest |delta| of speed class 0 in the current record
-DMAX1   = 0x52              ; the largest |delta| of speed class 1 in the current record
-LPTR    = 0x53              ; the record list being run: the next record
-RISEM   = 0x55              ; the lines of the next port to rise from buffer A that have a target
-EMC     = 0x56              ; ports the handler has taken from sort buffer A (counts on)
-SRT     = 0x57              ; ports frame_io has sorted into it (counts on)
-ITEMS   = 0x58              ; the handler's items for the port being pulsed
+ERR0    = 0x40              ; DDA start of the current linear move: floor(-F / 2) mod 65536
+FLEFT   = 0x42              ; frames left in the current move or hold
+SEGK    = 0x44              ; frame number k in the current move
+ETAB    = 0x46              ; eased curve table of the current move, minus 1
+EVAL    = 0x48              ; e(k/F) x 256 this frame
+DMAX0   = 0x49              ; the largest |delta| of speed class 0 in the current record
+DMAX1   = 0x4A              ; the largest |delta| of speed class 1 in the current record
+LPTR    = 0x4B              ; the record list being run: the next record
+RISEM   = 0x4D              ; the lines of the next port to rise from buffer A that have a target
+EMC     = 0x4E              ; ports the handler has taken from sort buffer A (counts on)
+SRT     = 0x4F              ; ports frame_io has sorted into it (counts on)
+ITEMS   = 0x50              ; the handler's items for the port being pulsed
 WN      = 0x10              ; sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)
 WM      = 0x11              ; sort buffer A: the lines of pair i at WM + 2i
 EASED   = 0x60              ; FLAGS.0: the current move is eased
@@ -141,7 +141,7 @@ dm_all:
         MOV     RMASK+2, #0x40          ; P2: every servo
 dm_pins:
         JNB     0x50, su_8              ; 2  pan (P1.0)
-        MOV     R0, #0x38            ; 1
+        MOV     R0, #0x30            ; 1
         MOV     R1, #0xC0            ; 1
         MOV     C, 0x08              ; 1  has a target?
         LCALL   setup_pin
@@ -155,7 +155,7 @@ su_c8: JC      su_8                ; 2
         MOV     DMAX0, A                 ; 1
 su_8:
         JNB     0x53, su_11              ; 2  tilt (P1.3)
-        MOV     R0, #0x3B            ; 1
+        MOV     R0, #0x33            ; 1
         MOV     R1, #0xCC            ; 1
         MOV     C, 0x0B              ; 1  has a target?
         LCALL   setup_pin
@@ -169,7 +169,7 @@ su_c11: JC      su_11                ; 2
         MOV     DMAX1, A                 ; 1
 su_11:
         JNB     0x5E, su_22              ; 2  claw (P2.6)
-        MOV     R0, #0x46            ; 1
+        MOV     R0, #0x3E            ; 1
         MOV     R1, #0xF8            ; 1
         MOV     C, 0x16              ; 1  has a target?
         LCALL   setup_pin
@@ -273,19 +273,19 @@ dm_ev:  JNB     EASED, dm_step
         MOV     EVAL, A
 dm_step:
         JNB     0x20, st_8              ; 2  pan: next N
-        MOV     R0, #0x38            ; 1
+        MOV     R0, #0x30            ; 1
         MOV     R1, #0xC0            ; 1
         MOV     C, 0x38              ; 1
         LCALL   step_pin                ; 2
 st_8:
         JNB     0x23, st_11              ; 2  tilt: next N
-        MOV     R0, #0x3B            ; 1
+        MOV     R0, #0x33            ; 1
         MOV     R1, #0xCC            ; 1
         MOV     C, 0x3B              ; 1
         LCALL   step_pin                ; 2
 st_11:
         JNB     0x2E, st_22              ; 2  claw: next N
-        MOV     R0, #0x46            ; 1
+        MOV     R0, #0x3E            ; 1
         MOV     R1, #0xF8            ; 1
         MOV     C, 0x46              ; 1
         LCALL   step_pin                ; 2
@@ -463,11 +463,11 @@ frame_io:
 fi1:    MOV     A, EMC
         CJNE    A, SRT, fi1          ; the handler still needs the port sorted before
 fs1:
-        MOV     WN+0, 0x38           ; N of pan
+        MOV     WN+0, 0x30           ; N of pan
         MOV     A, ACT+1
         ANL     A, #0x01
         MOV     WM+0, A               ; its line, if it has a target
-        MOV     WN+2, 0x3B           ; N of tilt
+        MOV     WN+2, 0x33           ; N of tilt
         MOV     A, ACT+1
         ANL     A, #0x08
         MOV     WM+2, A               ; its line, if it has a target
@@ -482,7 +482,7 @@ fi1_run:
 fi2:    MOV     A, EMC
         CJNE    A, SRT, fi2          ; the handler still needs the port sorted before
 fs2:
-        MOV     WN+0, 0x46           ; N of claw
+        MOV     WN+0, 0x3E           ; N of claw
         MOV     A, ACT+2
         ANL     A, #0x40
         MOV     WM+0, A               ; its line, if it has a target
