@@ -161,7 +161,7 @@ class Declared:
 def _input_of(event: nodes.Event) -> tuple[nodes.Name, ...]:
     """The input an event names (`b`, `press b`, `release b`), as a tuple of none or one."""
     if isinstance(event, nodes.EdgeEvent):
-        return (event.input,)
+        return () if event.literal else (event.input,)
     return (event,) if isinstance(event, nodes.Name) else ()
 
 

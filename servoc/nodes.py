@@ -207,6 +207,7 @@ class EdgeEvent:
     word: Name
     input: Name
     span: Span
+    literal: bool = False           # `input` is a byte as written (`press "g"`): the checker says so
 
 
 @dataclass(frozen=True)

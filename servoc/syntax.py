@@ -342,11 +342,12 @@ class _Builder:
     def send_stmt(self, ch):
         return nodes.SendStmt(ch[1], _rule_span(ch))
 
-    # event: NAME | NAME NAME | STRING | NUMBER | OTHER
+    # event: NAME | NAME NAME | NAME STRING | NAME NUMBER | STRING | NUMBER | OTHER
     def event(self, ch):
         tok = ch[0]
         if len(ch) == 2:
-            return nodes.EdgeEvent(_name(ch[0]), _name(ch[1]), Span(ch[0].start_pos, ch[1].end_pos))
+            return nodes.EdgeEvent(_name(ch[0]), _name(ch[1]), Span(ch[0].start_pos, ch[1].end_pos),
+                                   ch[1].type != "NAME")
         if tok.type == "OTHER":
             return nodes.OtherEvent(_tspan(tok))
         if tok.type == "STRING":

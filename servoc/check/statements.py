@@ -162,6 +162,12 @@ class _Statements:
             self.need_serial(ev.span, "`on other` takes a byte received on the serial line")
             return model.Event(None, None, "other", ev.span, None, True)
         if isinstance(ev, nodes.EdgeEvent):
+            if ev.literal and ev.word.text in model.EDGES:
+                self.ctx.r.error("bad-event", f"`{ev.word.text}` and `{'release' if ev.word.text == 'press' else 'press'}` "
+                                 f"apply to inputs; `{ev.input.text}` is a byte", ev.span,
+                                 help=f"a byte is `{word} {ev.input.text}`; `{word} {ev.word.text} NAME` waits for an "
+                                      "input's change")
+                return None
             if ev.word.text not in model.EDGES:
                 self.ctx.r.error("bad-event", f"expected `press` or `release` before `{ev.input.text}`, found "
                                  f"`{ev.word.text}`", ev.word.span,

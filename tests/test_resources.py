@@ -1,0 +1,102 @@
+"""Resources sized to the program, and every figure servoc reports holding: the stack is the RAM
+the ports, variables and features leave (as the docs' table says), programs lint accepts compile,
+and the reported shortest period is one from which on every period holds."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+from conftest import front_end_text
+from servoc import costs
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def test_the_docs_table_of_nesting_levels_is_what_too_deep_allows():
+    docs = (ROOT / "docs/language.md").read_text(encoding="utf-8")
+    section = docs[docs.index("### too-deep (error)"):]
+    rows = re.findall(r"^\| (\d)(?: \(or none\))? \| (\d+) bytes \| (\d+) \| (\d+) \| (\d+) \| (\d+) \|$", section, re.M)
+    assert [int(r[0]) for r in rows] == [1, 2, 3]
+    for ports, room, *levels in rows:
+        ports = int(ports)
+        assert costs.stack_room(False, 0, ports) == int(room)
+        want = [costs.max_nesting(serial, watch, 0, ports) for serial in (False, True) for watch in (False, True)]
+        assert [int(x) for x in levels] == want
+    assert costs.max_nesting(True, True, 4, 1) >= 8       # one port with serial: at least 8 levels
+
+
+def nested(levels: int, ports: int = 1, serial: bool = True) -> str:
+    servos = "".join(f"servo s{p} = P{p}.0\n" for p in (1, 2, 0)[:ports])
+    poses = ", ".join(f"s{p}: {{}}" for p in (1, 2, 0)[:ports])
+    body = "move q in 200ms"
+    for _ in range(levels):
+        body = f"repeat 2 {{ {body} }}"
+    return (("serial 4800\n" if serial else "") + servos + "pose p { " + poses.format(*[10] * ports) + " }\n"
+            + "pose q { " + poses.format(*[60] * ports) + " }\nmain {\n  move p in 100ms\n  " + body + "\n}\n")
+
+
+@pytest.mark.parametrize("ports", [1, 2, 3])
+def test_too_deep_counts_the_room_the_ports_leave(ports):
+    limit = costs.max_nesting(True, False, 0, ports)
+    fe, diags = front_end_text(nested(limit, ports))
+    assert not [d for d in diags if d.is_error], [d.message for d in diags if d.is_error]
+    fe, diags = front_end_text(nested(limit + 1, ports))
+    deep = [d for d in diags if d.code == "too-deep"]
+    assert len(deep) == 1 and f"room for {limit} level" in deep[0].message, [d.message for d in diags]
+
+
+@pytest.mark.toolchain
+def test_the_deepest_one_port_program_lint_accepts_compiles():
+    from conftest import build_text
+    built = build_text(nested(costs.max_nesting(True, False, 0, 1)))
+    assert built.firmware.unit.ram_bytes <= 256
+    assert built.verify(400).ok
+
+
+def test_one_level_is_said_in_the_singular(monkeypatch):
+    monkeypatch.setattr(costs, "max_nesting", lambda *args: 1)
+    fe, diags = front_end_text(nested(2, 3))
+    (msg,) = [d.message for d in diags if d.code == "too-deep"]
+    assert "room for 1 level (2 bytes each)" in msg, msg
+
+
+def test_press_of_a_byte_is_a_bad_event():
+    text = 'serial 4800\nservo a = P1.0\npose p { a: 9 }\nmain {\n  move p in 100ms\n  wait press "g"\n}\n'
+    fe, diags = front_end_text(text)
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "bad-event" and "apply to inputs" in d.message and '`wait "g"`' in d.help
+
+
+def test_a_loop_cut_by_until_is_a_wait_and_no_empty_loop():
+    text = ("input b = P3.2\nservo a = P1.0\npose p { a: 9 }\nmain {\n  move p in 100ms\n"
+            "  loop { hold 0ms } until press b\n  move p in 100ms\n}\n")
+    fe, diags = front_end_text(text)
+    assert not {d.code for d in diags} & {"empty-loop", "until-no-frame"}, [d.code for d in diags]
+
+
+HEXAPOD = (ROOT / "examples/hexapod_serial.servo").read_text(encoding="utf-8")
+
+
+def _without_tail_3(frame: str) -> str:
+    text = re.sub(r"^servo tail_3 .*\n", "", HEXAPOD, flags=re.M).replace(", tail_3", "")
+    return re.sub(r"^frame 20ms.*$", f"frame {frame}", text, flags=re.M)
+
+
+def test_a_frame_above_the_old_minimum_that_misses_the_model_is_refused():
+    """The serial charge grows with the frame: 9.6 ms needs more than it has, although it is above
+    the first period that holds (9.535 ms). The shortest reported is the one from which on every
+    period holds, and the model is evaluated at the program's own period."""
+    fe, diags = front_end_text(_without_tail_3("9600us"))
+    errors = [d for d in diags if d.is_error]
+    assert [d.code for d in errors] == ["period-too-short"], [d.message for d in errors]
+    shortest = fe.plan.min_period_us
+    assert f"{shortest / 1000:g} ms" in errors[0].message and shortest > 9600
+    fe, diags = front_end_text(_without_tail_3(f"{shortest}us"))
+    assert not [d for d in diags if d.is_error]
+    # periods from the shortest on hold the model of the code built for each
+    for period in (shortest + 1, shortest + 500, shortest + 1111, shortest + 2080, shortest + 4999):
+        fe, diags = front_end_text(_without_tail_3(f"{period}us"))
+        assert fe.plan.period_holds and not [d for d in diags if d.is_error], period
