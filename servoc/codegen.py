@@ -433,9 +433,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                           "t_dav": f"{float(plan.class_t_dav_us[cls]):.1f}"})
         if max(max(t) for t in plan.speed_tables) > 0xFFFF:
             raise layout.SlowServo("a servo is too slow for the frames-needed tables")
-    pin_dmax = ["0"] * 24
+    pin_dmax = ["0"] * (8 * nports)       # by the pin's index in CUR (layout.ram_pin)
     for c in plan.channels:
-        pin_dmax[c.port * 8 + c.bit] = _dmax(c.speed_class)
+        pin_dmax[layout.ram_pin(plan.ports, c.port, c.bit)] = _dmax(c.speed_class)
 
     ease_tables = [{"label": lab, "ease": ease, "frames": frames,
                     "values": list(next(st.ease_table for st in steps(plan)

@@ -566,7 +566,9 @@ def test_untouched_port_never_written():
 def nested_source(depth: int, with_repeats: bool = False) -> str:
     """A chain of `depth` sequences, each playing the one below (inside a repeat when asked), played
     twice: the innermost move's F differs between the plays, so need_frames runs at the deepest point."""
-    text = "servo a = P1.0 speed 0.005s/60deg\npose p { a: 10 }\npose q { a: 200 }\n"
+    # servos on three ports: the least stack (a's motion state, P0's, lies just above it)
+    text = ("servo a = P0.0 speed 0.005s/60deg\nservo b = P1.7\nservo c = P2.7\n"
+            "pose p { a: 10, b: 50, c: 50 }\npose q { a: 200 }\n")
     text += "sequence q0 {\n  move p\n  move q\n}\n"
     for i in range(1, depth):
         inner = f"repeat 2 {{ play q{i - 1} }}" if with_repeats else f"play q{i - 1}"

@@ -546,15 +546,15 @@ def test_sequences_played_many_times_lint_quickly():
 
 def test_too_deep_points_at_the_first_level_too_many():
     from servoc import costs
-    limit = costs.max_nesting()
+    limit = costs.max_nesting(ports=1)
     lines = ["servo a = P1.0", "pose p { a: 1 }", "pose q { a: 2 }", "sequence s0 { move p in 10ms; move q in 10ms }"]
-    lines += [f"sequence s{i} {{ play s{i - 1}; play s{i - 1} }}" for i in range(1, 40)]
-    text = "\n".join(lines + ["main { play s39 }"]) + "\n"
+    lines += [f"sequence s{i} {{ play s{i - 1}; play s{i - 1} }}" for i in range(1, 70)]
+    text = "\n".join(lines + ["main { play s69 }"]) + "\n"
     _, diags, src = diagnose(text)
     assert [d.code for d in diags] == ["too-deep"]
     # main's play is level 1, s39's play level 2, ... s(40 - limit)'s play is level limit + 1
     line, col = src.line_col(diags[0].span.start)
-    assert src.line_text(line).startswith(f"sequence s{40 - limit} {{") and col == len(f"sequence s{40 - limit} {{ ") + 1
+    assert src.line_text(line).startswith(f"sequence s{70 - limit} {{") and col == len(f"sequence s{70 - limit} {{ ") + 1
 
 
 def test_the_registered_severity_is_the_one_reported(monkeypatch):

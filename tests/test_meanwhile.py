@@ -267,7 +267,7 @@ def test_a_cut_at_the_deepest_nesting_the_stack_allows(serial):
     # on P0.0 and P0.1: their motion state is the first above the stack (0xA0..)
     head = PAN.replace("P2.0", "P0.0").replace("P2.1", "P0.1") + ("serial 4800\n" if serial else "") + "home rest\n"
     probe = _plan(head + "main {\n  select {\n    on press button { }\n    meanwhile {\n      hold 10ms\n    }\n  }\n}\n")
-    depth = costs.max_nesting(serial, True, flow.select_ram(probe))
+    depth = costs.max_nesting(serial, True, flow.select_ram(probe), len(probe.ports))
     inner = "move left in 500ms\nmove right in 500ms\n"
     for _ in range(depth - probe.nesting):          # the select's own frame is on the stack too
         inner = f"repeat 2 {{\n{inner}}}\n"

@@ -285,7 +285,8 @@ def deep_serial_source(depth: int) -> str:
     the innermost move's F differs between passes (found at run time, a call deeper still), it
     sends a byte, and bytes come in. The servo is on P0.0, whose motion state lies just above the
     stack: an overflow would change its pulses."""
-    text = ("serial 4800\nservo a = P0.0 speed 0.005s/60deg\npose p { a: 10 }\npose q { a: 200 }\n"
+    text = ("serial 4800\nservo a = P0.0 speed 0.005s/60deg\nservo b = P1.7\nservo c = P2.7\n"
+            "pose p { a: 10, b: 50, c: 50 }\npose q { a: 200 }\n"
             'sequence q0 {\n  move p\n  send "s"\n  move q\n}\n')
     for i in range(1, depth):
         text += f"sequence q{i} {{\n  play q{i - 1}\n}}\n"

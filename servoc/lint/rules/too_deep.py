@@ -25,8 +25,9 @@ def too_deep(plan: Plan, report: Report) -> None:
 
 
 def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
-    """`too-deep` for a program of any of the three trees nested `depth` levels deep."""
-    _report(Report(reporter, "too-deep", RULES["too-deep"][0]), depth, main, body_of, main_span)
+    """`too-deep` for a program of any of the three trees nested `depth` levels deep (deeper than
+    any configuration allows: the limit named is that of one port, the most room)."""
+    _report(Report(reporter, "too-deep", RULES["too-deep"][0]), depth, main, body_of, main_span, ports=1)
 
 
 def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span,
