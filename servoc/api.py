@@ -107,7 +107,59 @@ def choose_period(program, first: Plan) -> Plan:
     """The period stage: the plan with `min_period_us`, the shortest period the code generated for
     it holds (costs.py, read by wcet.py). Without `frame`, P is the default: the plan is made again
     at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
-    depends on P."""
+    depends on P. It also decides the build once for every command: when the firmware built for
+    speed does not fit the chip's code memory, the plan is the one built for size (`compact`)."""
+    result = _periods(program, first)
+    if not result.compact and result.firmware_limit is None and not _fits(result):
+        result = _periods(program, dataclasses.replace(first, compact=True))
+    return result
+
+
+def _fits(p: Plan) -> bool:
+    """Whether the firmware generated for `p` fits the chip's code memory: surely, when a bound
+    read from the text (3 bytes an instruction, every data byte, a whole page at each page
+    boundary) says so; else as the assembler lays it out (without the toolchain: taken to fit,
+    as nothing can be built then)."""
+    try:
+        unit = codegen.generate(p)
+    except layout.LayoutError:
+        return True                         # a resource limit: reported as such, whatever the build
+    chip = unit.target.chip
+    if _rom_bound(unit.text) + 512 * len(unit.fneed_pages) <= chip.code_bytes:
+        return True
+    try:
+        image = toolchain.assemble(unit.text, name="servo")
+    except toolchain.ToolNotFound:
+        return True
+    return layout.fit(image.symbols, unit.fneed_pages, chip.code_bytes).fits
+
+
+def _rom_bound(text: str) -> int:
+    """At least the end of the code and data the assembly text lays out."""
+    at = 0
+    for raw in text.splitlines():
+        line = raw.split(";", 1)[0].strip()
+        if ":" in line.split(None, 1)[0] if line else False:
+            line = line.split(":", 2)[-1].strip()
+        if not line:
+            continue
+        op, _, rest = line.partition(" ")
+        op = op.lower()
+        if op == ".org":
+            at = max(at, int(rest.strip(), 0))
+        elif op == ".bndry":
+            at += int(rest.strip(), 0) - 1
+        elif op == ".db":
+            at += len(rest.split(","))
+        elif op == ".dw":
+            at += 2 * len(rest.split(","))
+        elif not op.startswith(".") and "=" not in line:
+            at += 3
+    return at
+
+
+def _periods(program, first: Plan) -> Plan:
+    """The period stage for one build (`first.compact`)."""
     result = _budgeted(first)
     if not first.period_is_default:
         return result
@@ -227,13 +279,13 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
 
 def build(source: SourceFile, reporter: Reporter, for_size: bool = False) -> tuple[FrontEnd, Firmware | None]:
     """The whole compile: front end, then code generation and assembly if there were no errors.
-    The firmware is built for speed; when that does not fit the chip's code memory (or with
-    `for_size`), for size (`Plan.compact`), at the period that code holds: the front end's plan
-    is then that one."""
+    The firmware is built as the period stage decided (for speed, or for size when that does not
+    fit the chip's code memory: `Plan.compact`), or for size when asked (`for_size`), at the
+    period that code holds: the front end's plan is then that one."""
     fe = front_end(source, reporter)
     if fe.plan is None or reporter.has_errors:
         return fe, None
-    if not for_size:
+    if not for_size and not fe.plan.compact:
         unit = generate(fe.plan, source, reporter)
         if unit is None:
             return fe, None

@@ -119,13 +119,20 @@ def build_parser() -> argparse.ArgumentParser:
     table.add_argument("--json", action="store_true", help="print the table as JSON, one object per move")
     p.add_argument("--plot", metavar="OUT.png", help="also draw every servo's angle over time (needs servoc[plot])")
     p.add_argument("--emit", choices=("ast", "model", "plan"), help="print an intermediate form as JSON instead")
+    def size(p: argparse.ArgumentParser) -> None:
+        p.add_argument("--size", action="store_true",
+                       help="build the firmware for size (loops where the build for speed is unrolled; a longer "
+                            "shortest period) even when the build for speed fits")
+
     p = add("compile", "compile to Intel HEX for the program's target (default AT89C52 at 12 MHz)")
+    size(p)
     p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
     p.add_argument("--asm", metavar="OUT.asm", help="also write the generated assembly")
     p = add("verify", "compile, run in ucsim and compare every pulse and every byte sent with the plan "
                       "(--events: with timed inputs and bytes from a host)")
     p.add_argument("--vcd", metavar="OUT.vcd", help="also write the simulated pin waveforms (needs servoc[vcd])")
     p.add_argument("--hex", metavar="FILE.hex", help="check this HEX (built from FILE.servo) instead of compiling")
+    size(p)
     p.add_argument("--events", metavar="EVENTS", help="drive the program's inputs and serial line with these "
                    "timed events (lines `500ms button active`, `1.2s \"w\"`; docs/language.md, \"servoc verify "
                    "--events\"); the report lists each select reached and the branch it took")
@@ -140,6 +147,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", metavar="OUT.hex", help="HEX file to write (default: FILE.hex)")
     p.add_argument("--baud", type=int, metavar="N", default=None,
                    help="stcgal's transfer rate in baud (default: 115200)")
+    size(p)
     help_ = ("write a .servo program from motion made in another tool (Pololu Maestro Control Center "
              "settings, Blender servo-animation .json/.h/.bin, Bottango code export, CSV), then lint it")
     p = sub.add_parser("import", help=help_, description=help_ + ". Channels 0-7 go on P1.0-P1.7, 8-15 on "
@@ -327,7 +335,7 @@ def _front(args, run: _Run):
     gc.disable()
     try:
         if args.command in ("compile", "verify", "flash"):
-            fe, firmware = api.build(source, reporter)
+            fe, firmware = api.build(source, reporter, getattr(args, "size", False))
         else:
             fe = api.front_end(source, reporter)
     except api.ToolNotFound as exc:
@@ -776,7 +784,7 @@ def _plan_line(plan: Plan) -> str:
         length = (f"{plan.total_frames} frame{'' if plan.total_frames == 1 else 's'} = "
                   f"{fmt_ms(plan.total_frames * plan.period_us)}")
     return (f"{servos} servo{'s' if servos != 1 else ''} on {ports}, P = {fmt_ms(plan.period_us)} ({kind}; "
-            f"shortest {fmt_ms(plan.min_period_us)}), program {length}")
+            f"shortest {fmt_ms(plan.min_period_us)}{'; built for size' if plan.compact else ''}), program {length}")
 
 
 def _plan_rows(plan: Plan, source) -> list:
@@ -841,6 +849,7 @@ def plan_data(plan: Plan, source) -> dict:
     selects, their branches (and the sends) too."""
     data = {"file": source.path, "period_us": plan.period_us, "period_is_default": plan.period_is_default,
             "min_period_us": plan.min_period_us, "total_frames": plan.total_frames, "dav_deg": float(DAV_DEG),
+            "built_for_size": plan.compact,
             "moves": [{"line": line, "pose": pose, "frames": frames, "ms": ms, "ease": ease,
                        "servos": [{"servo": name, "delta": None if delta == "set" else int(delta),
                                    "speed_percent": speed} for name, delta, speed in cells]}
