@@ -100,3 +100,33 @@ def test_a_frame_above_the_old_minimum_that_misses_the_model_is_refused():
     for period in (shortest + 1, shortest + 500, shortest + 1111, shortest + 2080, shortest + 4999):
         fe, diags = front_end_text(_without_tail_3(f"{period}us"))
         assert fe.plan.period_holds and not [d for d in diags if d.is_error], period
+
+
+@pytest.mark.toolchain
+def test_every_command_reports_the_build_the_period_stage_chose(tmp_path, capsys):
+    """A program that fits only built for size: lint, plan (JSON) and compile say the same period
+    and "built for size"; `--size` asks for that build for a program that fits built for speed."""
+    import json
+    import sys
+    from servoc.cli import main
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import suite
+    prog = tmp_path / "k.servo"
+    prog.write_text(suite.keyframe_source(250))
+    assert main(["lint", str(prog)]) == 0
+    lint_line = capsys.readouterr().out.strip().splitlines()[-1]
+    assert main(["plan", "--json", str(prog)]) == 0
+    planned = json.loads(capsys.readouterr().out)
+    assert main(["compile", "--format", "json", str(prog), "-o", str(tmp_path / "k.hex")]) == 0
+    compiled = json.loads(capsys.readouterr().out)
+    assert planned["built_for_size"] and compiled["built_for_size"] and "built for size" in lint_line
+    assert planned["period_us"] == compiled["period_us"] and planned["min_period_us"] == compiled["min_period_us"]
+    assert f"P = {compiled['period_us'] / 1000:g} ms" in lint_line
+    small = tmp_path / "b.servo"
+    small.write_text((ROOT / "examples/biped.servo").read_text(encoding="utf-8"))
+    assert main(["compile", "--format", "json", str(small), "-o", str(tmp_path / "b.hex")]) == 0
+    assert not json.loads(capsys.readouterr().out)["built_for_size"]
+    assert main(["compile", "--size", "--format", "json", str(small), "-o", str(tmp_path / "s.hex")]) == 0
+    assert json.loads(capsys.readouterr().out)["built_for_size"]
+    assert main(["verify", "--size", str(small), "--frames", "300"]) == 0
+    assert "OK" in capsys.readouterr().out
