@@ -25,7 +25,7 @@ from . import plan as _plan
 from . import observe as _observe
 from . import sim as _sim
 from . import verify as _verify
-from .diagnostics import Reporter
+from .diagnostics import Reporter, limit_diagnostic
 from .source import NO_SPAN, SourceFile, Span
 from .steps import Plan
 from .units import round_half_up
@@ -179,7 +179,8 @@ def _budgeted(p: Plan) -> Plan:
     try:
         unit = codegen.generate(p)
     except layout.LayoutError as exc:
-        return dataclasses.replace(p, min_period_us=p.period_us, firmware_limit=(exc.code, str(exc), exc.help))
+        return dataclasses.replace(p, min_period_us=p.period_us,
+                                   firmware_limit=(exc.code, str(exc), exc.help, exc.span, exc.labels))
     return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
                                period_holds=unit.min_period_us is None or unit.period_holds)
 
@@ -232,7 +233,7 @@ def generate(plan_: Plan, source: SourceFile, reporter: Reporter) -> codegen.Asm
     try:
         unit = codegen.generate(plan_, source)
     except layout.LayoutError as exc:
-        reporter.error(exc.code, str(exc), plan_.program.main_span, help=exc.help)
+        reporter.report(limit_diagnostic(exc.code, str(exc), exc.help, exc.span or plan_.program.main_span, exc.labels))
         return None
     if unit.min_period_us is None:
         reporter.error("period-too-short", f"the firmware's work between two frames cannot be bounded: {unit.work_from}",

@@ -34,7 +34,7 @@ from .flow import (UNBOUNDED, edge_ports, fewest_frames, fewest_frames_in_code, 
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
                     steps)
-from .units import N_MAX
+from .units import N_MAX, fmt_ms
 
 
 @dataclass(frozen=True)
@@ -365,8 +365,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                                   f"the firmware has {room_promised}")
     state_base = layout.state_base(nports)
     if serial is not None and send_run(plan) > costs.QUEUE:
+        sends_ = [st for st in steps(plan) if isinstance(st, SendStep)]
         raise layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
-                                 f"the transmit queue holds {costs.QUEUE}")
+                                 f"the transmit queue holds {costs.QUEUE}",
+                                 span=sends_[0].span if sends_ else serial.span,
+                                 labels=tuple((st.span, "sends too") for st in sends_[1:4]))
     # the runtime, and the RAM, leave out what no record or statement uses
     uses = {"eased": bool(ctx.ease_tables), "repeats": ctx.repeats,
             "holds": any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records),
@@ -492,12 +495,15 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
             f"machine cycles, longer than the {target.width_cycles(0)} before the earliest fall")
     if budget is not None and s is not None:
-        _check_serial(plan, budget, period_cycles)
+        _check_serial_rate(plan, budget)
     try:
         shortest = None if budget is None else target.us_at_least(costs.frame_cycles(target, budget))
         period_holds = budget is None or costs.holds(target, budget, period_cycles)
     except costs.TooSlow as exc:
-        raise layout.SerialTooFast(f"at {serial.baud} baud {exc}") if s is not None else layout.HandlerTooSlow(str(exc))
+        raise (layout.SerialTooFast(f"at {serial.baud} baud {exc}", span=serial.span) if s is not None
+               else layout.HandlerTooSlow(str(exc)))
+    if budget is not None and s is not None and period_holds:   # else `period-too-short` says what to fix
+        _check_sends(plan, budget, period_cycles)
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
@@ -690,19 +696,26 @@ def _bytes(n: int) -> str:
     return "any number of bytes" if n >= UNBOUNDED else f"{n} byte{'s' if n != 1 else ''}"
 
 
-def _check_serial(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
-    """No byte received is lost, and the bytes sent never outrun the line (costs.py)."""
+def _check_serial_rate(plan: Plan, budget: costs.Budget) -> None:
+    """No byte received is lost (costs.py), at the `serial` declaration."""
     target = plan.program.target
     serial = plan.program.serial
     late = costs.serial_latency(target, budget)
-    if late > budget.byte_cycles:
+    if late > costs.rx_gap(budget.byte_cycles):
         works = [b for b in target_mod.working_bauds(target)
-                 if target_mod.byte_cycles(*target_mod.timer1_baud(target, b)[:2]) >= late]
+                 if costs.rx_gap(target_mod.byte_cycles(*target_mod.timer1_baud(target, b)[:2])) >= late]
         raise layout.SerialTooFast(
-            f"at {serial.baud} baud a byte comes every {budget.byte_cycles} machine cycles, but the edge handler can "
+            f"at {serial.baud} baud a byte comes every {budget.byte_cycles} machine cycles "
+            f"({costs.rx_gap(budget.byte_cycles)} from a host 2 % fast), but the edge handler can "
             f"keep the serial line waiting {late} cycles (its longest run: a port's lines and the next port's rise)",
             help=(f"use `serial {works[-1]}`" if works else "use a slower rate") +
-                 ", or fewer servo lines on one port, or a faster crystal")
+                 ", or fewer servo lines on one port, or a faster crystal", span=serial.span)
+
+
+def _check_sends(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
+    """The bytes sent never outrun the line (costs.py), at the program's sends."""
+    serial = plan.program.serial
+    late = costs.serial_latency(plan.program.target, budget)
     run = send_run(plan)
     if run:
         # A run of sends leaves the line free for the next if its bytes are out before it comes:
@@ -711,8 +724,13 @@ def _check_serial(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
         cap = -(-(need + budget.work) // period_cycles) + 1
         gap = send_gap(plan, cap)
         if need > gap * period_cycles - budget.work:
+            sends_ = [st for st in steps(plan) if isinstance(st, SendStep)]
+            frames = -(-(need + budget.work) // period_cycles)      # frames that leave the line time enough
             raise layout.SendOverrun(
                 f"the program can send {_bytes(run)} {gap} frame{'s' if gap != 1 else ''} after sending before; at "
                 f"{serial.baud} baud that takes {need} machine cycles, more than the "
                 f"{gap * period_cycles - budget.work} there are",
-                help="put more frames between the sends (a `hold`), or use a faster rate")
+                help=f"keep at least {frames} frames ({fmt_ms(frames * plan.period_us)}: a `hold` of that long) "
+                     "between the sends, send fewer bytes at a time, or use a faster rate",
+                span=sends_[0].span if sends_ else serial.span,
+                labels=tuple((st.span, "sends too") for st in sends_[1:4]) + ((serial.span, "the line's rate"),))

@@ -264,18 +264,20 @@ def _first_failing(target, budget: Budget, period: int) -> int | None:
     window's length crosses a byte time (`serial_load`), so only those periods are checked; the
     need grows by at most one run of each kind per byte time while the period grows by a byte
     time, so once a step holds with a run to spare, every longer period does."""
-    byte, reach = budget.byte_cycles, run_reach(target, budget)
+    gap, reach = rx_gap(budget.byte_cycles), run_reach(target, budget)
     m = len(budget.lines)
     span = port_span(target)
     offsets = {0} if m == 0 else {0, (m - 1) * span, (m - 2) * span}
-    shifts = {1} | ({1 - reach} if reach is not None else set())
+    # (spacing, shift): a window's count of runs steps where its length crosses shift mod spacing
+    steps = {(gap, 1)} | ({(gap, 1 - reach)} if reach is not None else set()) | \
+        ({(budget.byte_cycles, 1)} if budget.serial_sends else set())
     step = (2 if budget.serial_sends else 1) * (budget.serial_run + SERIAL_WAIT)
     lo = period
     while True:
-        hi = lo + 4 * byte          # the periods where a window of length P - d crosses a step
-        points = sorted({p for d in offsets for s in shifts
-                         for k in range((lo - s - d) // byte, (hi - s - d) // byte + 2)
-                         if lo < (p := k * byte + s + d) <= hi})
+        hi = lo + 4 * gap           # the periods where a window of length P - d crosses a step
+        points = sorted({p for d in offsets for every, s in steps
+                         for k in range((lo - s - d) // every, (hi - s - d) // every + 2)
+                         if lo < (p := k * every + s + d) <= hi})
         for p in points:
             if _frame_cycles(target, budget, p) > p:
                 return p
@@ -348,24 +350,38 @@ def busy_stretch(target, budget: Budget) -> int:
 def serial_latency(target, budget: Budget) -> int:
     """The longest from a byte's RI to the serial handler's `CLR RI`: the edge handler's longest
     stretch, the instruction under way, a run of the serial handler for TI under way (when the
-    program sends), then its head. No byte is lost while this is within one byte time (the next
-    byte can complete no sooner)."""
+    program sends), then its head. No byte is lost while this is within `rx_gap` (the next byte
+    can complete no sooner, from a host up to 2 % fast)."""
     return (busy_stretch(target, budget) + SERIAL_WAIT + (budget.serial_run if budget.serial_sends else 0)
             + budget.serial_head)
 
 
+HOST_FAST = 2                   # % a host's rate may be above the chip's (the tolerance `serial` allows)
+START_JITTER = 16               # the UART finds a start bit within 1/16 of a bit
+
+
+def rx_gap(byte_cycles: int) -> int:
+    """The least time between two received bytes' ends, in machine cycles: a byte time of a host up
+    to HOST_FAST % fast, less the UART's start-bit jitter (a bit is a tenth of a byte)."""
+    return (byte_cycles * (100 - HOST_FAST)) // 100 - -(-byte_cycles // (10 * START_JITTER))
+
+
 def serial_load(target, budget: Budget, cycles: int) -> int:
     """The serial handler's cycles within `cycles` at the most: a run for each byte that can come
-    in and, if the program sends, each that can go out (TI is set by a byte sent, never else),
-    and the instruction each run waits for. Bytes end a byte time apart at the least, and a run
-    starts within a byte time of its byte (serial_latency), so a window of c cycles meets
-    ceil(c / byte) + 1 runs each way; fewer when a byte's run surely ends sooner (`run_reach`):
-    then only the bytes that end in the c + reach cycles before the window's end have a run in it."""
-    each = -(-cycles // budget.byte_cycles) + 1
+    in and, if the program sends, each TI, and the instruction each run waits for. Received bytes
+    end `rx_gap` apart at the least (a host may be fast), and a run starts within that of its byte
+    (serial_latency), so a window of c cycles meets ceil(c / gap) + 1 receive runs; fewer when a
+    byte's run surely ends sooner (`run_reach`): then only the bytes that end in the c + reach
+    cycles before the window's end have a run in it. TI comes a byte time apart from the chip's
+    own UART, and once more from `send_byte` when the line rests (SETB TI, right after a TI run
+    may have found the queue empty): ceil(c / byte) + 2 runs."""
+    gap = rx_gap(budget.byte_cycles)
+    each = -(-cycles // gap) + 1
     reach = run_reach(target, budget)
     if reach is not None:
-        each = min(each, -(-(cycles + reach) // budget.byte_cycles))
-    return (2 if budget.serial_sends else 1) * each * (budget.serial_run + SERIAL_WAIT)
+        each = min(each, -(-(cycles + reach) // gap))
+    sent = -(-cycles // budget.byte_cycles) + 2 if budget.serial_sends else 0
+    return (each + sent) * (budget.serial_run + SERIAL_WAIT)
 
 
 def run_reach(target, budget: Budget) -> int | None:

@@ -47,6 +47,12 @@ class Diagnostic:
         return self.severity is Severity.ERROR
 
 
+def limit_diagnostic(code: str, message: str, help_: str, span: Span, labels=()) -> Diagnostic:
+    """A resource limit of the generated code (layout.LayoutError) as an error at `span`, with
+    (span, text) of the other places it comes from."""
+    return Diagnostic(code, Severity.ERROR, message, span, "", help_, tuple(Label(sp, text) for sp, text in labels))
+
+
 @dataclass
 class Reporter:
     """Collects diagnostics for one source file."""

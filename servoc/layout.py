@@ -113,10 +113,12 @@ class LayoutError(Exception):
     code = "resources"
     help = "simplify the program"
 
-    def __init__(self, message: str, help: str | None = None):
+    def __init__(self, message: str, help: str | None = None, span=None, labels: tuple = ()):
         super().__init__(message)
         if help is not None:
             self.help = help
+        self.span = span            # where in the program (None: `main`)
+        self.labels = labels        # (span, text) of the other places it comes from
 
 
 class RamFull(LayoutError):

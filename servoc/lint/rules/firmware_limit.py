@@ -5,7 +5,7 @@ Only the ROM (rom-overflow) needs the assembler: `servoc compile` reports it."""
 
 from __future__ import annotations
 
-from ...diagnostics import Diagnostic, Severity
+from ...diagnostics import Severity, limit_diagnostic
 from ...steps import Plan
 from .. import Report, rule
 
@@ -14,7 +14,7 @@ from .. import Report, rule
 def firmware_limit(plan: Plan, report: Report) -> None:
     if plan.firmware_limit is None:
         return
-    code, message, help_ = plan.firmware_limit
+    code, message, help_, span, labels = plan.firmware_limit
     if any(d.code == code and d.is_error for d in report.reporter.diagnostics):
         return
-    report.reporter.report(Diagnostic(code, Severity.ERROR, message, plan.program.main_span, "", help_, ()))
+    report.reporter.report(limit_diagnostic(code, message, help_, span or plan.program.main_span, labels))
