@@ -130,3 +130,42 @@ def test_every_command_reports_the_build_the_period_stage_chose(tmp_path, capsys
     assert json.loads(capsys.readouterr().out)["built_for_size"]
     assert main(["verify", "--size", str(small), "--frames", "300"]) == 0
     assert "OK" in capsys.readouterr().out
+
+
+def test_serial_limits_point_at_their_causes():
+    from servoc.source import SourceFile
+    many = ("target stc89c52rc clock 11.0592MHz\nserial 9600\n" + "".join(f"servo s{i} = P1.{i}\n" for i in range(8))
+            + "pose p { " + ", ".join(f"s{i}: {20 + 9 * i}" for i in range(8)) + " }\nmain {\n  move p in 100ms\n}\n")
+    fe, diags = front_end_text(many)
+    (d,) = [d for d in diags if d.is_error]
+    line = SourceFile("x", many).line_col(d.span.start)[0]
+    assert d.code == "serial-too-fast" and line == 2 and "from a host 2 % fast" in d.message
+    rate = int(re.search(r"use `serial (\d+)`", d.help).group(1))
+    fe, diags = front_end_text(many.replace("serial 9600", f"serial {rate}"))
+    assert not [d for d in diags if d.is_error], [d.message for d in diags]        # the fix works
+    chatty = ("serial 4800\nservo a = P1.0\npose p { a: 10 }\nmain {\n  move p in 100ms\n"
+              '  loop { send "a"; send "b"; send "c"; send "d"; send "e"; hold 100ms }\n}\n')
+    fe, diags = front_end_text(chatty)
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "send-overrun" and SourceFile("x", chatty).snippet(d.span) == 'send "a"'
+    assert [lab.message for lab in d.secondary] == ["sends too"] * 3
+
+
+def test_a_frame_too_short_for_the_ports_is_said_before_any_send_overrun():
+    text = ("serial 4800\nframe 1ms\nservo a = P1.0\npose p { a: 10 }\npose q { a: 20 }\nmain {\n"
+            '  loop { move p in 30ms; send "a"; move q in 30ms; send "b" }\n}\n')
+    fe, diags = front_end_text(text)
+    assert [d.code for d in diags if d.is_error] == ["period-too-short"], [d.message for d in diags]
+
+
+def test_the_lost_byte_check_has_the_host_margin():
+    """14400 baud at 11.0592 MHz: a byte every 640 cycles, 623 from a host 2 % fast; three servos
+    a port can keep the line waiting about 636: refused now (it passed without the margin)."""
+    assert costs.rx_gap(640) == 623
+    text = ("target stc89c52rc clock 11.0592MHz\nserial 14400\n" + "".join(f"servo s{p}{b} = P{p}.{b}\n"
+            for p in (1, 2) for b in range(3)) + "pose x { " + ", ".join(f"s{p}{b}: 50" for p in (1, 2) for b in range(3))
+            + ' }\nmain {\n  move x in 100ms\n  loop { select { on "a" { move x in 100ms; send "A" } } }\n}\n')
+    fe, diags = front_end_text(text)
+    errors = [d for d in diags if d.is_error]
+    late = re.search(r"waiting (\d+) cycles", errors[0].message) if errors else None
+    assert errors and errors[0].code == "serial-too-fast" and 623 < int(late.group(1)) <= 640, [d.message for d in diags]
