@@ -169,3 +169,72 @@ def test_the_lost_byte_check_has_the_host_margin():
     errors = [d for d in diags if d.is_error]
     late = re.search(r"waiting (\d+) cycles", errors[0].message) if errors else None
     assert errors and errors[0].code == "serial-too-fast" and 623 < int(late.group(1)) <= 640, [d.message for d in diags]
+
+
+# ---------------------------------------------------------------- lint accepts, compile builds
+
+from hypothesis import HealthCheck, given, settings, strategies as st  # noqa: E402
+
+
+@st.composite
+def lintable(draw):
+    """Programs of every shape: 0-24 servos on 1-3 ports, selects nested 1-6 deep with every
+    branch kind (bytes, other, inputs, edges, after, meanwhile), repeats, empty bodies, sends."""
+    n = draw(st.integers(0, 24))
+    pins = draw(st.permutations([(p, b) for p in (1, 2, 0) for b in range(8)]))[:n]
+    serial = draw(st.booleans())
+    lines = (["serial 4800"] if serial else []) + ["input btn = P3.2", "input knob = P3.3 high"]
+    lines += [f"servo s{p}{b} = P{p}.{b}" for p, b in pins]
+    names = [f"s{p}{b}" for p, b in pins]
+    lines.append("pose a { " + ", ".join(f"{x}: {40 + 3 * i}" for i, x in enumerate(names)) + " }")
+    lines.append("pose b { " + ", ".join(f"{x}: {60 + 3 * i}" for i, x in enumerate(names)) + " }")
+
+    def body(depth: int) -> str:
+        parts = []
+        for _ in range(draw(st.integers(0, 3))):
+            kind = draw(st.sampled_from(["move", "hold", "repeat", "select", "send", "empty"]))
+            if kind == "move" and names:
+                parts.append(f"move {draw(st.sampled_from('ab'))} in {draw(st.sampled_from([300, 500]))}ms")
+            elif kind == "hold":
+                parts.append(f"hold {draw(st.sampled_from([0, 6, 40]))}ms")
+            elif kind == "repeat" and depth < 6:
+                parts.append(f"repeat {draw(st.integers(1, 3))} {{ {body(depth + 1)} }}")
+            elif kind == "select" and depth < 6:
+                branches = []
+                events = ['"x"', '"y"', "other"] if serial else []
+                for ev in draw(st.lists(st.sampled_from(events + ["btn", "press btn", "release knob"]),
+                                        min_size=1, max_size=3, unique=True)):
+                    branches.append(f"on {ev} {{ {body(depth + 1)} }}")
+                if draw(st.booleans()):
+                    branches.append(f"after {draw(st.sampled_from([10, 60]))}ms {{ {body(depth + 1)} }}")
+                if draw(st.booleans()):
+                    branches.append(f"meanwhile {{ {body(depth + 1)} }}")
+                parts.append("select { " + " ".join(branches) + " }")
+            elif kind == "send" and serial:
+                parts.append(f'send "{draw(st.sampled_from("ABC"))}"')
+        return "; ".join(parts)
+
+    main = body(0)
+    if draw(st.booleans()):
+        main = f"loop {{ {main}; hold 20ms }}" if main else "loop { hold 20ms }"
+    lines.append(f"main {{ {main} }}")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.toolchain
+@settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(lintable())
+def test_every_program_lint_accepts_compiles(text):
+    from servoc import api
+    from servoc.diagnostics import Reporter
+    fe, diags = front_end_text(text)
+    if fe.plan is None or any(d.is_error for d in diags):
+        return                              # lint refused it: nothing to build
+    reporter = Reporter(fe.source)
+    unit = api.generate(fe.plan, fe.source, reporter)
+    assert unit is not None and not reporter.has_errors, (
+        [f"{d.code}: {d.message}" for d in reporter.diagnostics if d.is_error], text)
+    firmware = api.assemble(unit, reporter)         # the assembler and linker take it (jump reach included)
+    assert firmware is not None or [d.code for d in reporter.diagnostics if d.is_error] == ["rom-overflow"], text
+    if fe.plan.nesting <= costs.max_nesting(fe.plan.program.serial is not None, True, 0, len(fe.plan.ports)):
+        assert unit.stack_bytes <= costs.stack_room(fe.plan.program.serial is not None, 0, len(fe.plan.ports))
