@@ -103,14 +103,15 @@ def plan(program, reporter: Reporter) -> Plan:
     return choose_period(program, _plan.plan(program, reporter))
 
 
-def choose_period(program, first: Plan) -> Plan:
+def choose_period(program, first: Plan, decide: bool = True) -> Plan:
     """The period stage: the plan with `min_period_us`, the shortest period the code generated for
     it holds (costs.py, read by wcet.py). Without `frame`, P is the default: the plan is made again
     at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
     depends on P. It also decides the build once for every command: when the firmware built for
-    speed does not fit the chip's code memory, the plan is the one built for size (`compact`)."""
+    speed does not fit the chip's code memory, the plan is the one built for size (`compact`).
+    `decide` False: the build `first` asks for, whether it fits or not."""
     result = _periods(program, first)
-    if not result.compact and result.firmware_limit is None and not _fits(result):
+    if decide and not result.compact and result.firmware_limit is None and not _fits(result):
         result = _periods(program, dataclasses.replace(first, compact=True))
     return result
 

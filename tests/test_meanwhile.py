@@ -56,7 +56,7 @@ def test_home_press_and_release_stay_usable_names():
 @pytest.mark.parametrize("body, code", [
     ("select { on button { }\n meanwhile { hold 1s }\n meanwhile { hold 1s } }", "bad-select"),
     ("select { meanwhile { hold 1s }\n on button { } }", "bad-select"),
-    ("wait press \"a\"", "syntax-error"),
+    ("wait press \"a\"", "bad-event"),          # press and release apply to inputs
     ("wait push button", "bad-event"),
     ("wait other", "bad-event"),
     ("select { on other { } }", "no-serial"),
