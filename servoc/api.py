@@ -181,7 +181,7 @@ def _budgeted(p: Plan) -> Plan:
         unit = codegen.generate(p)
     except layout.LayoutError as exc:
         return dataclasses.replace(p, min_period_us=p.period_us,
-                                   firmware_limit=(exc.code, str(exc), exc.help, exc.span, exc.labels))
+                                   firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
     return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
                                period_holds=unit.min_period_us is None or unit.period_holds)
 
@@ -234,7 +234,8 @@ def generate(plan_: Plan, source: SourceFile, reporter: Reporter) -> codegen.Asm
     try:
         unit = codegen.generate(plan_, source)
     except layout.LayoutError as exc:
-        reporter.report(limit_diagnostic(exc.code, str(exc), exc.help, exc.span or plan_.program.main_span, exc.labels))
+        for e in layout.each(exc):
+            reporter.report(limit_diagnostic(e.code, str(e), e.help, e.span or plan_.program.main_span, e.labels))
         return None
     if unit.min_period_us is None:
         reporter.error("period-too-short", f"the firmware's work between two frames cannot be bounded: {unit.work_from}",
@@ -332,9 +333,10 @@ def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
     write and every byte sent (a 6T chip runs as ucsim's 12-clock core at twice its crystal: the
     same machine cycle), and, with `probes` (`probes(firmware)`), every time the firmware reached a
     probed address. Should ucsim make a change of `stim` late (it can, when a port write falls
-    in the same instruction), the run is made again with the changes a cycle or two later, which
-    the firmware reads no differently. The trace keeps the changes as made (`inputs`, `uart`)."""
-    for shift in range(4):
+    in the same instruction, or on a probe), the run is made again with the changes up to 23 cycles
+    later. The trace keeps the changes as made (`inputs`, `uart`): verify checks against those."""
+    shifts = (0, 1, 2, 5, 11, 23)          # a few cycles later: where no breakpoint stands in the way
+    for shift in shifts:
         pins = tuple((at + shift * (at > 1), port, level) for at, port, level in stim.pins)
         uart = None if stim.uart is None else tuple((at + shift, on) for at, on in stim.uart)
         try:
@@ -346,7 +348,7 @@ def simulate(hex_text: str, cycles: int, target: Target = DEFAULT_TARGET,
                 trace = dataclasses.replace(trace, observation=_observe.observe(probes, trace))
             return trace
         except _sim.MissedInput:
-            if shift == 3:
+            if shift == shifts[-1]:
                 raise
     raise AssertionError("unreachable")
 

@@ -364,12 +364,13 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
                                   f"the firmware has {room_promised}")
     state_base = layout.state_base(nports)
+    limits: list[layout.LayoutError] = []      # the serial line's limits: all of them are said at once
     if serial is not None and send_run(plan) > costs.QUEUE:
         sends_ = [st for st in steps(plan) if isinstance(st, SendStep)]
-        raise layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
-                                 f"the transmit queue holds {costs.QUEUE}",
-                                 span=sends_[0].span if sends_ else serial.span,
-                                 labels=tuple((st.span, "sends too") for st in sends_[1:4]))
+        limits.append(layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
+                                         f"the transmit queue holds {costs.QUEUE}",
+                                         span=sends_[0].span if sends_ else serial.span,
+                                         labels=tuple((st.span, "sends too") for st in sends_[1:4])))
     # the runtime, and the RAM, leave out what no record or statement uses
     uses = {"eased": bool(ctx.ease_tables), "repeats": ctx.repeats,
             "holds": any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records),
@@ -495,15 +496,26 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
             f"machine cycles, longer than the {target.width_cycles(0)} before the earliest fall")
     if budget is not None and s is not None:
-        _check_serial_rate(plan, budget)
+        try:
+            _check_serial_rate(plan, budget)
+        except layout.SerialTooFast as exc:
+            limits.append(exc)
     try:
         shortest = None if budget is None else target.us_at_least(costs.frame_cycles(target, budget))
         period_holds = budget is None or costs.holds(target, budget, period_cycles)
     except costs.TooSlow as exc:
-        raise (layout.SerialTooFast(f"at {serial.baud} baud {exc}", span=serial.span) if s is not None
-               else layout.HandlerTooSlow(str(exc)))
-    if budget is not None and s is not None and period_holds:   # else `period-too-short` says what to fix
-        _check_sends(plan, budget, period_cycles)
+        if s is None:
+            raise layout.HandlerTooSlow(str(exc)) from None
+        if not any(isinstance(e, layout.SerialTooFast) for e in limits):
+            limits.append(layout.SerialTooFast(f"at {serial.baud} baud {exc}", span=serial.span))
+        shortest, period_holds = None, False
+    if budget is not None and s is not None and period_holds and not limits:   # else `period-too-short` first
+        try:
+            _check_sends(plan, budget, period_cycles)
+        except layout.SendOverrun as exc:
+            limits.append(exc)
+    if limits:
+        raise limits[0] if len(limits) == 1 else layout.Several(limits)
     return AsmUnit(text, plan.period_us, plan.ports, offsets, ram_bytes, stack_bytes,
                    tuple(f["page"] for f in fneed),
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),

@@ -16,7 +16,8 @@ then `active` or `inactive` (what the input means, whatever its `low` or
 or integers 0..255, one or more) is what the host sends on the serial line:
 the first byte's start bit begins at TIME, the others follow back to back;
 a byte arrives (its stop bit ends) one byte time (10 bits) after it starts.
-A line of bytes must not begin before the bytes before it are through.
+A line of bytes must not begin before the bytes before it are through; one that begins less
+than half a byte time after them follows them back to back.
 """
 
 from __future__ import annotations
@@ -126,19 +127,28 @@ def _in_order(last: tuple[Fraction, int] | None, time_us: Fraction, number: int)
 
 
 def byte_arrivals(events: list, byte_cycles: int, target: Target) -> list[tuple[float, int]]:
-    """(µs from reset at which its stop bit ends, byte) of every byte the host sends."""
-    out = []
-    for ev in events:
-        if isinstance(ev, ByteEvent):
-            for k, b in enumerate(ev.data):
-                out.append((float(ev.time_us) + (k + 1) * byte_cycles * target.cycle_us, b))
-    return out
+    """(µs from reset at which its stop bit ends, byte) of every byte the host sends, as
+    `uart_windows` releases them."""
+    _, windows = uart_windows(events, byte_cycles, target)
+    data = b"".join(ev.data for ev in events if isinstance(ev, ByteEvent))
+    return [(float((at + (k + 1) * byte_cycles) * target.cycle_us), data[i])
+            for i, (at, k) in enumerate(window_starts(windows, byte_cycles))]
+
+
+def window_starts(windows, byte_cycles: int) -> list[tuple[int, int]]:
+    """(the window's start, the byte's place in it) of each byte the UART windows release, in order."""
+    ons = [at for at, on in windows if on]
+    offs = [at for at, on in windows if not on]
+    return [(on, k) for on, off in zip(ons, offs) for k in range((off - on) // byte_cycles + 1)]
 
 
 def uart_windows(events: list, byte_cycles: int, target: Target) -> tuple[bytes, list[tuple[int, bool]]]:
     """The bytes for ucsim's UART input file, and the (cycle, on) changes of its "check input"
     flag that release them: on as a line's first byte starts, off half a byte time after its
-    last byte started. Raises EventsError when a line starts before the one before is through."""
+    last byte started (a window of n bytes lasts (n - 1) bytes and a half). A line that starts
+    less than half a byte time after the bytes before it are through follows them back to back,
+    in the same window (the flag is not turned off and on again as the UART finishes a byte).
+    Raises EventsError when a line starts before the one before is through."""
     data = bytearray()
     windows: list[tuple[int, bool]] = []
     busy_until = 0
@@ -151,7 +161,12 @@ def uart_windows(events: list, byte_cycles: int, target: Target) -> tuple[bytes,
                                        f"are through (a byte takes {byte_cycles * float(target.cycle_us) / 1000:.3f} "
                                        "ms at the program's rate): start them later")
         data += ev.data
-        windows += [(start, True), (start + (len(ev.data) - 1) * byte_cycles + byte_cycles // 2, False)]
+        if windows and start - busy_until < byte_cycles // 2:
+            windows.pop()                   # back to back with the bytes before
+            start = busy_until
+        else:
+            windows.append((start, True))
+        windows.append((start + (len(ev.data) - 1) * byte_cycles + byte_cycles // 2, False))
         busy_until = start + len(ev.data) * byte_cycles
     return bytes(data), windows
 

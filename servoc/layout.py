@@ -121,6 +121,21 @@ class LayoutError(Exception):
         self.labels = labels        # (span, text) of the other places it comes from
 
 
+class Several(LayoutError):
+    """More than one limit, each said (`errors`): the first one's code, message and place."""
+
+    def __init__(self, errors: list[LayoutError]):
+        first = errors[0]
+        super().__init__(str(first), first.help, first.span, first.labels)
+        self.code = first.code
+        self.errors = errors
+
+
+def each(exc: LayoutError) -> list[LayoutError]:
+    """The limits an error says: itself, or those of `Several`."""
+    return list(exc.errors) if isinstance(exc, Several) else [exc]
+
+
 class RamFull(LayoutError):
     code = "ram-overflow"
     help = "use fewer ports or servos"

@@ -245,7 +245,7 @@ class Plan:
     cuts: tuple = ()                        # (select, per channel where an event can cut its meanwhile body)
     startup: tuple = ()                     # (channel, frame of its first pulse) of the power-up, in order
     power_up: tuple = ()                    # the steps that make the power-up (the first of `main`)
-    firmware_limit: tuple | None = None     # (code, message, help, span, labels) of the resource limit the code generated
+    firmware_limit: tuple | None = None     # (code, message, help, span, labels) of each resource limit the code generated
                                             # for this plan hits (layout.LayoutError), found without assembling
     compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
                                             # does not fit the code memory): loops where the fast one is unrolled

@@ -330,11 +330,11 @@ def host_bytes(plan: Plan, trace: SimTrace, events: list) -> list[HostByte]:
     serial = plan.program.serial
     if serial is None or not trace.uart:
         return []
+    from .events import window_starts
     per = byte_cycles(serial.th1, serial.smod)
-    starts = [at for at, on in trace.uart if on]
-    lines = [ev for ev in events if getattr(ev, "data", None) is not None]
-    return [HostByte(start + (k + 1) * per, b, getattr(ev, "line", 0))
-            for start, ev in zip(starts, lines) for k, b in enumerate(ev.data)]
+    sent = [(b, getattr(ev, "line", 0)) for ev in events if getattr(ev, "data", None) is not None for b in ev.data]
+    return [HostByte(on + (k + 1) * per, b, line)
+            for (on, k), (b, line) in zip(window_starts(trace.uart, per), sent)]
 
 
 class _Levels:

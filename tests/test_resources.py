@@ -238,3 +238,11 @@ def test_every_program_lint_accepts_compiles(text):
     assert firmware is not None or [d.code for d in reporter.diagnostics if d.is_error] == ["rom-overflow"], text
     if fe.plan.nesting <= costs.max_nesting(fe.plan.program.serial is not None, True, 0, len(fe.plan.ports)):
         assert unit.stack_bytes <= costs.stack_room(fe.plan.program.serial is not None, 0, len(fe.plan.ports))
+
+
+def test_serial_limits_come_all_at_once():
+    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\n" + "".join(f"servo s{i} = P1.{i}\n" for i in range(8))
+            + "pose p { " + ", ".join(f"s{i}: {20 + 9 * i}" for i in range(8)) + " }\nmain {\n  move p in 100ms\n"
+            + '  loop { send "a"; send "b"; send "c"; send "d"; send "e"; hold 100ms }\n}\n')
+    fe, diags = front_end_text(text)
+    assert sorted(d.code for d in diags if d.is_error) == ["send-overrun", "serial-too-fast"], [d.message for d in diags]

@@ -14,7 +14,7 @@ from .. import Report, rule
 def firmware_limit(plan: Plan, report: Report) -> None:
     if plan.firmware_limit is None:
         return
-    code, message, help_, span, labels = plan.firmware_limit
-    if any(d.code == code and d.is_error for d in report.reporter.diagnostics):
-        return
-    report.reporter.report(limit_diagnostic(code, message, help_, span or plan.program.main_span, labels))
+    for code, message, help_, span, labels in plan.firmware_limit:
+        if any(d.code == code and d.is_error for d in report.reporter.diagnostics):
+            continue
+        report.reporter.report(limit_diagnostic(code, message, help_, span or plan.program.main_span, labels))
