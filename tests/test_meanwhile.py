@@ -286,7 +286,7 @@ def test_sends_of_a_meanwhile_body_count_with_the_branch_after_it():
     text = ("serial 4800\nframe 20ms\nservo a = P1.0\npose p { a: 100 }\nhome p\nmain {\n  loop {\n    select {\n"
             '      on "x" { send "a"; send "b" }\n      meanwhile {\n        hold 100ms\n        send "1"\n'
             '        send "2"\n        send "3"\n      }\n    }\n  }\n}\n')
-    assert flow.send_run(_plan(text)) == 7 and ("send-overrun", 6) in lint_codes(text)
+    assert flow.send_run(_plan(text)) == 7 and ("send-overrun", 9) in lint_codes(text)    # at the first send
     cut_early = text.replace('        hold 100ms\n        send "1"\n        send "2"\n        send "3"\n',
                              '        send "1"\n        send "2"\n        hold 100ms\n')
     assert flow.send_run(_plan(cut_early)) == 4       # "1" "2" before the first frame, then "a" "b"

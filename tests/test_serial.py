@@ -399,18 +399,20 @@ def test_24_servos_that_only_receive_get_buffer_b_and_hold_the_pulses_alone_unde
 
 
 def test_a_run_counts_in_a_window_only_if_it_can_still_be_going_on():
-    """The runs charged to a window of c cycles: ceil(c / byte) + 1, or fewer when each byte's run
+    """The runs charged to a window of c cycles: ceil(c / gap) + 1, or fewer when each byte's run
     surely ends within `run_reach` of it (the edge handler's longest stretch, then the run, with
     the gap after each rise long enough for it); with a rise that leaves too short a gap, the
-    plain count."""
+    plain count. The gap is `rx_gap`: a byte time of a host 2 % fast, less the start-bit jitter."""
     built = build_text("target stc89c52rc clock 11.0592MHz\nserial 4800\n"
                        + "".join(f"servo s{b} = P1.{b}\n" for b in range(8))
                        + "pose p { " + ", ".join(f"s{b}: {30 * b}" for b in range(8)) + " }\nmain { move p }\n")
     target, budget = built.plan.program.target, built.firmware.unit.budget
     run = budget.serial_run + costs.SERIAL_WAIT
     reach = costs.run_reach(target, budget)
-    assert reach == costs.busy_stretch(target, budget) + run < budget.byte_cycles
-    window = 2 * budget.byte_cycles - reach          # two bytes' runs at most, not three
+    gap = costs.rx_gap(budget.byte_cycles)
+    assert gap == 1869 and budget.byte_cycles == 1920      # 4800 baud at 11.0592 MHz: 1881 - 12
+    assert reach == costs.busy_stretch(target, budget) + run < gap
+    window = 2 * gap - reach                         # two bytes' runs at most, not three
     assert costs.serial_load(target, budget, window) == 2 * run
     assert costs.serial_load(target, budget, window + 1) == 3 * run
     slow_rise = dataclasses.replace(budget, rises=(target.width_cycles(0) - run + 1,))
