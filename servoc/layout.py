@@ -122,7 +122,9 @@ class LayoutError(Exception):
 
 
 class Several(LayoutError):
-    """More than one limit, each said (`errors`): the first one's code, message and place."""
+    """More than one limit, each said (`errors`): the first one's code, message and place. Only
+    the serial line's limits come together (serial-too-fast, send-overrun)."""
+    code = "serial-too-fast"
 
     def __init__(self, errors: list[LayoutError]):
         first = errors[0]
