@@ -300,7 +300,9 @@ def hover_move(a: Analysis, stmt: nodes.MoveStmt) -> str:
             out.append(f"\n*context {i + 1} of {len(insts)}*")
         how = "" if inst.step.duration_us is not None else " (as fast as the slowest servo allows)"
         out.append(f"\nF = {inst.frames} frame{'s' if inst.frames != 1 else ''} × P {units.fmt_ms(P)} = "
-                   f"{units.fmt_ms(inst.frames * P)}{how}")
+                   f"{units.fmt_ms(inst.frames * P)}{how}"
+                   + ("; P is that of the firmware built for size (the build for speed does not fit)"
+                      if plan.compact and i == 0 else ""))
         for m in inst.motions:
             ch = plan.channels[m.channel]
             if m.n0 is None:

@@ -246,3 +246,16 @@ def test_serial_limits_come_all_at_once():
             + '  loop { send "a"; send "b"; send "c"; send "d"; send "e"; hold 100ms }\n}\n')
     fe, diags = front_end_text(text)
     assert sorted(d.code for d in diags if d.is_error) == ["send-overrun", "serial-too-fast"], [d.message for d in diags]
+
+
+def test_the_language_server_says_the_period_is_that_of_the_build_for_size():
+    import sys
+    from servoc import lsp
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import suite
+    text = suite.keyframe_source(250)
+    a = lsp.analyze("file:///k.servo", "k.servo", text)
+    assert a.plan is not None and a.plan.compact
+    at = text.index("move ", text.index("main"))
+    shown = lsp.hover(a, at + 1)
+    assert shown is not None and "built for size" in shown.contents.value, shown
