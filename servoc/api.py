@@ -414,8 +414,8 @@ def read_motion(path: str, fmt: str | None = None, options=None):
     """A file made by another tool -> (its format, Keyframes). The format is recognised from the
     content unless `fmt` names it. Raises UsageError for a file that cannot be read, is no known
     format, or is broken."""
-    from .imports.keyframes import ImportError_, ReadOptions
-    data = read_bytes(path, "a file to import")
+    from .imports.keyframes import ImportError_, ReadOptions, as_utf8
+    data = as_utf8(read_bytes(path, "a file to import"), path)
     if fmt is None:
         fmt = next((name for name in IMPORT_FORMATS if _reader(name).sniff(data, path)), None)
         if fmt is None:

@@ -131,11 +131,29 @@ def _commands(chunks):
         pos += len(command) + 1
 
 
+def _cut_short(text: str, path: str) -> None:
+    """A file cut short: a string declaration that does not end, or a stream whose last command
+    does not end with its `\\n` (Bottango ends every command with one)."""
+    for m in re.finditer(r"\bconst\s+char\s+(\w+)\s*\[", text):
+        decl = _DECL.match(text, m.start())
+        if decl is None:
+            raise ImportError_(f"{path}: line {text.count(chr(10), 0, m.start()) + 1}: the string {m[1]} does not "
+                               "end: the file is cut short (export it again)")
+
+
 def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
     text = data.decode("utf-8", "replace")
     if "rSVPin," not in text:
         raise ImportError_(f"{path}: no rSVPin command: this file registers no pin servo")
+    _cut_short(text, path)
     setup, animations = _streams(text, os.path.splitext(os.path.basename(path))[0])
+    for name, main, loop in ([("setup", setup, [])] if setup else []) + animations:
+        for chunks in (main, loop):
+            joined = "".join(c for c, _, raw in chunks if not raw)
+            if joined.strip() and not joined.rstrip(" \t").endswith("\n"):
+                last = joined.rstrip().rsplit("\n", 1)[-1]
+                raise ImportError_(f"{path}: the {name} stream ends in the middle of a command ({last[:40]!r}): "
+                                   "the file is cut short (export it again)")
     servos, others, in_setup = {}, set(), []        # servos: identifier (the pin as text) -> Channel
     signal = {}                                     # identifier -> (µs at y = 0, µs at y = 8192)
 
@@ -160,7 +178,8 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
             if name == "sSY":            # sSY,sC,9,...;10,...;*sCT,ev,0: commands sharing a prefix
                 if len(fields) < 3:
                     fail(line, command, "truncated: sSY without commands")
-                prefix, parts = ident + ",", ",".join(fields[1:]).split(";")
+                prefix = ident + ","
+                parts = [p for p in ",".join(fields[1:]).split(";") if p.strip()]    # each part ends with `;`
                 for i, part in enumerate(parts):
                     if part.startswith("*") and "," in part:
                         prefix, part = part[1:].split(",", 1)

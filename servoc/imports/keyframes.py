@@ -113,3 +113,24 @@ class ReadOptions:
 def ticks_to_us(ticks: Fraction, hz: Fraction) -> Fraction:
     """A PCA9685 count (4096 per period) as a width in µs at a PWM rate of `hz`."""
     return Fraction(ticks) * 1_000_000 / (4096 * Fraction(hz))
+
+
+_XML_ENCODING = re.compile(rb"""^(\s*<\?xml[^>]*?encoding\s*=\s*)(["'])[^"']*\2""")
+
+
+def as_utf8(data: bytes, path: str) -> bytes:
+    """A text file's bytes as UTF-8, whatever it was written in: UTF-8 (with or without BOM) as it
+    is, UTF-16 with a BOM and Windows-1252 (any bytes that are not UTF-8) decoded; an XML
+    declaration's encoding then says UTF-8. A Blender `.bin` is binary: as it is."""
+    if path.lower().endswith(".bin"):
+        return data
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        text = data.decode("utf-16", errors="replace")
+    else:
+        try:
+            data.decode("utf-8")
+            return data
+        except UnicodeDecodeError:
+            text = data.decode("cp1252", errors="replace")
+    out = text.lstrip("\ufeff").encode("utf-8")
+    return _XML_ENCODING.sub(rb"\1\2utf-8\2", out, count=1)
