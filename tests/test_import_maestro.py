@@ -62,7 +62,7 @@ def test_both_frame_text_forms_give_the_same_keys():
     assert plain.channels == speeds.channels
     assert plain.tracks == speeds.tracks
     assert [t.name for t in plain.tracks] == ["Wave", "Blink twice"]
-    assert plain.tracks[0].keys[0].targets == {0: 1500}          # 3 is ServoMultiplied: not a servo
+    assert plain.tracks[0].keys[0].targets == {0: 1500, 3: 1750}  # 3 is ServoMultiplied: a servo
 
 
 def test_new_form_reads_only_the_part_before_s_as_targets():
@@ -82,21 +82,31 @@ def test_all_zero_frame_speeds_give_no_note():
 
 def test_non_servo_channels_are_left_out_with_their_targets():
     kf = read_fixture("wave_plain.xml")
-    assert [c.index for c in kf.channels] == [0, 1, 5, 6, 7, 8, 9, 10, 11]
+    assert [c.index for c in kf.channels] == [0, 1, 3, 5, 6, 7, 8, 9, 10, 11]
     for track in kf.tracks:
         for key in track.keys:
-            assert not {2, 3, 4} & set(key.targets)
+            assert not {2, 4} & set(key.targets)
     # Frame 0 sets the Output channel 2 to 8000, frame 1 the Input channel 4 to 1023: both dropped.
-    assert kf.tracks[0].keys[0].targets == {0: 1500}
+    assert kf.tracks[0].keys[0].targets == {0: 1500, 3: 1750}
     assert kf.tracks[0].keys[1].targets == {0: 1000, 1: 1250}
     assert any("2 (Output)" in n and "4 (Input)" in n for n in kf.notes)
 
 
-def test_only_servo_mode_channels_are_servos():
-    """The spec: channels whose mode is not `Servo` are not servos; ServoMultiplied is one of them."""
+def test_servo_and_servo_multiplied_channels_are_servos():
+    """The spec: channels whose mode is `Servo` or `ServoMultiplied` are servos; the others are not."""
     kf = read_fixture("wave_plain.xml")
-    assert 3 not in {c.index for c in kf.channels}
-    assert any("3 (ServoMultiplied)" in n for n in kf.notes)
+    assert 3 in {c.index for c in kf.channels}
+    assert not any("ServoMultiplied" in n for n in kf.notes)
+
+
+def test_targets_outside_a_channels_range_are_clamped_with_a_note():
+    kf = read_text('<Sequence name="S"><Frame name="Frame 0" duration="100">'
+                   '3000 9000 0 0 0 0</Frame></Sequence>')
+    lo = {c.index: c.min_us for c in kf.channels}
+    hi = {c.index: c.max_us for c in kf.channels}
+    got = kf.tracks[0].keys[0].targets
+    assert got[0] == max(750, lo[0] or 750) and got[1] == min(2250, hi[1] or 2250), (got, lo, hi)
+    assert any("clamped" in n and "2 targets" in n for n in kf.notes), kf.notes
 
 
 def test_channel_names_limits_and_home():

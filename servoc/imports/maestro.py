@@ -18,10 +18,10 @@ with `s` and a speed per channel, then `a` and an acceleration per channel. Only
 targets (the part before `s`) are used.
 
 Output: `Keyframes(format="maestro")`:
-- channels: each `<Channel>` whose mode is `Servo`. The others (`ServoMultiplied`, a servo
-  the Maestro pulses at a slower, multiplied rate; `Output`; `Input`) are not servos: left
-  out, their targets dropped from every key, with a note. No mode = `Servo`
-  (the Maestro's default). index = position in `<Channels>`; name = `name` unless blank;
+- channels: each `<Channel>` whose mode is `Servo` or `ServoMultiplied` (a servo the Maestro
+  pulses at a multiplied period). The others (`Output`, `Input`) are not servos: left out,
+  their targets dropped from every key, with a note. No mode = `Servo` (the Maestro's
+  default). A target outside the channel's `min`..`max` is clamped there (a note counts them). index = position in `<Channels>`; name = `name` unless blank;
   min_us/max_us from `min`/`max`; home_us from `home` only when `homemode` is `Goto`.
 - tracks: one per `<Sequence>` (sampled=False), named as written ("Sequence N" when
   unnamed, a repeated name gets " (2)", " (3)", ...). A sequence without frames is an
@@ -49,7 +49,8 @@ from .keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track
 
 _HEAD = re.compile(r"\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*|<!DOCTYPE[^\[>]*(\[.*?\])?\s*>\s*)*<UscSettings[\s/>]",
                    re.S)     # a DOCTYPE is recognised here so that `read` can refuse it by name
-_NOT_SERVO = {"input": "Input", "output": "Output", "servomultiplied": "ServoMultiplied"}
+_NOT_SERVO = {"input": "Input", "output": "Output"}
+_SERVO = ("servo", "servomultiplied")     # ServoMultiplied: a servo pulsed at a multiple of the period
 
 
 def sniff(data: bytes, path: str) -> bool:
@@ -104,7 +105,7 @@ def _channels(root: ET.Element, path: str, notes: list):
         if mode in _NOT_SERVO:
             others.append(f"{index} ({_NOT_SERVO[mode]})")
             continue
-        if mode != "servo":
+        if mode not in _SERVO:
             raise ImportError_(f"{where}: unknown mode {ch.get('mode')!r} (Servo, ServoMultiplied, Input, Output)")
         homemode = (ch.get("homemode") or "Off").strip().lower()
         if homemode not in ("goto", "off", "ignore"):
@@ -145,6 +146,17 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
     channels, count = _channels(root, path, notes)
     servo = {c.index for c in channels}
     tracks, taken, limited = [], set(), False
+    bounds = {c.index: (c.min_us, c.max_us) for c in channels}
+    clamped: list[str] = []
+
+    def clamp(ch: int, us: Fraction, source: str) -> Fraction:
+        """A target outside the channel's min..max, clamped there as the Maestro does."""
+        lo, hi = bounds[ch]
+        kept = min(max(us, lo if lo is not None else us), hi if hi is not None else us)
+        if kept != us:
+            clamped.append(f"{source}, channel {ch}")
+        return kept
+
     sequences = [] if root.find("Sequences") is None else root.find("Sequences").findall("Sequence")
     for number, seq in enumerate(sequences, 1):
         name = unique = seq.get("name") or f"Sequence {number}"
@@ -162,11 +174,15 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
             targets, frame_limits = _targets("".join(frame.itertext()), where, count)
             limited |= frame_limits
             source = f"{label} frame {i}" + (f" ({fname})" if fname and fname != f"Frame {i}" else "")
-            keys.append(Key(at, {ch: Fraction(t, 4) for ch, t in enumerate(targets) if t and ch in servo}, source))
+            keys.append(Key(at, {ch: clamp(ch, Fraction(t, 4), source) for ch, t in enumerate(targets)
+                                 if t and ch in servo}, source))
         tracks.append(Track(unique, tuple(keys), sampled=False))     # one without frames is an empty sequence
     if limited:
         notes.append("The frames' own speeds and accelerations (after 's' and 'a') are not imported: "
                      "each frame is a linear move over its duration.")
+    if clamped:
+        notes.append(f"{len(clamped)} target{'s' if len(clamped) != 1 else ''} outside the channel's min..max "
+                     f"clamped there, as the Maestro does (first: {clamped[0]}).")
     if not sequences:
         notes.append("The file has no sequences.")
     if (root.findtext("Script") or "").strip():
