@@ -62,3 +62,8 @@ def test_a_bottango_export_cut_short_is_an_error_and_writes_nothing(tmp_path, ca
         data = BOTTANGO[:cut].encode() + b'";\n'
     rc, said, out = run_import(tmp_path, capsys, "GeneratedCodeAnimations.cpp", data)
     assert rc == 2 and not out.exists() and "cut short" in said, said
+
+
+def test_a_csv_with_a_lone_carriage_return_is_a_clear_error(tmp_path, capsys):
+    rc, said, out = run_import(tmp_path, capsys, "x.csv", b"time_ms,a,b\n\r\x00")
+    assert rc == 2 and not out.exists() and "Traceback" not in said and "x.csv" in said, said

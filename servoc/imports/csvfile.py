@@ -40,7 +40,11 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
         raise ImportError_(f"{path}: not UTF-8 text") from None
     check_frames(text.count("\n") - 1, path)
     delimiter = ";" if text.lstrip().lower().startswith("time_ms;") else ","
-    rows = [r for r in csv.reader(io.StringIO(text), delimiter=delimiter) if any(c.strip() for c in r)]
+    text = text.replace("\r\n", "\n")         # CR LF line ends read like LF
+    try:
+        rows = [r for r in csv.reader(io.StringIO(text, newline=""), delimiter=delimiter) if any(c.strip() for c in r)]
+    except csv.Error as exc:
+        raise ImportError_(f"{path}: not a readable CSV file ({exc})") from None
     if not rows or rows[0][0].strip().lower() != "time_ms":
         raise ImportError_(f"{path}: a CSV import starts with the header `time_ms,NAME,...`")
     names = [c.strip() for c in rows[0][1:]]
