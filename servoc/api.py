@@ -13,6 +13,7 @@ stage that reported errors. Internal bugs stay ordinary exceptions.
 from __future__ import annotations
 
 import dataclasses
+import re
 import gc
 import os
 from contextlib import contextmanager
@@ -139,9 +140,7 @@ def _rom_bound(text: str) -> int:
     """At least the end of the code and data the assembly text lays out."""
     at = 0
     for raw in text.splitlines():
-        line = raw.split(";", 1)[0].strip()
-        if ":" in line.split(None, 1)[0] if line else False:
-            line = line.split(":", 2)[-1].strip()
+        line = re.sub(r"^\w+::?", "", raw.split(";", 1)[0].strip()).strip()     # the label, if any
         if not line:
             continue
         op, _, rest = line.partition(" ")

@@ -400,8 +400,9 @@ def default_period_us(min_period: int) -> int:
     return max(DEFAULT_PERIOD_FLOOR_US, min_period)
 
 
-# The stack: 46 bytes from the end of the direct variables (0x72, with 24 servos
-# on three ports) up to the motion state at 0xA0. Each `repeat` keeps its
+# The stack: with three ports, 46 bytes from the end of the direct variables (0x72,
+# with 24 servos) up to the motion state at 0xA0; each port fewer leaves PORT_RAM more
+# (its CUR and STATE are not laid out: `stack_room`). Each `repeat` keeps its
 # pass counter there and each `play` its return address (2 bytes a level);
 # the runtime goes at most RUNTIME_STACK bytes deeper below a program call (frame_io's
 # 4 under run_list's 4), WATCH_STACK more with a meanwhile body (frame_w calls a look,
@@ -409,9 +410,9 @@ def default_period_us(min_period: int) -> int:
 # the edge handler, which may come at any instruction, HANDLER_STACK more. The selects'
 # RAM (plan.select_ram) and the serial line's are taken from the stack's 46 bytes. Code
 # generation reads the runtime's depth from the code (codegen.runtime_stack) and
-# holds it to these figures. These 46 bytes are what `too-deep` promises whatever the
-# program uses; the firmware itself starts the stack where the RAM it allocates ends
-# (no eased moves, no `send`: fewer variables), so most programs have more.
+# holds it to these figures. `stack_room` is what `too-deep` promises for the program's
+# ports, whatever else it uses; the firmware itself starts the stack where the RAM it
+# allocates ends (no eased moves, no `send`: fewer variables), so most programs have more.
 STACK_BYTES = 46
 PORT_RAM = 40               # CUR (8) and STATE (32) of one port: RAM a port not in use leaves to the stack
 BUFB_RAM = 17               # sort buffer B (8 pairs of N and lines) and its rise mask: the top of the

@@ -61,7 +61,10 @@ ucsim 0.6.4 behaviour that matters for timing
       every 65536 - RCAP2 cycles exactly.
     * ``step N ms`` / ``step N clk`` never stop on the 8051 core, hence the
       VCD cycle limit.  Fetch breakpoints set by the user at every address
-      of a loop would defeat it (the script sets none).
+      of a loop would defeat it; the probes (`run(probes=...)`) stand at a
+      few addresses of the program, but a breakpoint whose commands run on
+      can swallow a VCD stop that falls at the same instruction boundary
+      (`MissedInput`: the caller retries with the changes a little later).
     * ``sim_ticks`` is 32 bits wide (wraps after 2**32 clocks = 357.9 s
       simulated).  Event times are unwrapped on the assumption that some
       port is written at least once per 357 s of simulated time; the total

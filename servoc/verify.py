@@ -502,11 +502,10 @@ class Reaction:
 
 @dataclass
 class RunCheck:
-    """What `check_run` found: problems (the firmware's), reactions, warnings, where it ended."""
+    """What `check_run` found: problems (the firmware's), reactions, warnings."""
     problems: list[Mismatch] = field(default_factory=list)
     reactions: list[Reaction] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
-    ended: str = ""
 
 
 def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events: list,
@@ -565,12 +564,10 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         host = sent[i]
         if got.byte != host.byte:
             bad(got.cycle, f"the serial handler received {_show(got.byte)} where the host sent {_show(host.byte)}")
-        if got.queued:
-            pass
-        elif got.queued_before < queue:
+        if not got.queued and got.queued_before < queue:
             bad(got.cycle, f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped with only "
                            f"{got.queued_before} queued: the queue holds {queue}")
-        else:
+        elif not got.queued:
             found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped: the queue "
                                   f"already held {queue} bytes no select had taken")
     per = 0 if plan.program.serial is None else byte_cycles(plan.program.serial.th1, plan.program.serial.smod)

@@ -4,6 +4,7 @@ a Bottango export cut short is an error that writes nothing."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -28,7 +29,9 @@ def test_a_csv_in_any_encoding(tmp_path, capsys, encoding):
     rc, said, out = run_import(tmp_path, capsys, "k.csv", CSV.replace("arm", "ärm" if encoding != "utf-16" else "arm")
                                .encode(encoding))
     assert rc == 0 and out.exists(), said
-    assert "1000 ms" in out.read_text() or "in 1s" in out.read_text() or "move" in out.read_text()
+    text = out.read_text()
+    assert "move k_0 in 0ms" in text and "move k_1 in 1000ms" in text, text
+    assert re.search(r"pose k_0 \{ \w+: 1500us \}", text) and re.search(r"pose k_1 \{ \w+: 2004us \}", text), text
 
 
 @pytest.mark.parametrize("encoding", ["utf-16", "cp1252"])

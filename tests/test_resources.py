@@ -259,3 +259,63 @@ def test_the_language_server_says_the_period_is_that_of_the_build_for_size():
     at = text.index("move ", text.index("main"))
     shown = lsp.hover(a, at + 1)
     assert shown is not None and "built for size" in shown.contents.value, shown
+
+
+@pytest.mark.toolchain
+def test_the_rom_bound_the_period_stage_reads_is_never_below_the_image():
+    """`api._rom_bound` may say "fits" only for firmware that does fit: it is at least the end of
+    what the assembler lays out, for the examples and keyframe programs near the limit."""
+    import sys
+    from servoc import api, toolchain
+    from servoc.diagnostics import Reporter
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    import suite
+    texts = [p.read_text(encoding="utf-8") for p in sorted((ROOT / "examples").glob("*.servo"))]
+    texts += [suite.keyframe_source(n) for n in (20, 150)] + [suite.gait_source(40)]
+    for text in texts:
+        fe, _ = front_end_text(text)
+        unit = api.generate(fe.plan, fe.source, Reporter(fe.source))
+        image = toolchain.assemble(unit.text, name="servo")
+        assert api._rom_bound(unit.text) >= image.symbols["data_end"], text[:80]
+
+
+@pytest.mark.parametrize("clock", ["12MHz", "11.0592MHz"])
+def test_every_period_from_the_reported_shortest_holds_the_model(clock):
+    """`costs.frame_cycles` searches the steps of the serial charge; here every period from the
+    shortest on, cycle by cycle over four byte times, is checked against the model, and the one
+    below it is not enough (or the shortest is the first that holds)."""
+    from servoc import codegen
+    text = f"target at89c52 clock {clock}\n" + _without_tail_3("20ms")
+    fe, diags = front_end_text(text)
+    assert fe.plan is not None, [d.message for d in diags if d.is_error]
+    unit = codegen.generate(fe.plan)
+    target, budget = fe.plan.program.target, unit.budget
+    shortest = costs.frame_cycles(target, budget)
+    assert all(costs.holds(target, budget, p) for p in range(shortest, shortest + 4 * budget.byte_cycles))
+    assert not costs.holds(target, budget, shortest - 1)
+
+
+@pytest.mark.toolchain
+def test_the_serial_hexapod_verifies_at_exactly_its_shortest_period_under_bursts(tmp_path, capsys):
+    """The program of the issue at its own shortest period (the one from which on every period
+    holds): in ucsim, walking and standing while four bytes come back to back every 50 ms, every
+    pulse and every answer is exact; 1 µs less is refused."""
+    from servoc.cli import main
+    period = 9600
+    for _ in range(6):                      # F depends on P: the period the code built at it reports
+        fe, _ = front_end_text(_without_tail_3(f"{period}us"))
+        if fe.plan.min_period_us == period:
+            break
+        period = fe.plan.min_period_us
+    assert fe.plan.min_period_us == period and fe.plan.period_holds
+    fe, diags = front_end_text(_without_tail_3(f"{period - 1}us"))
+    assert "period-too-short" in [d.code for d in diags if d.is_error]
+    prog, ev = tmp_path / "h.servo", tmp_path / "h.events"
+    prog.write_text(_without_tail_3(f"{period}us"))
+    ev.write_text('0.3s "w"\n' + "".join(f'{0.5 + 0.05 * k:.3f}s "x" "x" "x" "x"\n' for k in range(40))
+                  + '2.6s "s"\n' + "".join(f'{2.8 + 0.05 * k:.3f}s "x" "x" "x" "x"\n' for k in range(20)))
+    import json
+    assert main(["verify", "--format", "json", str(prog), "--events", str(ev)]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["ok"] and data["max_error_cycles"] == 0 and data["bytes_sent"] >= 60, data["mismatches"][:3]
+    assert data["period_cycles"]["min"] == data["period_cycles"]["max"] == period
