@@ -44,6 +44,8 @@ class Channel:
     min_us: Optional[Fraction] = None       # the source's range of the channel, µs (becomes `limit`)
     max_us: Optional[Fraction] = None
     home_us: Optional[Fraction] = None      # where the source parks it at power-up, if it says
+    speed_us_s: Optional[Fraction] = None   # its top speed in µs of width per second, when the source says
+                                            # (becomes the servo's `speed` when slower than the default servo)
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from fractions import Fraction
 from .. import nodes
 from ..printer import format_program
 from ..source import NO_SPAN
-from ..units import BASE_US, DIV_US, N_MAX, n_to_width_us, round_half_up, width_on_grid, width_to_n
+from ..units import BASE_US, DAV_DEG, DEFAULT_T_DAV_US, DIV_US, N_MAX, n_to_width_us, round_half_up, width_on_grid, width_to_n
 from .keyframes import ImportError_, Keyframes, Track, check_frames, identifier
 
 MAX_MOVE_FRAMES = 65535        # the firmware's frame counters are 16 bits
@@ -198,8 +198,8 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
     unused = [c for c in kf.channels if c.index not in used]
     kf = dataclasses.replace(kf, channels=tuple(c for c in kf.channels if c.index in used))
     w = _Writer(kf, pins)
-    servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _limit(c), NO_SPAN)
-              for c in kf.channels]
+    servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _speed(c) + _limit(c),
+                              NO_SPAN) for c in kf.channels]
     sequences = []
     for track in kf.tracks:
         seq = identifier(track.name, "seq", w.taken)
@@ -242,6 +242,23 @@ def _ms(value: Fraction) -> nodes.Quantity:
 
 def _width(n: int) -> nodes.Quantity:
     return nodes.Quantity(Fraction(n_to_width_us(n)), "us", NO_SPAN)
+
+
+def t_dav_us(channel) -> Fraction:
+    """The time per DAV (µs) of the servo a channel becomes: its own speed where it is slower than
+    the default servo's, else the default's."""
+    if channel.speed_us_s is None or channel.speed_us_s <= 0:
+        return DEFAULT_T_DAV_US
+    return max(DEFAULT_T_DAV_US, Fraction(DIV_US * 1_000_000) / channel.speed_us_s)
+
+
+def _speed(channel) -> tuple:
+    """`speed 1s/Adeg` for a channel slower than the default servo: v µs/s is v/8 DAV a second."""
+    if t_dav_us(channel) == DEFAULT_T_DAV_US:
+        return ()
+    degrees = Fraction(channel.speed_us_s) / DIV_US * DAV_DEG
+    return (nodes.SpeedOption(nodes.Quantity(Fraction(1), "s", NO_SPAN), nodes.Quantity(degrees, "deg", NO_SPAN),
+                              NO_SPAN),)
 
 
 def _limit(channel) -> tuple:
