@@ -620,7 +620,8 @@ def _import(args, run: _Run) -> int:
     except OSError as exc:
         raise _Stop(f"cannot write {out}: {exc.strerror or exc}", "cannot-write") from None
     figures = {"file": args.file, "servo": out, "frames_in": imported.frames_in, "moves_out": imported.moves_out,
-               "max_deviation_n": imported.deviation, "off_grid": imported.off_grid, "notes": list(imported.notes)}
+               "max_deviation_n": imported.deviation, "off_grid": imported.off_grid, "notes": list(imported.notes),
+               "warnings": list(imported.warnings)}
     if run.json:
         run.extra["import"] = figures
     else:
@@ -628,6 +629,8 @@ def _import(args, run: _Run) -> int:
               f"{imported.moves_out} moves, every source position met within {imported.deviation} N")
         for note in imported.notes:
             print(f"  note: {note}")
+        for warning in imported.warnings:
+            print(f"  warning: {warning}")
     source, reporter = api.load_source(out)
     run.source = source
     fe = api.front_end(source, reporter)

@@ -56,26 +56,33 @@ def at_ms(track) -> list:
 
 # ---- the two frame forms ---------------------------------------------------------
 
-def test_both_frame_text_forms_give_the_same_keys():
+def test_both_frame_text_forms_give_the_same_targets_and_times():
     plain, speeds = read_fixture("wave_plain.xml"), read_fixture("wave_speeds.xml")
     assert plain.format == speeds.format == "maestro"
     assert plain.channels == speeds.channels
-    assert plain.tracks == speeds.tracks
+    assert [[(k.at_ms, k.targets, k.source) for k in t.keys] for t in plain.tracks] == \
+        [[(k.at_ms, k.targets, k.source) for k in t.keys] for t in speeds.tracks]
+    assert all(k.speeds is None for t in plain.tracks for k in t.keys)
+    assert any(k.speeds is not None for t in speeds.tracks for k in t.keys)
     assert [t.name for t in plain.tracks] == ["Wave", "Blink twice"]
     assert plain.tracks[0].keys[0].targets == {0: 1500, 3: 1750}  # 3 is ServoMultiplied: a servo
 
 
-def test_new_form_reads_only_the_part_before_s_as_targets():
+def test_new_form_reads_targets_then_speeds_in_maestro_units():
+    """A frame's own speeds (after `s`) are 0.25 µs per 10 ms each: 25 µs/s; its accelerations
+    (after `a`) are not imported, with a note."""
     kf = read_text('<Sequence name="S"><Frame name="Frame 0" duration="100">'
                    '4000 5000 0 0 0 0 s 7 8 0 0 0 0 a 1 2 0 0 0 0</Frame></Sequence>')
-    assert kf.tracks[0].keys[0].targets == {0: 1000, 1: 1250}
-    assert any("speeds and accelerations" in n for n in kf.notes)
+    key = kf.tracks[0].keys[0]
+    assert key.targets == {0: 1000, 1: 1250}
+    assert key.speeds == {0: 175, 1: 200, 2: 0, 3: 0, 4: 0, 5: 0}
+    assert any("accelerations" in n for n in kf.notes)
 
 
-def test_all_zero_frame_speeds_give_no_note():
+def test_all_zero_frame_accelerations_give_no_note():
     kf = read_text('<Sequence name="S"><Frame name="Frame 0" duration="100">'
-                   '4000 0 0 0 0 0 s 0 0 0 0 0 0 a 0 0 0 0 0 0</Frame></Sequence>')
-    assert not any("speeds and accelerations" in n for n in kf.notes)
+                   '4000 0 0 0 0 0 s 3 0 0 0 0 0 a 0 0 0 0 0 0</Frame></Sequence>')
+    assert not any("accelerations" in n for n in kf.notes)
 
 
 # ---- channels ----------------------------------------------------------------------
@@ -132,9 +139,11 @@ def test_missing_mode_is_servo_and_mode_case_is_ignored():
     assert kf.tracks[0].keys[0].targets == {0: 1250}
 
 
-def test_channel_speed_limits_get_a_note():
-    assert any("speed and acceleration limits" in n for n in read_fixture("micro6.xml").notes)
-    assert not any("speed and acceleration limits" in n for n in read_fixture("wave_plain.xml").notes)
+def test_channel_speeds_are_read_and_accelerations_get_a_note():
+    channels = {c.index: c for c in read_fixture("micro6.xml").channels}
+    assert {i: c.speed_us_s for i, c in channels.items() if c.speed_us_s} == {0: 750}     # speed="30"
+    assert any("acceleration limits" in n for n in read_fixture("micro6.xml").notes)
+    assert not any("acceleration" in n for n in read_fixture("wave_plain.xml").notes)
 
 
 # ---- keys --------------------------------------------------------------------------
@@ -146,23 +155,25 @@ def test_zero_means_keep_and_an_all_zero_frame_is_a_pause():
     assert read_fixture("wave_plain.xml").tracks[1].keys[0].targets == {10: 1000}
 
 
-def test_durations_are_summed_into_at_ms():
+def test_each_frame_starts_when_the_durations_before_it_have_passed():
+    """The Maestro sets a frame's targets at its start; the next starts `duration` later."""
     kf = read_fixture("wave_plain.xml")
-    assert at_ms(kf.tracks[0]) == [500, 750, 1750, 2500]
-    assert at_ms(kf.tracks[1]) == [100, 200]
-    assert all(not t.sampled for t in kf.tracks)
+    assert at_ms(kf.tracks[0]) == [0, 500, 750, 1750]
+    assert kf.tracks[0].length_ms == 2500
+    assert at_ms(kf.tracks[1]) == [0, 100] and kf.tracks[1].length_ms == 200
+    assert all(t.paced and not t.sampled for t in kf.tracks)
 
 
-def test_a_zero_duration_frame_arrives_at_once():
+def test_a_zero_duration_frame_starts_and_ends_at_once():
     kf = read_fixture("micro6.xml")
-    assert at_ms(kf.tracks[1]) == [0]
+    assert at_ms(kf.tracks[1]) == [0] and kf.tracks[1].length_ms == 0
     assert kf.tracks[1].keys[0].targets == {0: 500, 1: 1750}
 
 
 def test_fewer_targets_than_channels_keep_the_rest():
     nod = read_fixture("micro6.xml").tracks[0]
     assert nod.keys[0].targets == {0: 1500, 1: 2000}
-    assert at_ms(nod) == [400, 800]
+    assert at_ms(nod) == [0, 400]
 
 
 def test_key_source_names_the_sequence_and_frame():
@@ -341,3 +352,116 @@ def test_sniff_false(data):
 @given(st.binary(max_size=300))
 def test_sniff_never_raises(data):
     assert maestro.sniff(data, "x") in (True, False)
+
+
+# ---- the Maestro's own timing, end to end (Keyframes -> program -> the frames it sends) ----
+
+def _frames_of(tmp_path, xml: bytes):
+    """Import `xml` and plan the program: (the program's text, its plan, every frame's N per servo
+    until the program ends, the import's warnings)."""
+    from servoc import api
+    from servoc.plan import expand
+    src = tmp_path / "seq.xml"
+    src.write_bytes(xml)
+    imported = api.import_motion(str(src))
+    out = tmp_path / "seq.servo"
+    out.write_text(imported.text)
+    source, reporter = api.load_source(str(out))
+    fe = api.front_end(source, reporter)
+    assert fe.plan is not None and not reporter.has_errors, [d.message for d in reporter.diagnostics]
+    frames = [f.n for _, f in zip(range(fe.plan.total_frames), expand(fe.plan))]
+    return imported.text, fe.plan, frames, imported.warnings
+
+
+def _one_servo(frames: str, speed: int = 0, home: int = 6000) -> bytes:
+    channel = (f'<Channel name="arm" mode="Servo" min="2000" max="10000" homemode="Goto" home="{home}" '
+               f'speed="{speed}" acceleration="0" neutral="6000" range="1905" />')
+    return settings(f'<Sequence name="S">{frames}</Sequence>', channel + channel.replace('"arm"', '"b"')
+                    .replace('homemode="Goto"', 'homemode="Off"'))
+
+
+def _n(us: int) -> int:
+    from servoc.units import width_to_n
+    return width_to_n(us)
+
+
+def test_a_frame_reaches_its_target_in_the_servos_own_time_and_the_next_starts_a_duration_later(tmp_path):
+    """The issue's rule: frame 1 (1000 ms) goes from 1500 to 2000 µs; at the servo's full speed
+    (63 N x 2.467 ms = 155 ms) it is there within 155 ms plus a frame of its start, not at the
+    frame's end; frame 2 starts 1000 ms after frame 1 started (to the nearest frame)."""
+    text, plan, frames, warnings = _frames_of(tmp_path, _one_servo(
+        '<Frame name="Frame 0" duration="500">6000</Frame>'
+        '<Frame name="Frame 1" duration="1000">8000</Frame>'
+        '<Frame name="Frame 2" duration="1000">6000</Frame>'))
+    p = plan.period_us
+    arm = [f[0] for f in frames]
+    first_move = next(i for i, n in enumerate(arm) if n != _n(1500))      # frame 1's move begins
+    reached = next(i for i, n in enumerate(arm) if n == _n(2000))
+    home = first_move - round(500_000 / p)                # frames before the sequence: `home` takes one
+    assert home == 1 and "home home" in text               # frame 1 starts on the frame nearest 500 ms
+    assert (reached - first_move + 1) * p <= (_n(2000) - _n(1500)) * 2467 + p
+    back = next(i for i in range(reached, len(arm)) if arm[i] != _n(2000))
+    assert abs((back - first_move) * p - 1_000_000) <= p, (back, first_move, p)
+    assert abs((len(arm) - home) * p - 2_500_000) <= p / 2   # the sequence lasts the sum of the durations
+    assert warnings == ()
+
+
+def test_a_channels_speed_paces_its_moves_and_becomes_the_servos_speed(tmp_path):
+    """speed="10" is 250 µs/s: 63 N (504 µs) take 2.016 s; the servo is declared at that speed."""
+    text, plan, frames, warnings = _frames_of(tmp_path, _one_servo(
+        '<Frame name="Frame 0" duration="3000">8000</Frame><Frame name="Frame 1" duration="100">6000</Frame>',
+        speed=10))
+    p = plan.period_us
+    arm = [f[0] for f in frames]
+    reached = arm.index(_n(2000)) - 1                         # frames from the sequence's start (home: one)
+    # 63 N (504 µs) at 250 µs/s: 2016 ms, to the next frame; a linear move's last step of one N comes
+    # half a step (16 ms) before its end, by the Statements rule's rounding
+    assert 2_016_000 - 16_000 <= (reached + 1) * p <= 2_016_000 + p, reached
+    assert "servo arm = P1.0 speed 1s/23.125deg" in text     # 250 µs/s = 31.25 N/s = 23.125 deg/s
+    assert len(warnings) == 1 and "S frame 1" in warnings[0] and "100 ms" in warnings[0]
+
+
+def test_a_frames_own_speeds_are_used_and_zero_is_the_servos_own_speed(tmp_path):
+    text, plan, frames, _ = _frames_of(tmp_path, _one_servo(
+        '<Frame name="Frame 0" duration="3000">8000 0 s 10 0</Frame>'
+        '<Frame name="Frame 1" duration="1000">6000 0 s 0 0</Frame>', speed=10))
+    p = plan.period_us
+    arm = [f[0] for f in frames]
+    reached = arm.index(_n(2000)) - 1
+    assert 2_016_000 - 16_000 <= (reached + 1) * p <= 2_016_000 + p, reached
+    back = len(arm) - next(i for i, n in enumerate(reversed(arm)) if n != _n(1500)) - 1     # at 1500 again
+    # frame 1 starts at 3 s (on the nearest frame); its speed 0 is as fast as the servo allows, which is
+    # the servo's declared 250 µs/s: back 2016 ms later (its last step half a step, 16 ms, early)
+    assert 5_016_000 - 16_000 - p / 2 <= back * p <= 5_016_000 + p + p / 2, back
+
+
+def test_a_pause_frame_and_a_missing_home_keep_the_clock(tmp_path):
+    """A servo with no position goes at once (one frame); a frame that sets nothing only waits."""
+    text, plan, frames, _ = _frames_of(tmp_path, _one_servo(
+        '<Frame name="Frame 0" duration="200">0 7000</Frame>'
+        '<Frame name="pause" duration="400">0 0</Frame>'
+        '<Frame name="Frame 2" duration="300">0 5000</Frame>'))
+    p = plan.period_us
+    b = [f[1] for f in frames]
+    assert b[0] is None and b[1] == _n(1750)                  # home moves arm only; b at once, in frame 1
+    left = next(i for i in range(1, len(b)) if b[i] != _n(1750)) - 1     # frames since the sequence began
+    assert abs(left * p - 600_000) <= p / 2                   # frame 2 starts at 200 + 400 ms
+    assert abs((len(b) - 1) * p - 900_000) <= p / 2
+
+
+@pytest.mark.toolchain
+def test_a_file_with_channel_and_frame_speeds_verifies_in_ucsim(tmp_path):
+    """micro6.xml (a channel speed of 30, a zero-length frame) imported, compiled and run: every
+    pulse as planned."""
+    from servoc import api
+    from servoc.plan import verify_frames
+    src = tmp_path / "micro6.xml"
+    src.write_bytes(fixture("micro6.xml"))
+    out = tmp_path / "micro6.servo"
+    out.write_text(api.import_motion(str(src)).text)
+    source, reporter = api.load_source(str(out))
+    fe, firmware = api.build(source, reporter)
+    assert firmware is not None, [d.message for d in reporter.diagnostics if d.is_error]
+    assert "speed 1s/69.375deg" in out.read_text()           # speed="30": 750 µs/s
+    report = api.verify(fe.plan, firmware, verify_frames(fe.plan))
+    assert report.ok and report.max_error_cycles == 0, report.mismatches[:5]

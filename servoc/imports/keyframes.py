@@ -54,6 +54,8 @@ class Key:
     at_ms: Fraction
     targets: dict                            # channel index -> width in µs (Fraction)
     source: str                              # what the source calls it, for the comment: "frame 3", "row 7", "t=1.250 s"
+    speeds: Optional[dict] = None            # paced tracks: channel -> µs/s this key's move may not exceed
+                                             # (0: as fast as the servo allows); None: the channels' own speeds
 
 
 @dataclass(frozen=True)
@@ -63,6 +65,10 @@ class Track:
     Two kinds:
     - `sampled=False` (Maestro, CSV): each key is one linear move that arrives
       at `at_ms` (from the previous key's time; the first from time 0).
+    - `paced=True` (Maestro): each key sets its targets at `at_ms` (its start), the
+      servos go there at their speeds (the key's `speeds`, else each channel's
+      `speed_us_s`, never faster than the servo) and the next key starts at its
+      own `at_ms`; the track lasts `length_ms`.
     - `sampled=True` (Blender): the keys are samples the motion must meet, within
       ±1 N, at their times; the writer fits as few moves as it can through them.
     A track given as a `curve` (Bottango) is sampled by the writer at every frame
@@ -72,6 +78,7 @@ class Track:
     name: str
     keys: tuple = ()
     sampled: bool = False
+    paced: bool = False
     curve: Optional[Callable[[Fraction], dict]] = None
     length_ms: Fraction = Fraction(0)
 
@@ -115,6 +122,32 @@ class ReadOptions:
 def ticks_to_us(ticks: Fraction, hz: Fraction) -> Fraction:
     """A PCA9685 count (4096 per period) as a width in µs at a PWM rate of `hz`."""
     return Fraction(ticks) * 1_000_000 / (4096 * Fraction(hz))
+
+
+def deg_to_us(angle: Fraction) -> Fraction:
+    """The width (µs) that `A deg` stands for in a .servo program: 500 µs + 8 µs x A x 250/185, whose N
+    by the Positions rule (rounded half up) is floor(A x 250/185 + 1/2), the N of `A deg`."""
+    from ..units import BASE_US, DIV_US, FULL_DEG, N_MAX
+    return BASE_US + DIV_US * Fraction(angle) * N_MAX / FULL_DEG
+
+
+def decimal(value, places: int = 3) -> str:
+    """A number for a message or a comment: a decimal, never a raw fraction (1860033/1000 is
+    1860.033): exact when it has at most `places` decimals, else rounded half up to `places`."""
+    value = Fraction(value)
+    scaled = (2 * abs(value.numerator) * 10 ** places + value.denominator) // (2 * value.denominator)
+    whole, part = divmod(scaled, 10 ** places)
+    text = f"{whole}.{part:0{places}d}".rstrip("0").rstrip(".") if places else str(whole)
+    return ("-" if value < 0 and scaled else "") + text
+
+
+def unit_note(hz, what: str = "positions") -> str:
+    """The note that says which unit the positions of a CSV or a Blender export were read in: µs, or
+    PCA9685 counts at `hz` (`--ticks HZ`)."""
+    if hz is None:
+        return f"{what} read as µs (PCA9685 counts need --ticks HZ, the PWM rate they were made for)"
+    return (f"{what} read as PCA9685 counts at {decimal(hz)} Hz (--ticks {decimal(hz)}), 4096 a period: "
+            f"count 307 is {decimal(ticks_to_us(307, hz), 1)} µs")
 
 
 _XML_ENCODING = re.compile(rb"""^(\s*<\?xml[^>]*?encoding\s*=\s*)(["'])[^"']*\2""")

@@ -21,17 +21,22 @@ Output: `Keyframes(format="maestro")`:
 - channels: each `<Channel>` whose mode is `Servo` or `ServoMultiplied` (a servo the Maestro
   pulses at a multiplied period). The others (`Output`, `Input`) are not servos: left out,
   their targets dropped from every key, with a note. No mode = `Servo` (the Maestro's
-  default). A target outside the channel's `min`..`max` is clamped there (a note counts them). index = position in `<Channels>`; name = `name` unless blank;
-  min_us/max_us from `min`/`max`; home_us from `home` only when `homemode` is `Goto`.
-- tracks: one per `<Sequence>` (sampled=False), named as written ("Sequence N" when
-  unnamed, a repeated name gets " (2)", " (3)", ...). A sequence without frames is an
-  empty one; a file without sequences gives no tracks (with a note).
-- keys: one per `<Frame>`, a linear move that arrives `duration` ms after the previous key,
-  so `at_ms` is the running sum of durations. A target of 0 means the channel keeps its
-  target: left out of `Key.targets` (a frame that sets nothing is a pause). `Key.source`
-  is e.g. "Wave frame 1", plus the frame's name in brackets when not the default "Frame 1".
-- not imported (with a note when present): speeds and accelerations (channels' and
-  frames'), the `<Script>`. `ReadOptions` is unused: positions are always quarter-µs.
+  default). index = position in `<Channels>`; name = `name` unless blank; min_us/max_us
+  from `min`/`max`; home_us from `home` only when `homemode` is `Goto`; speed_us_s from
+  `speed` (Maestro units of 0.25 µs per 10 ms, so 25 µs/s each; 0 = no limit: None).
+- tracks: one per `<Sequence>`, paced as the Maestro plays it (see `Track`): named as
+  written ("Sequence N" when unnamed, a repeated name gets " (2)", " (3)", ...). A
+  sequence without frames is an empty one; a file without sequences gives no tracks
+  (with a note).
+- keys: one per `<Frame>`, at the frame's start (`at_ms`: the sum of the durations
+  before it); the track lasts the sum of all of them. A target of 0 means the channel
+  keeps its target: left out of `Key.targets` (a frame that sets nothing is a pause).
+  A target outside the channel's `min`..`max` is clamped there (a note counts them).
+  A frame with its own speeds (after `s`) moves at those (`Key.speeds`; 0 = as fast as
+  the servo allows). `Key.source` is e.g. "Wave frame 1", plus the frame's name in
+  brackets when not the default "Frame 1".
+- not imported (with a note when present): accelerations (channels' and frames'), the
+  `<Script>`. `ReadOptions` is unused: positions are always quarter-µs.
 - errors, as `ImportError_` naming the file, sequence and frame: not XML or truncated, any
   DOCTYPE or entity declaration, a root other than `<UscSettings>`, no `<Channel>` in
   `<Channels>`, an unknown mode or homemode, a value (target, speed, min, max, home,
@@ -51,6 +56,7 @@ _HEAD = re.compile(r"\s*(<\?xml[^>]*\?>\s*)?(<!--.*?-->\s*|<!DOCTYPE[^\[>]*(\[.*
                    re.S)     # a DOCTYPE is recognised here so that `read` can refuse it by name
 _NOT_SERVO = {"input": "Input", "output": "Output"}
 _SERVO = ("servo", "servomultiplied")     # ServoMultiplied: a servo pulsed at a multiple of the period
+SPEED_UNIT_US_S = 25                      # a Maestro speed of 1 is 0.25 µs per 10 ms
 
 
 def sniff(data: bytes, path: str) -> bool:
@@ -114,26 +120,30 @@ def _channels(root: ET.Element, path: str, notes: list):
         if us["min"] is not None and us["max"] is not None and us["min"] > us["max"]:
             raise ImportError_(f"{where}: min ({ch.get('min')}) is above max ({ch.get('max')})")
         home = us["home"] if homemode == "goto" and us["home"] else None
-        servos.append(Channel(index, (ch.get("name") or "").strip() or None, us["min"], us["max"], home))
+        speed = _u16(ch.get("speed", "0") or "0", where, "speed") * SPEED_UNIT_US_S or None
+        servos.append(Channel(index, (ch.get("name") or "").strip() or None, us["min"], us["max"], home,
+                              Fraction(speed) if speed else None))
     if others:
         notes.append(f"Channels whose mode is not Servo, left out with their targets: {', '.join(others)}.")
-    if any(ch.get(k, "0").strip() not in ("", "0") for ch in items for k in ("speed", "acceleration")):
-        notes.append("The channels' speed and acceleration limits are not imported: each frame is a linear move.")
+    if any(ch.get("acceleration", "0").strip() not in ("", "0") for ch in items):
+        notes.append("The channels' acceleration limits are not imported: each move is at constant speed.")
     return servos, len(items)
 
 
 def _targets(text: str, where: str, count: int):
-    """(the frame's targets, whether it sets a speed or acceleration): all of the text is
-    targets (older form), or the part before `s`; speeds follow `s`, accelerations `a`."""
+    """(the frame's targets, its speeds or None, whether it sets an acceleration): all of the
+    text is targets (older form), or the part before `s`; speeds follow `s`, accelerations `a`."""
     tokens = text.split()
     s, a = tokens.count("s"), tokens.count("a")
     if s > 1 or a > 1 or (a and not s) or (s and a and tokens.index("a") < tokens.index("s")):
         raise ImportError_(f"{where}: expected 'targets' or 'targets s speeds a accelerations', not {text.strip()!r}")
     cut = tokens.index("s") if s else len(tokens)
-    limits = [_u16(t, where, "a speed or acceleration") for t in tokens[cut + 1:] if t != "a"]
+    a_at = tokens.index("a") if a else len(tokens)
+    speeds = [_u16(t, where, "a speed") for t in tokens[cut + 1:a_at]]
+    accelerations = [_u16(t, where, "an acceleration") for t in tokens[a_at + 1:]]
     if cut > count:
         raise ImportError_(f"{where}: {cut} targets, but the file has only {count} channels")
-    return [_u16(t, where, "a target (quarter-µs)") for t in tokens[:cut]], any(limits)
+    return [_u16(t, where, "a target (quarter-µs)") for t in tokens[:cut]], speeds if s else None, any(accelerations)
 
 
 def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
@@ -170,16 +180,18 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
             where = f"{path}: sequence {name!r}, frame {i}" + (f" ({fname!r})" if fname else "")
             if frame.get("duration") is None:
                 raise ImportError_(f"{where}: no duration")
-            at += _u16(frame.get("duration"), where, "the duration (ms)")
-            targets, frame_limits = _targets("".join(frame.itertext()), where, count)
-            limited |= frame_limits
+            duration = _u16(frame.get("duration"), where, "the duration (ms)")
+            targets, speeds, accelerated = _targets("".join(frame.itertext()), where, count)
+            limited |= accelerated
             source = f"{label} frame {i}" + (f" ({fname})" if fname and fname != f"Frame {i}" else "")
             keys.append(Key(at, {ch: clamp(ch, Fraction(t, 4), source) for ch, t in enumerate(targets)
-                                 if t and ch in servo}, source))
-        tracks.append(Track(unique, tuple(keys), sampled=False))     # one without frames is an empty sequence
+                                 if t and ch in servo}, source,
+                            None if speeds is None else {ch: Fraction(v * SPEED_UNIT_US_S)
+                                                         for ch, v in enumerate(speeds) if ch in servo}))
+            at += duration
+        tracks.append(Track(unique, tuple(keys), paced=True, length_ms=at))     # one without frames: empty
     if limited:
-        notes.append("The frames' own speeds and accelerations (after 's' and 'a') are not imported: "
-                     "each frame is a linear move over its duration.")
+        notes.append("The frames' own accelerations (after 'a') are not imported: each move is at constant speed.")
     if clamped:
         notes.append(f"{len(clamped)} target{'s' if len(clamped) != 1 else ''} outside the channel's min..max "
                      f"clamped there, as the Maestro does (first: {clamped[0]}).")

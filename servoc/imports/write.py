@@ -54,6 +54,7 @@ class Imported:
     off_grid: int               # source widths that were not on the 8 µs grid
     positions: int              # source widths read
     notes: tuple = ()
+    warnings: tuple = ()        # what the program does differently from the source (a Maestro frame too short)
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,7 @@ class _Writer:
         self.poses: list = []
         self.comments: dict = {}
         self.positions = self.off_grid = self.moves = self.frames_in = self.deviation = 0
+        self.warnings: list = []
 
     # ---- positions
     def n(self, width: Fraction) -> int:
@@ -120,6 +122,52 @@ class _Writer:
             pose = self.pose(f"{prefix}_{i}", values)
             body.append(self.statement(nodes.MoveStmt(pose, _ms(duration), None, NO_SPAN), key.source))
         return body
+
+    def paced(self, track: Track, prefix: str, timing: Timing, current: dict) -> list:
+        """A paced track (Maestro) at the frame period `timing.period_us`: each key's move starts on
+        the frame nearest its start time and takes the frames its slowest servo needs at its
+        speed; holds fill the time to the next key's start and to the track's end. `current`:
+        channel -> N where the servos are as the track starts (updated as it goes)."""
+        period, channels = timing.period_us, {c.index: c for c in self.kf.channels}
+        body, frame = [], 0                  # frames since the track's start
+
+        def wait_until(ms: Fraction, why: str):
+            nonlocal frame
+            start = round_half_up(ms * 1000 / period)
+            if start > frame:
+                body.append(self.statement(nodes.HoldStmt(_frames_ms(start - frame, period), NO_SPAN), why))
+                frame = start
+
+        for i, key in enumerate(track.keys):
+            self.frames_in += 1
+            values = {ch: self.n(w) for ch, w in sorted(key.targets.items()) if ch in self.names}
+            if not values:
+                continue                     # a pause: the hold before the next key's move waits it out
+            wait_until(key.at_ms, f"until {key.source} starts")
+            need_us = max(self.travel_us(channels[ch], current.get(ch), n, key.speeds) for ch, n in values.items())
+            moves = max(1, math.ceil(need_us / period))
+            pose = self.pose(f"{prefix}_{i}", values)
+            body.append(self.statement(nodes.MoveStmt(pose, _frames_ms(moves, period), None, NO_SPAN), key.source))
+            end_ms = track.keys[i + 1].at_ms if i + 1 < len(track.keys) else track.length_ms
+            if need_us > (end_ms - key.at_ms) * 1000:
+                self.warnings.append(
+                    f"{key.source}: its move needs {_decimal(need_us / 1000)} ms at the servos' speeds, longer than "
+                    f"the frame's {_decimal(end_ms - key.at_ms)} ms (the Maestro would change targets mid-move); "
+                    f"here the next frame starts when this move ends")
+            frame += moves
+            current.update(values)
+        wait_until(track.length_ms, f"until the end of {track.name}'s last frame")
+        return body
+
+    @staticmethod
+    def travel_us(channel, n0, n1: int, speeds) -> Fraction:
+        """How long (µs) a servo takes from N0 to N1: at its own top speed, and no faster than the
+        key's speed for it (0: no limit) or else the channel's; a servo with no position goes at once."""
+        if n0 is None:
+            return Fraction(0)
+        delta = abs(n1 - n0)
+        v = channel.speed_us_s if speeds is None else speeds.get(channel.index) or None
+        return max(delta * t_dav_us(channel), delta * DIV_US * Fraction(1_000_000) / v if v else Fraction(0))
 
     def sampled(self, track: Track, prefix: str, timing: Timing) -> list:
         channels = [c.index for c in self.kf.channels]
@@ -201,22 +249,24 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
     servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _speed(c) + _limit(c),
                               NO_SPAN) for c in kf.channels]
     sequences = []
+    homes = {c.index: w.n(c.home_us) for c in kf.channels if c.home_us is not None}
+    current = dict(homes)                   # where paced tracks find the servos: main plays them in order
     for track in kf.tracks:
         seq = identifier(track.name, "seq", w.taken)
-        body = w.sampled(track, seq, timing) if track.sampled else w.keyed(track, seq)
+        body = w.sampled(track, seq, timing) if track.sampled else \
+            w.paced(track, seq, timing, current) if track.paced else w.keyed(track, seq)
         sequences.append(nodes.SequenceDecl(_name(seq), tuple(body), NO_SPAN))
     items: list = []
-    homes = {c.index: w.n(c.home_us) for c in kf.channels if c.home_us is not None}
     if homes:
         home = w.pose("home", homes)
         items.append(nodes.SettingDecl(_name("home"), home, NO_SPAN))
-    if timing is not None and any(t.sampled for t in kf.tracks):
+    if timing is not None and any(t.sampled or t.paced for t in kf.tracks):
         items.append(nodes.FrameDecl(_ms(Fraction(timing.period_us, 1000)), NO_SPAN))
     main = tuple(nodes.PlayStmt(s.name, NO_SPAN) for s in sequences)
     items += servos + w.poses + sequences + [nodes.MainDecl(main, NO_SPAN, NO_SPAN)]
     header = [f"# {source_name}: imported by `servoc import` from {_FORMATS[kf.format]}",
               f"# {w.frames_in} source frames became {w.moves} moves"
-              + (f"; every source frame met within {w.deviation} N" if timing is not None else "")]
+              + (f"; every source frame met within {w.deviation} N" if any(t.sampled for t in kf.tracks) else "")]
     text = "\n".join(header) + "\n\n" + format_program(nodes.Program(tuple(items), NO_SPAN), w.comments)
     notes = tuple(kf.notes)
     if unused:
@@ -225,7 +275,7 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
     if w.off_grid:
         notes += (f"{w.off_grid} of {w.positions} positions were off the 8 µs grid and were rounded to the "
                   f"nearest N (500 us + 8 us x N)",)
-    return Imported(text, w.frames_in, w.moves, w.deviation, w.off_grid, w.positions, notes)
+    return Imported(text, w.frames_in, w.moves, w.deviation, w.off_grid, w.positions, notes, tuple(w.warnings))
 
 
 _FORMATS = {"maestro": "a Pololu Maestro Control Center settings file", "blender": "a Blender servo-animation export",
@@ -238,6 +288,17 @@ def _name(text: str) -> nodes.Name:
 
 def _ms(value: Fraction) -> nodes.Quantity:
     return nodes.Quantity(Fraction(value), "ms", NO_SPAN)
+
+
+def _frames_ms(frames: int, period_us: int) -> nodes.Quantity:
+    """A duration of exactly `frames` frames of `period_us`, in whole ms (a period is over 2 ms, so
+    the nearest ms is within half a frame of it and F = floor(DUR / P + 1/2) gives `frames`)."""
+    return _ms(Fraction(round_half_up(Fraction(frames * period_us, 1000))))
+
+
+def _decimal(value: Fraction) -> str:
+    """A number for a message: at most one decimal, never a raw fraction."""
+    return f"{float(value):.1f}".removesuffix(".0")
 
 
 def _width(n: int) -> nodes.Quantity:
