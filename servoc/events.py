@@ -12,8 +12,10 @@ One change per line, times from reset, `#` starts a comment:
 
 TIME is a number with `us`, `ms` or `s`; NAME an `input` of the program;
 then `active` or `inactive` (what the input means, whatever its `low` or
-`high`). Every input starts inactive. A line of bytes (one-character strings
-or integers 0..255, one or more) is what the host sends on the serial line:
+`high`). Every input starts inactive. A line of bytes (strings, integers
+0..255 or hex bytes 0x00..0xFF, one or more) is what the host sends on the
+serial line: a string is its characters' bytes, with the escapes \\r, \\n,
+\\t, \\0, \\\\, \\" and \\xHH, so a host command is one line (`3s "#0P1500T500\\r"`);
 the first byte's start bit begins at TIME, the others follow back to back;
 a byte arrives (its stop bit ends) one byte time (10 bits) after it starts.
 A line of bytes must not begin before the bytes before it are through; one that begins less
@@ -58,7 +60,25 @@ class ByteEvent:
     input = None        # not an input's change
 
 
-_BYTE = re.compile(r'"(.)"|0[xX]([0-9A-Fa-f]+)|(\d+)')
+_BYTE = re.compile(r'"((?:[^"\\]|\\.)*)"|0[xX]([0-9A-Fa-f]+)|(\d+)')
+_ESCAPE = re.compile(r'\\(x[0-9A-Fa-f]{2}|[rnt0\\"])|\\(.?)')
+_ESCAPES = {"r": "\r", "n": "\n", "t": "\t", "0": "\0", "\\": "\\", '"': '"'}
+
+
+def _string(text: str, number: int) -> bytes:
+    """The bytes of a quoted string's inside: ASCII characters and the escapes \\r \\n \\t \\0
+    \\\\ \\" and \\xHH (any byte)."""
+    def one(m: re.Match) -> str:
+        if m.group(1) is None:
+            raise EventsError(number, f"`\\{m.group(2)}` is not an escape: write \\r, \\n, \\t, \\0, "
+                                      f"\\\\, \\\" or \\xHH (e.g. \\x1b for ESC)")
+        code = m.group(1)
+        return chr(int(code[1:], 16)) if code[0] == "x" else _ESCAPES[code]
+    plain = _ESCAPE.sub("", text)
+    if not text or any(ord(c) > 127 for c in plain):
+        raise EventsError(number, f'`"{text}"` is not a string of ASCII characters: write a byte past 127 '
+                                  f"as \\xHH or a number")
+    return _ESCAPE.sub(one, text).encode("latin-1")
 
 
 def _bytes(rest: str, number: int) -> bytes:
@@ -68,21 +88,19 @@ def _bytes(rest: str, number: int) -> bytes:
     while pos < len(rest):
         m = _BYTE.match(rest, pos)
         token = rest[pos:].split()[0] if m is None or m.group(1) is None else m.group(0)
-        value = None if m is None else (ord(m.group(1)) if m.group(1) is not None else
-                                        int(m.group(2), 16) if m.group(2) is not None else int(m.group(3)))
-        if m is None or (m.end() < len(rest) and rest[m.end()] not in " \t") or value > 255:
-            raise EventsError(number, f"`{token}` is not a byte: write a one-character string such as \"w\", "
+        value = None if m is None or m.group(1) is not None else \
+            int(m.group(2), 16) if m.group(2) is not None else int(m.group(3))
+        if m is None or (m.end() < len(rest) and rest[m.end()] not in " \t") or (value or 0) > 255:
+            raise EventsError(number, f"`{token}` is not a byte: write a string such as \"w\" or \"#0P1500T500\\r\", "
                                       f"an integer 0..255 or a hex byte 0x00..0xFF")
-        if m.group(1) is not None and value > 127:
-            raise EventsError(number, f"`{m.group(0)}` is not one ASCII character: write its byte as a number")
-        out.append(value)
+        out += _string(m.group(1), number) if m.group(1) is not None else bytes([value])
         pos = m.end()
         while pos < len(rest) and rest[pos] in " \t":
             pos += 1
     return bytes(out)
 
 
-_COMMENT = re.compile(r'("[^"]*")|#.*')     # a `#` starts a comment, except inside a byte's quotes
+_COMMENT = re.compile(r'("(?:[^"\\]|\\.)*")|#.*')     # a `#` starts a comment, except inside a string
 _TIME = re.compile(r"^\s*([0-9]+(?:\.[0-9]+)?)\s*(us|ms|s)\s+(.*)$")
 
 

@@ -216,9 +216,16 @@ def test_sends_that_outrun_the_line_are_refused(tmp_path, capsys):
 def test_events_file_bytes():
     evs = events.parse('# the host\n1.5ms 0 255 "w"\n1s "#" 35 # two hashes\n', (), True)
     assert [(e.time_us, e.data) for e in evs] == [(1500, bytes([0, 255, 119])), (1_000_000, b"##")]
-    for bad in ('1s 256\n', '1s "ab"\n', '1s "w" x\n', '1s "\u20ac"\n'):
+    for bad in ('1s 256\n', '1s ""\n', '1s "w" x\n', '1s "\u20ac"\n', '1s "\\q"\n', '1s "\\x1"\n', '1s "ab\n'):
         with pytest.raises(events.EventsError):
             events.parse(bad, (), True)
+
+
+def test_events_file_strings_carry_whole_host_commands():
+    """A host command is one line: a string's characters with the escapes \\r \\n \\t \\0 \\\\ \\" \\xHH;
+    a `#` inside a string is no comment."""
+    evs = events.parse('2s "#0P1500T500\\r"   # a move\n3s "\\x1bQ\\n" 0x1B\n4s "a\\"b\\\\"\n', (), True)
+    assert [e.data for e in evs] == [b"#0P1500T500\r", b"\x1bQ\n\x1b", b'a"b\\']
 
 
 def test_send_runs_and_gaps_are_counted():
