@@ -430,16 +430,17 @@ def read_motion(path: str, fmt: str | None = None, options=None):
         raise UsageError(f"{path}: nested too deeply to be a {fmt} file") from None
 
 
-def import_pins(kf, given: dict) -> tuple[dict, tuple]:
+def import_pins(kf, given: dict, path: str | None = None) -> tuple[dict, tuple]:
     """Each channel's pin: `given` (--pins CH=PIN) first, then the spec's rule (0-7 on P1, 8-15 on
     P2, 16-23 on P0); a channel past 23 takes the first free pin in that order (a note says so).
-    Returns (channel -> pin text, notes). Raises UsageError when no pin is left or two channels
-    would share one."""
+    Returns (channel -> pin text, notes). Raises UsageError, naming `path` (the file imported) when
+    given, when no pin is left or two channels would share one."""
     from .imports.write import default_pin
+    where = f"{path}: " if path else ""
     channels = [c.index for c in kf.channels]
     unknown = sorted(set(given) - set(channels))
     if unknown:
-        raise UsageError(f"--pins names channel {unknown[0]}, which the file does not have "
+        raise UsageError(f"{where}--pins names channel {unknown[0]}, which the file does not have "
                          f"(it has {', '.join(map(str, channels)) or 'none'})")
     pins, notes = {}, []
     for ch in channels:
@@ -448,13 +449,14 @@ def import_pins(kf, given: dict) -> tuple[dict, tuple]:
     for pin in set(used):
         if used.count(pin) > 1:
             both = [str(ch) for ch, p in pins.items() if p == pin]
-            raise UsageError(f"channels {' and '.join(both[:2])} would both be on {pin}: map one elsewhere with "
+            raise UsageError(f"{where}channels {' and '.join(both[:2])} would both be on {pin}: map one elsewhere with "
                              f"--pins {both[-1]}=PIN")
     free = [default_pin(i) for i in range(24) if default_pin(i) not in used]
     for ch in channels:
         if pins[ch] is None:
             if not free:
-                raise UsageError(f"channel {ch}: all 24 pins are taken; an 8051 has pins for 24 servos")
+                raise UsageError(f"{where}channel {ch}: all 24 pins are taken; an 8051 has pins for 24 servos "
+                                 f"and the file has {len(channels)} channels")
             pins[ch] = free.pop(0)
             notes.append(f"channel {ch} is past 23: it is on {pins[ch]} (map it with --pins {ch}=PIN)")
     return pins, tuple(notes)
@@ -471,7 +473,10 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
     fmt, kf = read_motion(path, fmt, options)
     if not kf.channels:
         raise UsageError(f"{path}: the file has no servo channels to import")
-    pin_of, notes = import_pins(kf, pins or {})
+    pin_of, notes = import_pins(kf, pins or {}, path)
+    if options is not None and options.ticks_hz is not None and fmt in ("maestro", "bottango"):
+        notes += (f"--ticks ignored: a {'Maestro settings file' if fmt == 'maestro' else 'Bottango export'} "
+                  f"gives its widths in {'quarter µs' if fmt == 'maestro' else 'µs'}",)
     timing, exact = None, None
     if any(t.sampled for t in kf.tracks):
         floor_us = _default_period_on(sorted(set(pin_of.values())))

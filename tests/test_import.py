@@ -109,7 +109,7 @@ def test_home_and_limits_come_from_the_channels():
     imp = W.write(keyed(Key(Fraction(500), {0: 1200, 1: 1500}, "r"), channels=chans), {0: "P1.0", 1: "P1.1"},
                   None, "x.csv")
     assert "home home\n" in imp.text and "pose home { a: 1500us }" in imp.text
-    assert "servo a = P1.0 limit 996us..2004us" in imp.text
+    assert "servo a = P1.0 limit 996us..1996us" in imp.text          # rounded inward: never past 992..2000 µs
     fe, rep = front(imp.text)
     assert fe.plan is not None and not rep.has_errors
 

@@ -18,7 +18,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from servoc.imports import blender
-from servoc.imports.keyframes import MAX_FRAMES, Channel, ImportError_, Key, ReadOptions, Track, ticks_to_us
+from servoc.imports.keyframes import MAX_FRAMES, Channel, ImportError_, Key, ReadOptions, Track, ticks_to_us, unit_note
 
 FIXTURES = os.path.join(os.path.dirname(__file__), "fixtures", "import", "blender")
 FPS = 30
@@ -116,7 +116,7 @@ def test_the_three_exports_give_identical_keyframes():
         assert kf.format == "blender"
         assert kf.channels == tuple(Channel(index=i, name=f"servo_{i}") for i in IDS)
         assert kf.tracks == (expected_track(),)
-        assert kf.notes == ()
+        assert kf.notes == (unit_note(None),)       # which unit the positions were read in
     assert kf_json == kf_h == kf_bin
 
 
@@ -146,12 +146,17 @@ def test_a_servo_twice_in_a_frame_ends_at_the_last():
     assert [k.targets for k in keys] == [{0: 1500}, {0: 1600}]
 
 
-def test_the_old_per_servo_json_is_refused_clearly():
+def test_add_on_1x_counts_need_ticks_and_say_so():
+    """1.4's JSON (servos by id) in the add-on's default range 150..600: neither degrees nor µs."""
     old = {"description": "Blender Servo Animation Positions", "fps": 30, "frames": 2, "armature": "Armature",
            "servos": {"0": {"name": "Neck", "positions": [375, 376]}}}
-    assert blender.sniff(json.dumps(old).encode(), "old.json")     # it is theirs: say why it is not read
-    with pytest.raises(ImportError_, match=r"^old\.json: the add-on 1\.x JSON layout .* export it again"):
+    assert blender.sniff(json.dumps(old).encode(), "old.json")
+    with pytest.raises(ImportError_, match=r"^old\.json: Neck: positions 375\.\.376 of an add-on 1\.x export are "
+                                           r"neither degrees .*--ticks HZ.* export the animation again with add-on 2\.x"):
         read(json.dumps(old).encode(), "old.json")
+    kf = read(json.dumps(old).encode(), "old.json", ticks_hz=Fraction(50))
+    assert kf.channels == (Channel(0, "Neck"),)
+    assert [k.targets for k in kf.tracks[0].keys] == [{0: ticks_to_us(375, 50)}, {0: ticks_to_us(376, 50)}]
 
 
 def test_full_frames_read_the_same_as_skipped_ones():
@@ -204,7 +209,7 @@ def test_ticks_are_converted_to_microseconds():
 def test_small_positions_give_a_note_unless_ticks():
     data = export_bin(frames_of([(150, 375, 450)]))
     assert any("--ticks" in n for n in read(data, "t.bin", fps=Fraction(FPS)).notes)
-    assert read(data, "t.bin", fps=Fraction(FPS), ticks_hz=Fraction(50)).notes == ()
+    assert read(data, "t.bin", fps=Fraction(FPS), ticks_hz=Fraction(50)).notes == (unit_note(Fraction(50)),)
 
 
 def test_ticks_above_4095_are_an_error():
@@ -257,7 +262,7 @@ def json_with(**changes) -> bytes:
     (json_with(fps=-30), r"fps must be more than 0"),
     (json_with(frames=21), r"\"frames\" is 21 but \"positions\" has 20 frames"),
     (json_with(frames="20"), r"\"frames\" must be a whole number"),
-    (json_with(positions={"0": [1500]}), r"\"positions\" must be a list"),
+    (json_with(positions="1500"), r"\"positions\" must be a list"),
     (json_with(positions=[[1500]], frames=1), r"\"positions\" must be a list with one object per frame"),
     (json_with(positions=[{"0": "1500"}], frames=1), r"frame 0: position of servo 0 must be a whole number"),
     (json_with(positions=[{"0": 1500}, {"0": 1500.5}], frames=2), r"frame 1: position of servo 0"),

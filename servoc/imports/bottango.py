@@ -8,7 +8,9 @@ ending in `\\n` in C string literals, those of one stream joined in file order (
 straddle two). A file without such literals is read as bare command lines, one animation.
 
 Output: one `Channel` per `rSVPin,pin,minUs,maxUs,maxUsPerSec,startUs` (index = pin, name
-`pin_N`, home = start µs; curves name the servo by its pin) and one sampled `Track` per
+`pin_N`, home = start µs, `speed_us_s` = maxUsPerSec, the servo's top speed in µs of width a
+second, which the writer declares as the servo's `speed` where it is slower than the default
+servo; 0 says no speed; curves name the servo by its pin) and one sampled `Track` per
 animation, in file order: `curve(t_ms)` -> {pin: µs as Fraction}, `length_ms` = the end of its
 last curve.
 
@@ -20,13 +22,18 @@ Rules:
 - `sCI,id,y` (instant) sets y at the start of the last curve read before it.
 - A later-starting curve replaces an earlier one; between curves a servo holds the end of its
   last curve, before its first curve in a track its start µs.
-- Not imported (said in a note): loop streams (the move back to the start when looping), curves
-  in the setup stream, other effectors (`rSVI2C`, steppers, events, motors, audio) and their
-  curves. Skipped: `xE xC xUE xUC STOP tSYN upE sycM sCO sCT sCC sCCI`. `sSY` bundles are
-  unpacked, a trailing `,hNNN` hash dropped.
+- Not imported (one note names the commands): loop streams (the move back to the start when
+  looping), curves in the setup stream, and the commands for other kinds of actuators: every
+  register command but `rSVPin` (`rSVI2C` servos on an I2C board, steppers, events, `rMTR`
+  custom motors, `rAud`, `rCtrl` relay controllers, and any newer `r...` register command),
+  `sR` (a command passed on to a relay controller), and the curves of those effectors.
+  Skipped: `xE xC xUE xUC STOP tSYN upE sycM sCO sCT sCC sCCI`, and the driver's settings and
+  links (`sCfg xUCtrl xCtrl rBOOT sBOOT rMAC ota hRQ hMOD OK`). `sSY` bundles are unpacked, a
+  trailing `,hNNN` hash dropped.
 - `ImportError_` naming file, line and command: a truncated command, a non-numeric field,
-  min = max, a negative start or duration, a curve for an unknown servo, a servo registered
-  twice, an unknown command; and no `rSVPin`, no animation.
+  min = max, a negative speed, start or duration, a curve for an unknown servo, a servo
+  registered twice, an unknown command (one that is not a register command); and an export
+  with no servo (no `rSVPin`: the error names the other actuators it registers), no animation.
 """
 
 from __future__ import annotations
@@ -36,7 +43,7 @@ import os
 import re
 from fractions import Fraction
 
-from .keyframes import Channel, ImportError_, Keyframes, ReadOptions, Track
+from .keyframes import Channel, ImportError_, Keyframes, ReadOptions, Track, as_utf8
 
 SIGNAL_MAX = 8192                    # COMPRESSED_SIGNAL_MAX: y of a curve runs 0..8192 over min..max µs
 
@@ -44,14 +51,16 @@ _LITERAL = r'"(?:[^"\\\n]|\\.)*"'
 _DECL = re.compile(r'\bconst\s+char\s+(\w+)\s*\[\s*\]\s*(?:PROGMEM\s*)?=\s*((?:' + _LITERAL + r'\s*)+);')
 _SNIFF = re.compile(r'(?:^|[\s"]|\\n)(?:rSVPin,\d|sC,[^,\s"]+,\d)')
 _ESCAPES = {"n": "\n", "t": "\t", "r": "\r", "0": "\0"}
-_OTHER_EFFECTORS = {"rSVI2C", "rSTPin", "rSTDir", "rECC", "rECOnOff", "rECTrig", "rECColor", "rMTR", "rAud"}
-_SKIPPED = {"xE", "xC", "xUE", "xUC", "STOP", "tSYN", "upE", "sycM", "sCO", "sCT", "sCC", "sCCI"}
+_SKIPPED = {"xE", "xC", "xUE", "xUC", "STOP", "tSYN", "upE", "sycM", "sCO", "sCT", "sCC", "sCCI",
+            "sCfg", "xUCtrl", "xCtrl", "rBOOT", "sBOOT", "rMAC", "ota", "hRQ", "hMOD", "OK"}
+_REGISTER = re.compile(r"r[A-Z][A-Za-z0-9]*")      # rSVPin, rSVI2C, rMTR, rCtrl, ...: register an actuator
+_RELAY = "sR"                                      # sR,controller,command...: passed on to a relay controller
 
 
 def sniff(data: bytes, path: str) -> bool:
     """True when `data` holds Bottango commands (`rSVPin,...` or `sC,...`) as Bottango writes them."""
     try:
-        text = data[:1 << 20].decode("utf-8", "replace")
+        text = data[:1 << 20].decode("utf-8-sig", "replace")
         return text.lstrip()[:1] not in ("{", "[", "<") and _SNIFF.search(text) is not None
     except Exception:
         return False
@@ -141,10 +150,18 @@ def _cut_short(text: str, path: str) -> None:
                                "end: the file is cut short (export it again)")
 
 
+def _no_servo(path: str, others) -> ImportError_:
+    kinds = sorted(set(others))
+    return ImportError_(f"{path}: no servo: the export registers no pin servo (no rSVPin command)"
+                        + (f", only other kinds of actuators ({', '.join(kinds)})" if kinds else "")
+                        + "; servoc imports pin servos: give the servos pins in Bottango and export again")
+
+
 def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
-    text = data.decode("utf-8", "replace")
+    text = as_utf8(data, path).decode("utf-8-sig", "replace")     # as_utf8: the same whether or not converted
     if "rSVPin," not in text:
-        raise ImportError_(f"{path}: no rSVPin command: this file registers no pin servo")
+        raise _no_servo(path, [m for m in re.findall(r'(?:^|[\s",;]|\\n)(r[A-Z][A-Za-z0-9]*),', text)
+                               if m not in _SKIPPED])
     _cut_short(text, path)
     setup, animations = _streams(text, os.path.splitext(os.path.basename(path))[0])
     for name, main, loop in ([("setup", setup, [])] if setup else []) + animations:
@@ -155,6 +172,7 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
                 raise ImportError_(f"{path}: the {name} stream ends in the middle of a command ({last[:40]!r}): "
                                    "the file is cut short (export it again)")
     servos, others, in_setup = {}, set(), []        # servos: identifier (the pin as text) -> Channel
+    left_out, dropped = {}, [0]                     # other actuators' commands: name -> count; their curves
     signal = {}                                     # identifier -> (µs at y = 0, µs at y = 8192)
 
     def fail(line, command, problem):
@@ -187,9 +205,11 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
                     parts[i] = (prefix + part.removeprefix(prefix) + "\n", line, False)
                 run(parts, curves)
             elif name == "rSVPin":
-                pin, lo, hi, _, start = ints(line, command, fields, 6)
+                pin, lo, hi, speed, start = ints(line, command, fields, 6)
                 if pin < 0:
                     fail(line, command, "negative pin")
+                if speed < 0:
+                    fail(line, command, f"negative maximum speed ({speed} µs a second)")
                 if lo == hi:
                     fail(line, command, f"min and max are both {lo} µs")
                 if str(pin) in servos:
@@ -197,14 +217,20 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
                 # min > max is a servo set up inverted (y = 0 at min): the limits are stored sorted, the
                 # direction in `signal`
                 servos[str(pin)] = Channel(pin, f"pin_{pin}", Fraction(min(lo, hi)), Fraction(max(lo, hi)),
-                                           Fraction(start))
+                                           Fraction(start), Fraction(speed) if speed else None)
                 signal[str(pin)] = (Fraction(lo), Fraction(hi))
-            elif name in _OTHER_EFFECTORS:
+            elif name == _RELAY or (_REGISTER.fullmatch(name) and name not in _SKIPPED):
                 if len(fields) < 2 + (name == "rSVI2C"):
                     fail(line, command, f"truncated: {name} without an identifier")
-                others.add(ident + fields[2] if name == "rSVI2C" else ident)     # I2C: address and pin
-            elif name in ("sC", "sCI") and ident not in others:
+                left_out[name] = left_out.get(name, 0) + 1
+                if name != _RELAY:
+                    others.add(ident + fields[2] if name == "rSVI2C" else ident)     # I2C: address and pin
+            elif name in ("sC", "sCI") and ident in others and ident not in servos:
+                dropped[0] += 1
+            elif name in ("sC", "sCI"):
                 values = ints(line, command, fields, 10 if name == "sC" else 3, first=2)
+                if not servos:
+                    raise _no_servo(path, left_out)
                 if ident not in servos:
                     fail(line, command, f"curve for servo {ident!r}, which no rSVPin registers")
                 if curves is None:
@@ -216,21 +242,27 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
                     fail(line, command, "negative " + ("start time" if values[0] < 0 else "duration"))
                 else:
                     curves.append((ident, len(curves), *values))
-            elif name not in _SKIPPED and name not in ("sC", "sCI"):
+            elif name not in _SKIPPED:
                 fail(line, command, f"unknown command {name!r}")
 
     run(setup, None)
+    if setup and not servos:
+        raise _no_servo(path, left_out)
     runs = [(name, []) for name, _, _ in animations]
     for (_, main, _), (_, curves) in zip(animations, runs):
         run(main, curves)
+    if not servos:
+        raise _no_servo(path, left_out)
     if not runs:
         raise ImportError_(f"{path}: no animation (no ANIM_n_DATAk or STREAM_..._CHAR_STREAM strings)")
     loops = [name for name, _, loop in animations if any(True for _ in _commands(loop))]
     notes = []
     if loops:
         notes.append(f"Not imported: the loop streams of {', '.join(loops)} (the move back to the start when looping).")
-    if others:
-        notes.append(f"Not imported: effectors other than pin servos ({', '.join(sorted(others))}).")
+    if left_out:
+        commands = ", ".join(f"{name} x{count}" if count > 1 else name for name, count in sorted(left_out.items()))
+        curves = f", and {dropped[0]} curve{'s' * (dropped[0] != 1)} of theirs" if dropped[0] else ""
+        notes.append(f"Not imported: the commands for actuators other than pin servos ({commands}){curves}.")
     if in_setup:
         notes.append(f"Not imported: {len(in_setup)} curves in the setup stream.")
     channels = tuple(sorted(servos.values(), key=lambda c: c.index))

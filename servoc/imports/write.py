@@ -18,7 +18,9 @@ naming its source) and the import's figures.
   the exact source value at every sample between: the firmware's rounding of
   that line adds at most 1/2 more, so every sample is met within 1 N. Each
   servo keeps the interval of slopes that passes all the samples so far, so
-  the fit is one pass over the samples (linear in frames x servos).
+  the fit is one pass over the samples (linear in frames x servos). The 1/2
+  N is inclusive (and a float's error more): a servo held at a value halfway
+  between two N (1200 µs, N 87.5, written 88) may stay put along a run.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ from ..units import BASE_US, DAV_DEG, DEFAULT_T_DAV_US, DIV_US, N_MAX, n_to_widt
 from .keyframes import ImportError_, Keyframes, Track, check_frames, identifier
 
 MAX_MOVE_FRAMES = 65535        # the firmware's frame counters are 16 bits
-_SLACK = 0.5 - 1e-9            # 1/2 N, less a float's error
+_SLACK = 0.5 + 1e-9            # 1/2 N and a float's error: a tie (1200 us is N 87.5, written 88) may stay put
 
 
 def default_pin(channel: int) -> str | None:
@@ -245,6 +247,7 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
             {ch for key in track.keys for ch in key.targets}
     unused = [c for c in kf.channels if c.index not in used]
     kf = dataclasses.replace(kf, channels=tuple(c for c in kf.channels if c.index in used))
+    kf, edged = _inside_limits(kf)
     w = _Writer(kf, pins)
     servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _speed(c) + _limit(c),
                               NO_SPAN) for c in kf.channels]
@@ -275,6 +278,10 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
     if w.off_grid:
         notes += (f"{w.off_grid} of {w.positions} positions were off the 8 µs grid and were rounded to the "
                   f"nearest N (500 us + 8 us x N)",)
+    if edged[0]:
+        notes += (f"{edged[0]} position{'s' * (edged[0] != 1)} at the edge of a channel's range "
+                  f"{'were' if edged[0] != 1 else 'was'} set to the edge of its limit, which is the range rounded "
+                  f"inward to the 8 µs grid (so that no servo is driven past the range)",)
     return Imported(text, w.frames_in, w.moves, w.deviation, w.off_grid, w.positions, notes, tuple(w.warnings))
 
 
@@ -322,11 +329,52 @@ def _speed(channel) -> tuple:
                               NO_SPAN),)
 
 
-def _limit(channel) -> tuple:
+def _limit_n(channel) -> tuple | None:
+    """A channel's min..max µs as N, rounded inward to the 8 µs grid (min up, max down), so that the
+    limit never lets the servo past the source's range; None without a range or when it holds no N."""
     if channel.min_us is None or channel.max_us is None:
+        return None
+    lo = min(max(math.ceil((Fraction(channel.min_us) - BASE_US) / DIV_US), 0), N_MAX)
+    hi = min(max(math.floor((Fraction(channel.max_us) - BASE_US) / DIV_US), 0), N_MAX)
+    return (lo, hi) if lo <= hi else None
+
+
+def _limit(channel) -> tuple:
+    bounds = _limit_n(channel)
+    if bounds is None:
         return ()
-    lo = min(max(width_to_n(channel.min_us), 0), N_MAX)
-    hi = min(max(width_to_n(channel.max_us), 0), N_MAX)
-    if lo > hi:
-        return ()
-    return (nodes.LimitOption(_width(lo), _width(hi), NO_SPAN),)
+    return (nodes.LimitOption(_width(bounds[0]), _width(bounds[1]), NO_SPAN),)
+
+
+def _inside_limits(kf: Keyframes) -> tuple:
+    """`kf` with its positions kept inside the channels' limits (`_limit_n`, rounded inward): a
+    position within a channel's min..max whose N (rounded half up) falls past the limit, at most
+    1 N, is set to the limit's edge. Positions outside min..max are left for the checker to flag.
+    Returns (Keyframes, [count of positions moved]); a curve's are counted as it is sampled."""
+    channels = {c.index: c for c in kf.channels}
+    edges = {ch: b for ch, c in channels.items() if (b := _limit_n(c)) is not None}
+    moved = [0]
+    if not edges:
+        return kf, moved
+
+    def inside(ch, width):
+        bounds, c = edges.get(ch), channels.get(ch)
+        if bounds is None or width is None or not c.min_us <= width <= c.max_us:
+            return width
+        n = width_to_n(width)
+        if bounds[0] <= n <= bounds[1]:
+            return width
+        moved[0] += 1
+        return Fraction(n_to_width_us(min(max(n, bounds[0]), bounds[1])))
+
+    def targets(values: dict) -> dict:
+        return {ch: inside(ch, w) for ch, w in values.items()}
+
+    def kept(curve):
+        return None if curve is None else (lambda t: targets(curve(t)))
+
+    tracks = tuple(dataclasses.replace(t, curve=kept(t.curve),
+                                       keys=tuple(dataclasses.replace(k, targets=targets(k.targets)) for k in t.keys))
+                   for t in kf.tracks)
+    chans = tuple(dataclasses.replace(c, home_us=inside(c.index, c.home_us)) for c in kf.channels)
+    return dataclasses.replace(kf, channels=chans, tracks=tracks), moved
