@@ -34,7 +34,7 @@ from .. import nodes
 from ..printer import format_program
 from ..source import NO_SPAN
 from ..units import BASE_US, DAV_DEG, DEFAULT_T_DAV_US, DIV_US, N_MAX, n_to_width_us, round_half_up, width_on_grid, width_to_n
-from .keyframes import ImportError_, Keyframes, Track, check_frames, identifier
+from .keyframes import ImportError_, Keyframes, Track, check_frames, decimal, identifier
 
 MAX_MOVE_FRAMES = 65535        # the firmware's frame counters are 16 bits
 _SLACK = 0.5 + 1e-9            # 1/2 N and a float's error: a tie (1200 us is N 87.5, written 88) may stay put
@@ -153,8 +153,8 @@ class _Writer:
             end_ms = track.keys[i + 1].at_ms if i + 1 < len(track.keys) else track.length_ms
             if need_us > (end_ms - key.at_ms) * 1000:
                 self.warnings.append(
-                    f"{key.source}: its move needs {_decimal(need_us / 1000)} ms at the servos' speeds, longer than "
-                    f"the frame's {_decimal(end_ms - key.at_ms)} ms (the Maestro would change targets mid-move); "
+                    f"{key.source}: its move needs {decimal(need_us / 1000, 1)} ms at the servos' speeds, longer than "
+                    f"the frame's {decimal(end_ms - key.at_ms, 1)} ms (the Maestro would change targets mid-move); "
                     f"here the next frame starts when this move ends")
             frame += moves
             current.update(values)
@@ -301,11 +301,6 @@ def _frames_ms(frames: int, period_us: int) -> nodes.Quantity:
     """A duration of exactly `frames` frames of `period_us`, in whole ms (a period is over 2 ms, so
     the nearest ms is within half a frame of it and F = floor(DUR / P + 1/2) gives `frames`)."""
     return _ms(Fraction(round_half_up(Fraction(frames * period_us, 1000))))
-
-
-def _decimal(value: Fraction) -> str:
-    """A number for a message: at most one decimal, never a raw fraction."""
-    return f"{float(value):.1f}".removesuffix(".0")
 
 
 def _width(n: int) -> nodes.Quantity:
