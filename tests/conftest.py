@@ -135,3 +135,25 @@ def servo_decls(pins: list[tuple[int, int]], prefix: str = "s", options: str = "
 
 def pose(name: str, values: dict[str, int]) -> str:
     return f"pose {name} {{ " + ", ".join(f"{k}: {v}" for k, v in values.items()) + " }\n"
+
+
+def damaged(data: bytes, rnd, splices: tuple = ()) -> bytes:
+    """`data` damaged 1-4 times at random places, as files get: a byte flipped, bytes cut or inserted,
+    the rest cut off, or (when `splices` are given) one of them put in. Never empty."""
+    data = bytearray(data)
+    for _ in range(rnd.randint(1, 4)):
+        i = rnd.randrange(len(data))
+        action = rnd.choice(["flip", "cut", "insert", "truncate"] + (["splice"] if splices else []))
+        if action == "flip":
+            data[i] = rnd.randrange(256)
+        elif action == "cut":
+            del data[i:i + rnd.randint(1, 6)]
+        elif action == "insert":
+            data[i:i] = bytes(rnd.randrange(256) for _ in range(rnd.randint(1, 6)))
+        elif action == "splice":
+            data[i:i] = rnd.choice(splices)
+        else:
+            del data[i:]
+        if not data:
+            data = bytearray(b"\n")
+    return bytes(data)

@@ -15,6 +15,7 @@ import time
 from fractions import Fraction
 
 import pytest
+from conftest import damaged
 from hypothesis import given, settings, strategies as st
 
 from servoc.imports import blender
@@ -363,22 +364,9 @@ def test_sniff_never_raises(data, path):
 @settings(max_examples=300, deadline=None)
 @given(st.sampled_from(["anim.json", "anim.h", "anim.bin"]), st.randoms(use_true_random=False))
 def test_damaged_files_give_keyframes_or_an_import_error(name, rnd):
-    data = bytearray(fixture(name))
-    for _ in range(rnd.randint(1, 4)):
-        i = rnd.randrange(len(data))
-        action = rnd.choice(["flip", "cut", "insert", "truncate"])
-        if action == "flip":
-            data[i] = rnd.randrange(256)
-        elif action == "cut":
-            del data[i:i + rnd.randint(1, 6)]
-        elif action == "insert":
-            data[i:i] = bytes(rnd.randrange(256) for _ in range(rnd.randint(1, 6)))
-        else:
-            del data[i:]
-        if not data:
-            data = bytearray(b"\n")
+    data = damaged(fixture(name), rnd)
     try:
-        kf = read(bytes(data), name, fps=Fraction(FPS))
+        kf = read(data, name, fps=Fraction(FPS))
     except ImportError_ as e:
         assert str(e).startswith(name)
     else:

@@ -18,6 +18,7 @@ import re
 from fractions import Fraction
 
 import pytest
+from conftest import damaged
 
 from servoc import api, cli
 from servoc.imports import blender, bottango, csvfile
@@ -434,25 +435,10 @@ V1_FILES = {"head.h": v1_header({3: ("Neck", DEGREES), 7: ("Jaw", MICROS)}, vari
 @settings(max_examples=400, deadline=None)
 @given(st.sampled_from(sorted(V1_FILES)), st.randoms(use_true_random=False), st.sampled_from([None, Fraction(50)]))
 def test_damaged_new_inputs_give_keyframes_or_an_import_error(name, rnd, ticks):
-    data = bytearray(V1_FILES[name])
-    for _ in range(rnd.randint(1, 4)):
-        i = rnd.randrange(len(data))
-        action = rnd.choice(["flip", "cut", "insert", "truncate", "digit"])
-        if action == "flip":
-            data[i] = rnd.randrange(256)
-        elif action == "cut":
-            del data[i:i + rnd.randint(1, 6)]
-        elif action == "insert":
-            data[i:i] = bytes(rnd.randrange(256) for _ in range(rnd.randint(1, 6)))
-        elif action == "digit":
-            data[i:i] = rnd.choice([b"9", b"-", b".", b"e9", b"1e99", b"\"", b",", b"}", b"]"])
-        else:
-            del data[i:]
-        if not data:
-            data = bytearray(b"\n")
+    data = damaged(V1_FILES[name], rnd, (b"9", b"-", b".", b"e9", b"1e99", b"\"", b",", b"}", b"]"))
     reader = bottango if name.endswith(".cpp") else blender
     try:
-        kf = reader.read(bytes(data), name, ReadOptions(fps=Fraction(30), ticks_hz=ticks))
+        kf = reader.read(data, name, ReadOptions(fps=Fraction(30), ticks_hz=ticks))
     except ImportError_ as e:
         assert str(e).startswith(name)
     else:
