@@ -1,4 +1,4 @@
-"""The `servoc` command line: lint, plan, compile, verify.
+"""The `servoc` command line: lint, plan, compile, verify, sim (servoc/simlink.py), flash, import.
 
 Exit status: 0 success (warnings allowed), 1 errors in the program or a
 failed verification, 2 usage errors and missing tools. Never a traceback.
@@ -23,6 +23,7 @@ import io
 import json
 import os
 import re
+import shutil
 import sys
 from fractions import Fraction
 
@@ -45,6 +46,9 @@ examples:
   servoc verify examples/biped.servo          run the firmware in ucsim, check every pulse
   servoc verify examples/hexapod_serial.servo --events examples/events/hexapod_serial.events
                                               the same with timed button presses and host bytes
+  servoc sim examples/hexapod_serial.servo --link /tmp/hexapod
+                                              run it in ucsim, its serial line on a pseudo-terminal that a
+                                              host program opens like /dev/ttyUSB0 (here also as /tmp/hexapod)
   servoc flash prog.servo --port /dev/ttyUSB0 compile and write it to an STC89 board (needs servoc[flash]);
                                               for an AT89 chip, print the programmer's command
   servoc import walk.json -o walk.servo       a program from a Blender servo-animation export (also Maestro
@@ -64,7 +68,7 @@ environment:
 """
 
 
-COMMANDS = ("init", "lint", "plan", "compile", "verify", "flash", "import", "lsp")
+COMMANDS = ("init", "lint", "plan", "compile", "verify", "sim", "flash", "import", "lsp")
 LSP_MISSING = "the language server needs pygls: pip install 'servoc[lsp]'"
 
 
@@ -140,6 +144,23 @@ def build_parser() -> argparse.ArgumentParser:
                    help="frames to check from the first pulse (default: the whole program and 20 more; for a "
                         "program that loops forever, up to its loop and two passes of it, at least 400; with "
                         "--events, on until the last event's branch has ended; at most 60 s of simulated time)")
+    help_ = ("run the firmware in ucsim with its serial line on a pseudo-terminal, which any host program "
+             "opens as it would /dev/ttyUSB0 (the program needs `serial`)")
+    p = sub.add_parser("sim", help=help_, epilog=SIM_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
+                       description=_wrap(help_ + ". It prints the pseudo-terminal's path and the baud rate, and every few "
+                       "seconds how fast the simulation runs against real time; it runs until Ctrl-C (or SIGTERM), "
+                       "or for --seconds of simulated time, then exits 0 and removes what it made."))
+    p.add_argument("file", metavar="FILE.servo", help="the program; it must declare `serial BAUD`")
+    p.add_argument("--link", metavar="PATH", help="also make PATH a symlink to the pseudo-terminal, a fixed name "
+                   "for the host's configuration (e.g. /tmp/ttyROBOT); removed at exit")
+    p.add_argument("--seconds", metavar="S", help="stop after S seconds of simulated time (default: run until "
+                   "Ctrl-C or SIGTERM)")
+    p.add_argument("--events", metavar="EVENTS", help="also drive the inputs, and send bytes, at these simulated "
+                   "times: the file `servoc verify --events` reads (times from reset)")
+    p.add_argument("--view", action="store_true", help="print each servo's pulse width in µs as the firmware "
+                   "puts it out, one line per frame shown (about 10 per simulated second; slows ucsim by up to 25 %%)")
+    p.add_argument("--view-every", type=int, metavar="N", help="with --view: one line every N frames")
+    size(p)
     p = add("flash", "compile and write to an STC89 board (needs servoc[flash]), or print an AT89's "
                      "programmer command")
     p.add_argument("--port", metavar="PORT", help="the STC89 board's serial port, e.g. /dev/ttyUSB0 or COM3 "
@@ -164,6 +185,25 @@ def build_parser() -> argparse.ArgumentParser:
     help_ = "run the language server on stdin/stdout, for editors (needs servoc[lsp])"
     sub.add_parser("lsp", help=help_, description=help_)
     return parser
+
+
+SIM_EPILOG = """\
+example:
+  servoc sim examples/hexapod_serial.servo --link /tmp/hexapod
+      serial: /dev/pts/7
+      link: /tmp/hexapod -> /dev/pts/7
+      baud: 4800, 8 data bits, no parity, 1 stop bit (Timer1 makes 4807.7)
+      ...
+  then, in another terminal: python examples/host.py /tmp/hexapod w s l
+
+The host may set any rate on the pseudo-terminal: bytes reach the firmware at its own rate, in
+simulated time. Events files: docs/language.md, "servoc verify --events".
+"""
+
+
+def _wrap(text: str) -> str:
+    import textwrap
+    return textwrap.fill(text, width=min(100, shutil.get_terminal_size().columns - 2))
 
 
 class _Run:
@@ -304,6 +344,8 @@ def _main(argv: list[str], run: _Run) -> int:
         return _flash(args, run, source, fe.plan, firmware)
     if args.command == "compile":
         return _compile(args, run, source, fe.plan, firmware)
+    if args.command == "sim":
+        return _sim(args, run, source, fe.plan, firmware)
     return _verify(args, run, source, fe.plan, hex_text or firmware.hex_text, firmware)
 
 
@@ -311,6 +353,8 @@ def _check_options(args) -> None:
     """Option values argparse cannot check: usage errors before any work."""
     if getattr(args, "frames", None) is not None and args.frames < 1:
         raise _Stop("--frames must be at least 1")
+    if args.command == "sim":
+        _check_sim_options(args)
     if args.command == "flash":
         from .flash import BAUDS
         if args.baud is not None and args.baud not in BAUDS:
@@ -334,7 +378,7 @@ def _front(args, run: _Run):
     # built, and never walks them afterwards.
     gc.disable()
     try:
-        if args.command in ("compile", "verify", "flash"):
+        if args.command in ("compile", "verify", "flash", "sim"):
             fe, firmware = api.build(source, reporter, getattr(args, "size", False))
         else:
             fe = api.front_end(source, reporter)
@@ -499,6 +543,85 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
     if report.ended:
         print(f"  when the run ended: {report.ended}")
     return 0 if report.ok else 1
+
+
+def _check_sim_options(args) -> None:
+    """`servoc sim`: --seconds, --view-every and --link make sense, the events file can be read
+    (its text is kept in args.events_text); all before compiling."""
+    if args.seconds is not None:
+        try:
+            seconds = Fraction(args.seconds.strip())
+        except (ValueError, ZeroDivisionError):
+            seconds = Fraction(-1)
+        if not 0 < seconds <= 1_000_000:
+            raise _Stop(f"--seconds {args.seconds}: give a positive number of seconds of simulated time, e.g. 2.5")
+        args.seconds = seconds
+    if args.view_every is not None and args.view_every < 1:
+        raise _Stop("--view-every must be at least 1")
+    if args.link is not None:
+        link = args.link
+        if link == "":
+            raise _Stop("--link needs a path, not an empty one")
+        if os.path.lexists(link) and not os.path.islink(link):
+            what = "a directory" if os.path.isdir(link) else "a file"
+            raise _Stop(f"cannot make the link {link}: it is {what}, not a symlink (--link); name another path")
+        folder = os.path.dirname(link) or "."
+        if not os.path.isdir(folder):
+            raise _Stop(f"cannot make the link {link}: {folder} " + (
+                "is not a folder" if os.path.exists(folder) else "does not exist") + " (--link)")
+        if not os.access(folder, os.W_OK | os.X_OK):
+            raise _Stop(f"cannot make the link {link}: no permission to write in {folder} (--link)")
+    args.events_text = None
+    if args.events:
+        try:
+            with open(args.events, encoding="utf-8-sig") as fh:
+                args.events_text = fh.read()
+        except OSError as exc:
+            raise _Stop(f"cannot read {args.events}: {exc.strerror or exc}") from None
+        except UnicodeDecodeError:
+            raise _Stop(f"{args.events} is not UTF-8 text") from None
+
+
+def _sim(args, run: _Run, source, plan: Plan, firmware) -> int:
+    """`servoc sim`: the firmware in ucsim, its UART on a pseudo-terminal (servoc/simlink.py), until
+    Ctrl-C, SIGTERM or --seconds of simulated time."""
+    from . import events as _events
+    from . import simlink
+    from .target import byte_cycles
+    program = plan.program
+    serial = program.serial
+    if serial is None:
+        raise _Stop(f"{source.path} declares no serial line: servoc sim puts the firmware's UART on a "
+                    "pseudo-terminal, so the program needs `serial BAUD` (e.g. `serial 9600`); "
+                    "`servoc verify` runs a program without one")
+    target = program.target
+    events: list = []
+    if args.events_text is not None:
+        try:
+            events = _events.parse(args.events_text, program.inputs, True)
+            _events.uart_windows(events, byte_cycles(serial.th1, serial.smod), target)     # lines in order
+        except _events.EventsError as exc:
+            raise _Stop(f"{args.events}: {exc}") from None
+    pins = tuple(_events.pin_changes(events, program.inputs, target))
+    rx = tuple((max(2, target.cycles(ev.time_us)), ev.data) for ev in events if isinstance(ev, _events.ByteEvent))
+    view_every = None
+    if args.view or args.view_every is not None:
+        view_every = args.view_every or max(1, round(100_000 / plan.period_us))
+    servos = tuple(simlink.Servo(c.name, c.port, c.bit) for c in plan.channels)
+    setup = simlink.Setup(firmware.hex_text, target.sim_hz, target.cycle_us, serial.baud, serial.actual,
+                          args.seconds, args.link, servos, plan.period_us, view_every, pins, rx)
+    try:
+        api.toolchain.find_tool("s51")
+    except api.ToolNotFound as exc:
+        raise _Stop(str(exc), "missing-tool") from None
+    print(f"{source.path}: {_plan_line(plan)}; the {target.describe()} in ucsim", flush=True)
+    try:
+        simlink.run(setup, sys.stdout, sys.stderr)
+    except api.ToolNotFound as exc:
+        raise _Stop(str(exc), "missing-tool") from None
+    except simlink.LinkError as exc:
+        raise _Stop(str(exc)) from None
+    return 0
 
 
 def _flash(args, run: _Run, source, plan: Plan, firmware) -> int:
