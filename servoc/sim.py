@@ -235,6 +235,19 @@ def _check_pin(port: int, bit: int) -> None:
         raise ValueError(f"bit must be 0..7, got {bit!r}")
 
 
+def port_watch(ports: Iterable[int], mark: int) -> list[str]:
+    """ucsim commands that print `mark + port`, the cycle and the port's latch at every write of a
+    servo port (a byte write or a bit's), then run on."""
+    lines = []
+    for port in ports:
+        sfr = PORT_SFR[port]
+        report = f"commands expr {mark + port} /u sim_ticks /u sfr[{sfr}];run"
+        lines += [f"break sfr w {sfr}", report]
+        for bit in range(8):
+            lines += [f"break bits w {sfr + bit}", report]
+    return lines
+
+
 def _script(hex_name: str, limit_name: str, ports: Iterable[int],
             actions: tuple[tuple[int, str], ...] = (), uart: bool = False,
             probes: tuple[tuple[int, int, tuple[int, ...]], ...] = ()) -> str:
@@ -242,12 +255,7 @@ def _script(hex_name: str, limit_name: str, ports: Iterable[int],
     for address, tag, ram in probes:
         reads = "".join(f" /u iram[{a:#04x}]" for a in ram)
         lines += [f"break {address:#06x}", f"commands expr {_MARK_PROBE} /u {tag} /u {len(ram)} /u sim_ticks{reads};run"]
-    for port in ports:
-        sfr = PORT_SFR[port]
-        report = f"commands expr {_MARK_BASE + port} /u sim_ticks /u sfr[{sfr}];run"
-        lines += [f"break sfr w {sfr}", report]
-        for bit in range(8):
-            lines += [f"break bits w {sfr + bit}", report]
+    lines += port_watch(ports, _MARK_BASE)
     if uart:
         lines += [f"break sfr w {SBUF:#04x}", f"commands expr {_MARK_TX} /u sim_ticks;run"]
     lines += [

@@ -76,7 +76,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import TextIO
 
-from .sim import CLOCKS_PER_CYCLE, CPU_TYPE, PORT_SFR
+from .sim import CLOCKS_PER_CYCLE, CPU_TYPE, PORT_SFR, port_watch
 from .toolchain import find_tool
 
 __all__ = ["LinkError", "Servo", "Setup", "Summary", "run", "request_stop"]
@@ -370,12 +370,7 @@ class _Link:
             levels[port] = level
         lines += [f"set hardware port[{port}] {level:#04x}" for port, level in sorted(levels.items())]
         if self.setup.view_every is not None:
-            for port in sorted({sv.port for sv in self.setup.servos}):
-                sfr = PORT_SFR[port]
-                report = f"commands expr {_MARK + port} /u sim_ticks /u sfr[{sfr}];run"
-                lines += [f"break sfr w {sfr}", report]
-                for bit in range(8):
-                    lines += [f"break bits w {sfr + bit}", report]
+            lines += port_watch(sorted({sv.port for sv in self.setup.servos}), _MARK)
         if stops:
             lines += ['set hardware vcd[0] input "stops.vcd"', "set hardware vcd[0] break", "set hardware vcd[0] start"]
         return "\n".join(lines) + "\n"
