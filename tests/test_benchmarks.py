@@ -237,4 +237,5 @@ def test_import_benchmark_files_are_read_as_their_format_and_import_clean(tmp_pa
         make(path)
         row = bench.measure(path)
         assert row["format"] == fmt and row["errors"] == 0 and row["deviation"] <= 1
-        assert row["moves_out"] <= row["frames_in"] and row["frames_in"] >= 300
+        # a Maestro frame is a move and the hold until the next frame starts; the others a move at most
+        assert row["moves_out"] <= (2 if fmt == "maestro" else 1) * row["frames_in"] and row["frames_in"] >= 300
