@@ -752,8 +752,8 @@ def _import(args, run: _Run) -> int:
               f"{imported.moves_out} moves, every source position met within {imported.deviation} N")
         for note in imported.notes:
             print(f"  note: {note}")
-        for warning in imported.warnings:
-            print(f"  warning: {warning}")
+        for warning in imported.warnings:      # on the diagnostics' stream, naming the file they are about
+            print(f"{args.file}: warning: {warning}", file=sys.stderr)
     source, reporter = api.load_source(out)
     run.source = source
     fe = api.front_end(source, reporter)

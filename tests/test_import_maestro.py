@@ -465,3 +465,15 @@ def test_a_file_with_channel_and_frame_speeds_verifies_in_ucsim(tmp_path):
     assert "speed 1s/69.375deg" in out.read_text()           # speed="30": 750 µs/s
     report = api.verify(fe.plan, firmware, verify_frames(fe.plan))
     assert report.ok and report.max_error_cycles == 0, report.mismatches[:5]
+
+
+def test_a_frame_too_short_for_its_move_is_a_warning_on_stderr_naming_it(tmp_path, capsys):
+    """The file is written and the exit is lint's (0 here); the warning names the file and the frame."""
+    from servoc import cli
+    src = tmp_path / "short.xml"
+    src.write_bytes(_one_servo('<Frame name="Frame 0" duration="1000">8000</Frame>'
+                               '<Frame name="flick" duration="20">4000</Frame>'))
+    assert cli.main(["import", str(src), "-o", str(tmp_path / "short.servo")]) == 0
+    out = capsys.readouterr()
+    assert f"{src}: warning: S frame 1 (flick): its move needs" in out.err and "20 ms" in out.err
+    assert "warning" not in out.out and (tmp_path / "short.servo").exists()
