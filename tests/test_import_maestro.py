@@ -62,8 +62,9 @@ def test_both_frame_text_forms_give_the_same_targets_and_times():
     assert plain.channels == speeds.channels
     assert [[(k.at_ms, k.targets, k.source) for k in t.keys] for t in plain.tracks] == \
         [[(k.at_ms, k.targets, k.source) for k in t.keys] for t in speeds.tracks]
-    assert all(k.speeds is None for t in plain.tracks for k in t.keys)
-    assert any(k.speeds is not None for t in speeds.tracks for k in t.keys)
+    channel_speeds = {c.index: (c.speed_us_s or 0) for c in plain.channels}
+    assert all(k.speeds == channel_speeds for t in plain.tracks for k in t.keys)     # no frame speeds there
+    assert any(k.speeds != channel_speeds for t in speeds.tracks for k in t.keys)
     assert [t.name for t in plain.tracks] == ["Wave", "Blink twice"]
     assert plain.tracks[0].keys[0].targets == {0: 1500, 3: 1750}  # 3 is ServoMultiplied: a servo
 
@@ -76,6 +77,12 @@ def test_new_form_reads_targets_then_speeds_in_maestro_units():
     key = kf.tracks[0].keys[0]
     assert key.targets == {0: 1000, 1: 1250}
     assert key.speeds == {0: 175, 1: 200, 2: 0, 3: 0, 4: 0, 5: 0}
+    assert {c.index: c.speed_us_s for c in kf.channels}[1] is None      # its channel speed 0: no limit
+    faster = read_text('<Sequence name="S"><Frame name="Frame 0" duration="100">4000 s 20</Frame>'
+                       '<Frame name="Frame 1" duration="100">6000</Frame></Sequence>',
+                       '<Channel name="c0" mode="Servo" min="3968" max="8000" speed="10" />')
+    assert faster.channels[0].speed_us_s == 500          # the fastest it is asked to go: its frame's 20
+    assert [k.speeds for k in faster.tracks[0].keys] == [{0: 500}, {0: 250}]   # else its channel's 10
     assert any("accelerations" in n for n in kf.notes)
 
 
@@ -421,7 +428,7 @@ def test_a_channels_speed_paces_its_moves_and_becomes_the_servos_speed(tmp_path)
     assert len(warnings) == 1 and "S frame 1" in warnings[0] and "100 ms" in warnings[0]
 
 
-def test_a_frames_own_speeds_are_used_and_zero_is_the_servos_own_speed(tmp_path):
+def test_a_frames_own_speeds_are_used_and_zero_is_as_fast_as_the_servo_allows(tmp_path):
     text, plan, frames, _ = _frames_of(tmp_path, _one_servo(
         '<Frame name="Frame 0" duration="3000">8000 0 s 10 0</Frame>'
         '<Frame name="Frame 1" duration="1000">6000 0 s 0 0</Frame>', speed=10))
@@ -430,9 +437,10 @@ def test_a_frames_own_speeds_are_used_and_zero_is_the_servos_own_speed(tmp_path)
     reached = arm.index(_n(2000)) - 1
     assert 2_016_000 - 16_000 <= (reached + 1) * p <= 2_016_000 + p, reached
     back = len(arm) - next(i for i, n in enumerate(reversed(arm)) if n != _n(1500)) - 1     # at 1500 again
-    # frame 1 starts at 3 s (on the nearest frame); its speed 0 is as fast as the servo allows, which is
-    # the servo's declared 250 µs/s: back 2016 ms later (its last step half a step, 16 ms, early)
-    assert 5_016_000 - 16_000 - p / 2 <= back * p <= 5_016_000 + p + p / 2, back
+    # frame 1 starts at 3 s (on the nearest frame); its speed 0 is as fast as the servo allows: the
+    # default servo's 63 N x 2.467 ms = 155 ms, so the servo is declared without a slower speed
+    assert 3_155_400 - p / 2 <= back * p <= 3_155_400 + p + p / 2, back
+    assert "servo arm = P1.0 limit" in text
 
 
 def test_a_pause_frame_and_a_missing_home_keep_the_clock(tmp_path):
@@ -477,3 +485,22 @@ def test_a_frame_too_short_for_its_move_is_a_warning_on_stderr_naming_it(tmp_pat
     out = capsys.readouterr()
     assert f"{src}: warning: S frame 1 (flick): its move needs" in out.err and "20 ms" in out.err
     assert "warning" not in out.out and (tmp_path / "short.servo").exists()
+
+
+def test_each_servo_of_a_frame_goes_at_its_own_speed(tmp_path):
+    """Two channels, 500 µs/s and as fast as the servo allows, both told to go 504 µs: the fast one
+    is there after its own travel (155 ms), the slow one after 1008 ms, each at constant speed."""
+    channels = ('<Channel name="slow" mode="Servo" min="2000" max="10000" homemode="Goto" home="6000" speed="20" />'
+                '<Channel name="fast" mode="Servo" min="2000" max="10000" homemode="Goto" home="6000" speed="0" />')
+    text, plan, frames, warnings = _frames_of(tmp_path, settings(
+        '<Sequence name="S"><Frame name="Frame 0" duration="2000">8000 8000</Frame></Sequence>', channels))
+    p = plan.period_us
+    slow, fast = [f[0] for f in frames], [f[1] for f in frames]
+    fast_there, slow_there = fast.index(_n(2000)), slow.index(_n(2000))    # frame 0 is `home`
+    assert 155_400 - 3_000 <= fast_there * p <= 155_400 + p, fast_there      # its last step comes early
+    # the slow one passes one move boundary (the fast one's arrival), on a whole N: that can cost it
+    # the time of one N at its speed (16 ms), never more
+    assert 1_008_000 - 16_000 <= slow_there * p <= 1_008_000 + 16_000 + p, slow_there
+    steps = [b - a for a, b in zip(slow[1:slow_there + 1], slow[2:slow_there + 1])]
+    assert max(steps) <= 1 and sum(steps) > 0           # 500 µs/s is 0.33 N a frame: never two at once
+    assert "slow there" in text and "fast there" in text and warnings == ()

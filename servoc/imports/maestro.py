@@ -23,7 +23,8 @@ Output: `Keyframes(format="maestro")`:
   their targets dropped from every key, with a note. No mode = `Servo` (the Maestro's
   default). index = position in `<Channels>`; name = `name` unless blank; min_us/max_us
   from `min`/`max`; home_us from `home` only when `homemode` is `Goto`; speed_us_s from
-  `speed` (Maestro units of 0.25 µs per 10 ms, so 25 µs/s each; 0 = no limit: None).
+  `speed` (Maestro units of 0.25 µs per 10 ms, so 25 µs/s each; 0 = no limit: None) and
+  the frames' own speeds (below).
 - tracks: one per `<Sequence>`, paced as the Maestro plays it (see `Track`): named as
   written ("Sequence N" when unnamed, a repeated name gets " (2)", " (3)", ...). A
   sequence without frames is an empty one; a file without sequences gives no tracks
@@ -32,9 +33,12 @@ Output: `Keyframes(format="maestro")`:
   before it); the track lasts the sum of all of them. A target of 0 means the channel
   keeps its target: left out of `Key.targets` (a frame that sets nothing is a pause).
   A target outside the channel's `min`..`max` is clamped there (a note counts them).
-  A frame with its own speeds (after `s`) moves at those (`Key.speeds`; 0 = as fast as
-  the servo allows). `Key.source` is e.g. "Wave frame 1", plus the frame's name in
-  brackets when not the default "Frame 1".
+  Every key's `speeds` are the frame's own (after `s`) where it has them, else the
+  channels' (µs/s; 0 = as fast as the servo allows). A channel's `speed_us_s`, which the
+  writer declares as the servo's speed, is the fastest it is asked to go: its channel
+  speed, or a frame's own speed for it above that (None when either is 0: no limit).
+  `Key.source` is e.g. "Wave frame 1", plus the frame's name in brackets when not the
+  default "Frame 1".
 - not imported (with a note when present): accelerations (channels' and frames'), the
   `<Script>`. `ReadOptions` is unused: positions are always quarter-µs.
 - errors, as `ImportError_` naming the file, sequence and frame: not XML or truncated, any
@@ -45,6 +49,7 @@ Output: `Keyframes(format="maestro")`:
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import xml.etree.ElementTree as ET
 from fractions import Fraction
@@ -155,6 +160,7 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
     notes = []
     channels, count = _channels(root, path, notes)
     servo = {c.index for c in channels}
+    channel_speed = {c.index: c.speed_us_s or Fraction(0) for c in channels}      # µs/s, 0: no limit
     tracks, taken, limited = [], set(), False
     bounds = {c.index: (c.min_us, c.max_us) for c in channels}
     clamped: list[str] = []
@@ -184,12 +190,18 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
             targets, speeds, accelerated = _targets("".join(frame.itertext()), where, count)
             limited |= accelerated
             source = f"{label} frame {i}" + (f" ({fname})" if fname and fname != f"Frame {i}" else "")
+            own = {} if speeds is None else {ch: Fraction(v * SPEED_UNIT_US_S) for ch, v in enumerate(speeds)}
             keys.append(Key(at, {ch: clamp(ch, Fraction(t, 4), source) for ch, t in enumerate(targets)
                                  if t and ch in servo}, source,
-                            None if speeds is None else {ch: Fraction(v * SPEED_UNIT_US_S)
-                                                         for ch, v in enumerate(speeds) if ch in servo}))
+                            {ch: own.get(ch, channel_speed[ch]) for ch in servo}))
             at += duration
         tracks.append(Track(unique, tuple(keys), paced=True, length_ms=at))     # one without frames: empty
+    top = dict(channel_speed)                # a servo's top speed: the fastest it is asked to go (0: no limit)
+    for key in (k for t in tracks for k in t.keys):
+        for ch in key.targets:
+            v = key.speeds[ch]
+            top[ch] = 0 if not v or not top[ch] else max(top[ch], v)
+    channels = [dataclasses.replace(c, speed_us_s=top[c.index] or None) for c in channels]
     if limited:
         notes.append("The frames' own accelerations (after 'a') are not imported: each move is at constant speed.")
     if clamped:

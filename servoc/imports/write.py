@@ -126,10 +126,10 @@ class _Writer:
         return body
 
     def paced(self, track: Track, prefix: str, timing: Timing, current: dict) -> list:
-        """A paced track (Maestro) at the frame period `timing.period_us`: each key's move starts on
-        the frame nearest its start time and takes the frames its slowest servo needs at its
-        speed; holds fill the time to the next key's start and to the track's end. `current`:
-        channel -> N where the servos are as the track starts (updated as it goes)."""
+        """A paced track (Maestro) at the frame period `timing.period_us`: each key's moves start on
+        the frame nearest its start time, each servo going at its own speed (`runs`); holds fill
+        the time to the next key's start and to the track's end. `current`: channel -> N where the
+        servos are as the track starts (updated as it goes)."""
         period, channels = timing.period_us, {c.index: c for c in self.kf.channels}
         body, frame = [], 0                  # frames since the track's start
 
@@ -143,23 +143,59 @@ class _Writer:
         for i, key in enumerate(track.keys):
             self.frames_in += 1
             values = {ch: self.n(w) for ch, w in sorted(key.targets.items()) if ch in self.names}
+            values = {ch: n for ch, n in values.items() if current.get(ch) != n}     # the servos it moves
             if not values:
                 continue                     # a pause: the hold before the next key's move waits it out
             wait_until(key.at_ms, f"until {key.source} starts")
             need_us = max(self.travel_us(channels[ch], current.get(ch), n, key.speeds) for ch, n in values.items())
-            moves = max(1, math.ceil(need_us / period))
-            pose = self.pose(f"{prefix}_{i}", values)
-            body.append(self.statement(nodes.MoveStmt(pose, _frames_ms(moves, period), None, NO_SPAN), key.source))
+            runs = self.runs(values, current, key.speeds, channels, period)
+            for j, (moves, pose, arriving) in enumerate(runs):
+                name = self.pose(f"{prefix}_{i}" + (f"_{j + 1}" if j else ""), pose)
+                why = key.source if len(runs) == 1 else \
+                    f"{key.source}: {', '.join(self.names[ch] for ch in arriving)} there"
+                body.append(self.statement(nodes.MoveStmt(name, _frames_ms(moves, period), None, NO_SPAN), why))
+                frame += moves
             end_ms = track.keys[i + 1].at_ms if i + 1 < len(track.keys) else track.length_ms
             if need_us > (end_ms - key.at_ms) * 1000:
                 self.warnings.append(
                     f"{key.source}: its move needs {decimal(need_us / 1000, 1)} ms at the servos' speeds, longer than "
                     f"the frame's {decimal(end_ms - key.at_ms, 1)} ms (the Maestro would change targets mid-move); "
                     f"here the next frame starts when this move ends")
-            frame += moves
             current.update(values)
         wait_until(track.length_ms, f"until the end of {track.name}'s last frame")
         return body
+
+    def runs(self, values: dict, current: dict, speeds, channels: dict, period: int) -> list:
+        """The moves of one paced key, each servo at its own speed: (frames, pose, the servos that
+        arrive), one move to each arrival. A servo arrives after the frames it needs (at least one);
+        one still on its way is, at the end of a move, at the N nearest its straight line then that
+        it can reach in that move and from which it can still arrive in time; a move takes a frame
+        more where no N is both (the rounding of a servo at its very top speed)."""
+        need = {ch: max(1, math.ceil(self.travel_us(channels[ch], current.get(ch), n, speeds) / period))
+                for ch, n in values.items()}
+        per_n = {ch: self.travel_us(channels[ch], 0, 1, speeds) for ch in values}     # µs a servo needs per N
+        where, out, before = {ch: current.get(ch) for ch in values}, [], 0
+        for end in sorted(set(need.values())):
+            pose = {}
+            for ch, n in values.items():
+                n0 = current.get(ch)
+                if need[ch] == end or (need[ch] > end and n0 is None):
+                    pose[ch] = n
+                elif need[ch] > end:
+                    # on its way: the N nearest its straight line at `end` that it can reach in this
+                    # move and from which it can still arrive in the frames it has left
+                    delta, done = abs(n - n0), abs(where[ch] - n0)
+                    most = done + int((end - before) * period // per_n[ch]) if per_n[ch] else delta
+                    least = delta - (int((need[ch] - end) * period // per_n[ch]) if per_n[ch] else delta)
+                    step = min(max(round_half_up(Fraction(delta * end, need[ch])), least), most, delta)
+                    pose[ch] = n0 + (step if n >= n0 else -step)
+            frames = end - before
+            while any(self.travel_us(channels[ch], where[ch], m, speeds) > frames * period for ch, m in pose.items()):
+                frames += 1
+            out.append((frames, pose, [ch for ch in pose if need[ch] == end]))
+            where.update(pose)
+            before = end
+        return out
 
     @staticmethod
     def travel_us(channel, n0, n1: int, speeds) -> Fraction:
