@@ -504,3 +504,32 @@ def test_each_servo_of_a_frame_goes_at_its_own_speed(tmp_path):
     steps = [b - a for a, b in zip(slow[1:slow_there + 1], slow[2:slow_there + 1])]
     assert max(steps) <= 1 and sum(steps) > 0           # 500 µs/s is 0.33 N a frame: never two at once
     assert "slow there" in text and "fast there" in text and warnings == ()
+
+
+@hsettings(max_examples=40, deadline=None)
+@given(st.data())
+def test_any_sequence_imports_to_a_program_without_errors(tmp_path_factory, data):
+    """Whatever the channels' and frames' speeds, targets and durations, the moves the import writes
+    are never faster than a servo may go: lint finds no error (no infeasible-speed) in the program."""
+    from servoc import api
+    from servoc.diagnostics import Reporter
+    from servoc.source import SourceFile
+    count = data.draw(st.integers(1, 4))
+    channels = "".join(
+        f'<Channel name="c{i}" mode="Servo" min="{data.draw(st.sampled_from([2000, 3968, 4000]))}" '
+        f'max="{data.draw(st.sampled_from([8000, 10000]))}" homemode="{data.draw(st.sampled_from(["Goto", "Off"]))}" '
+        f'home="{data.draw(st.sampled_from([0, 6000, 7000]))}" speed="{data.draw(st.sampled_from([0, 5, 20, 200]))}" />'
+        for i in range(count))
+    frames = ""
+    for k in range(data.draw(st.integers(1, 5))):
+        targets = " ".join(str(data.draw(st.sampled_from([0, 4000, 6000, 6001, 8000]))) for _ in range(count))
+        speeds = data.draw(st.sampled_from(["", " s " + " ".join(str(data.draw(st.sampled_from([0, 3, 40])))
+                                                                   for _ in range(count))]))
+        frames += f'<Frame name="F{k}" duration="{data.draw(st.sampled_from([0, 1, 300, 2500]))}">{targets}{speeds}</Frame>'
+    src = tmp_path_factory.mktemp("maestro") / "any.xml"
+    src.write_bytes(settings(f'<Sequence name="S">{frames}</Sequence>', channels))
+    text = api.import_motion(str(src)).text
+    source = SourceFile("any.servo", text)
+    reporter = Reporter(source)
+    api.front_end(source, reporter)
+    assert not [d.message for d in reporter.diagnostics if d.is_error], text
