@@ -607,9 +607,8 @@ def _sim(args, run: _Run, source, plan: Plan, firmware) -> int:
     view_every = None
     if args.view or args.view_every is not None:
         view_every = args.view_every or max(1, round(100_000 / plan.period_us))
-    servos = tuple(simlink.Servo(c.name, c.port, c.bit) for c in plan.channels)
     setup = simlink.Setup(firmware.hex_text, target.sim_hz, target.cycle_us, serial.baud, serial.actual,
-                          args.seconds, args.link, servos, plan.period_us, view_every, pins, rx)
+                          args.seconds, args.link, plan.channels, plan.period_us, view_every, pins, rx)
     try:
         api.toolchain.find_tool("s51")
     except api.ToolNotFound as exc:

@@ -79,7 +79,7 @@ from typing import TextIO
 from .sim import CLOCKS_PER_CYCLE, CPU_TYPE, PORT_SFR, port_watch
 from .toolchain import find_tool
 
-__all__ = ["LinkError", "Servo", "Setup", "Summary", "run", "request_stop"]
+__all__ = ["LinkError", "Setup", "Summary", "run", "request_stop"]
 
 REPORT_EVERY = 3.0          # seconds (real) between two speed lines
 MAX_BACKLOG = 1 << 16       # bytes kept for a host that does not read
@@ -100,13 +100,6 @@ class LinkError(Exception):
 
 
 @dataclass(frozen=True)
-class Servo:
-    name: str
-    port: int
-    bit: int
-
-
-@dataclass(frozen=True)
 class Setup:
     hex_text: str
     sim_hz: int                          # ucsim's crystal (a 6T chip runs as the 12-clock core at 2f)
@@ -115,7 +108,7 @@ class Setup:
     actual_baud: Fraction                # what Timer1 makes at the clock
     seconds: Fraction | None = None      # simulated time to run, None: until stopped
     link: str | None = None              # a symlink to the pty's slave
-    servos: tuple[Servo, ...] = ()
+    servos: tuple = ()                   # the plan's channels (name, port, bit), for --view
     period_us: int = 20000               # frame period, to group pulses into frames (--view)
     view_every: int | None = None        # print the widths of one frame in N; None: no view
     pins: tuple[tuple[int, int, int], ...] = ()      # (cycle, port, outside level) of the input pins
