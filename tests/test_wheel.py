@@ -67,8 +67,12 @@ def test_the_wheel_runs_every_command(installed, tmp_path):
     runs = [("lint", "biped.servo"), ("plan", "biped.servo"), ("compile", "biped.servo", "-o", "b.hex"),
             ("verify", "biped.servo", "--frames", "60"),
             ("verify", "serial_arm.servo", "--events", "serial_arm.events"),
-            ("import", "wave.xml", "-o", "wave.servo"), ("init", "fresh"), ("--help",)]
+            ("import", "wave.xml", "-o", "wave.servo"), ("init", "fresh"), ("--help",),
+            ("sim", "serial_arm.servo", "--seconds", "0.5", "--view")]
+    said = {}
     for args in runs:
         done = servoc(installed, tmp_path, *args)
         assert done.returncode == 0 and "Traceback" not in done.stderr + done.stdout, (args, done.stdout, done.stderr)
+        said[args[0]] = done.stdout
     assert (tmp_path / "b.hex").read_text().startswith(":") and (tmp_path / "wave.servo").exists()
+    assert "serial: /dev/pts/" in said["sim"] and "0.50 s simulated" in said["sim"] and "view:" in said["sim"]
