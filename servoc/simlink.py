@@ -27,9 +27,8 @@ ucsim 0.6.4 (Debian's sdcc-ucsim), measured for this module with small scripts d
       read end ucsim holds then never sees end of file (at EOF ucsim drops its input for good).
     * The UART takes a byte from its input file only with its "check input at every cycle" flag
       on (`uart_0_cfg[1]`); it then calls select() on the file before every instruction while the
-      receiver is idle, which makes the simulation 4 to 5 times slower (measured: 6.0x real time
-      without the flag, 1.3x with it, for a 1-servo and a 24-servo program at 12 MHz, most of it
-      system time). Without the flag ucsim only reads the file when it polls its consoles, once
+      receiver is idle, which makes the simulation about 4.4 times slower
+      (`benchmarks/sim_speed.py`: 5.3x to 5.6x real time without the flag, 1.25x with it). Without the flag ucsim only reads the file when it polls its consoles, once
       every million instructions (about 1.5 s simulated): one byte per poll. So the flag stays on.
     * A byte is taken from the FIFO when the receiver is idle, starts there and sets RI one byte
       time later: bytes a host writes at once go in back to back at the firmware's rate, in
@@ -48,8 +47,8 @@ ucsim 0.6.4 (Debian's sdcc-ucsim), measured for this module with small scripts d
       `set hardware port[N]`, bytes written to the FIFO while stopped, so the first one starts
       at the event's time.
     * Breakpoints on the ports' SFR and bit writes whose commands print `sim_ticks` and the latch
-      and `run` on (`--view`) keep the console frozen; they cost 4 % (24 servos, 20 ms frames) to
-      20 % (1 servo, 5.3 ms frames) of the speed.
+      and `run` on (`--view`) keep the console frozen; their cost is within the run-to-run
+      spread of `benchmarks/sim_speed.py`.
     * `sim_ticks` is 32 bits (wraps after 357 s at 12 MHz); `state` prints the 64-bit count. The
       "Simulated N ticks" of a stop message counts from the last `run`, which each --view
       breakpoint restarts: the clock is always read with `state`.
