@@ -173,20 +173,20 @@ class _Writer:
         more where no N is both (the rounding of a servo at its very top speed)."""
         need = {ch: max(1, math.ceil(self.travel_us(channels[ch], current.get(ch), n, speeds) / period))
                 for ch, n in values.items()}
-        per_n = {ch: self.travel_us(channels[ch], 0, 1, speeds) for ch in values}     # µs a servo needs per N
+        per_n = {ch: self.travel_us(channels[ch], 0, 1, speeds) for ch in values}     # µs a servo needs per N (> 0)
         where, out, before = {ch: current.get(ch) for ch in values}, [], 0
         for end in sorted(set(need.values())):
             pose = {}
             for ch, n in values.items():
-                n0 = current.get(ch)
-                if need[ch] == end or (need[ch] > end and n0 is None):
+                n0 = current.get(ch)                 # None (no position yet): need is 1, set at once
+                if need[ch] == end:
                     pose[ch] = n
                 elif need[ch] > end:
                     # on its way: the N nearest its straight line at `end` that it can reach in this
                     # move and from which it can still arrive in the frames it has left
                     delta, done = abs(n - n0), abs(where[ch] - n0)
-                    most = done + int((end - before) * period // per_n[ch]) if per_n[ch] else delta
-                    least = delta - (int((need[ch] - end) * period // per_n[ch]) if per_n[ch] else delta)
+                    most = done + int((end - before) * period // per_n[ch])
+                    least = delta - int((need[ch] - end) * period // per_n[ch])
                     step = min(max(round_half_up(Fraction(delta * end, need[ch])), least), most, delta)
                     pose[ch] = n0 + (step if n >= n0 else -step)
             frames = end - before
