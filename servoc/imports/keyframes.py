@@ -62,9 +62,9 @@ class Key:
 class Track:
     """One source sequence or animation: it becomes one `sequence`.
 
-    Two kinds:
-    - `sampled=False` (Maestro, CSV): each key is one linear move that arrives
-      at `at_ms` (from the previous key's time; the first from time 0).
+    Three kinds:
+    - neither (CSV): each key is one linear move that arrives at `at_ms` (from
+      the previous key's time; the first from time 0).
     - `paced=True` (Maestro): each key sets its targets at `at_ms` (its start), the
       servos go there at their speeds (the key's `speeds`, else each channel's
       `speed_us_s`, never faster than the servo) and the next key starts at its
