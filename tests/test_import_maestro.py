@@ -533,3 +533,29 @@ def test_any_sequence_imports_to_a_program_without_errors(tmp_path_factory, data
     reporter = Reporter(source)
     api.front_end(source, reporter)
     assert not [d.message for d in reporter.diagnostics if d.is_error], text
+
+
+@pytest.mark.toolchain
+def test_twenty_four_channels_of_four_speeds_verify_in_ucsim(tmp_path):
+    """A Mini Maestro 24: channels at 4 speeds (0, 5, 20, 60), every frame moving all of them, some
+    frames too short for their moves: each frame becomes a run of moves (one per arrival), the
+    program lints clean and its firmware sends every planned pulse on three ports."""
+    from servoc import api
+    from servoc.plan import verify_frames
+    channels = "".join(f'<Channel name="c{i}" mode="Servo" min="3968" max="8000" homemode="Goto" home="6000" '
+                       f'speed="{(0, 5, 20, 60)[i % 4]}" />' for i in range(24))
+    frames = "".join(f'<Frame name="F{k}" duration="{(300, 1200, 50)[k % 3]}">'
+                     + " ".join(str((4000, 8000, 5000, 7000)[(i + k) % 4]) for i in range(24)) + "</Frame>"
+                     for k in range(4))
+    src = tmp_path / "big.xml"
+    src.write_bytes(settings(f'<Sequence name="S">{frames}</Sequence>', channels))
+    imported = api.import_motion(str(src))
+    out = tmp_path / "big.servo"
+    out.write_text(imported.text)
+    assert imported.moves_out > 2 * 4 and imported.warnings       # runs of moves; short frames warned
+    source, reporter = api.load_source(str(out))
+    fe, firmware = api.build(source, reporter)
+    assert firmware is not None, [d.message for d in reporter.diagnostics if d.is_error]
+    report = api.verify(fe.plan, firmware, verify_frames(fe.plan))
+    assert report.ok and report.max_error_cycles == 0 and report.pulses >= 24 * fe.plan.total_frames - 24, \
+        report.mismatches[:5]
