@@ -13,9 +13,9 @@ stage that reported errors. Internal bugs stay ordinary exceptions.
 from __future__ import annotations
 
 import dataclasses
-import re
 import gc
 import os
+import re
 from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
