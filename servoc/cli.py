@@ -30,7 +30,7 @@ from fractions import Fraction
 from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import has_selects
-from .steps import AfterBranch, branch_text, Plan, SelectStep, SendStep, steps
+from .steps import AfterBranch, branch_text, HostStep, Plan, SelectStep, SendStep, steps
 from .starter import starter
 from .verify import SETTLE_MARGIN, coverage, verify_settle, verify_span
 from .target import fmt_us
@@ -986,6 +986,12 @@ def plan_data(plan: Plan, source) -> dict:
         data["startup"] = {"frames": startup_frames(plan),
                            "servos": [{"servo": plan.channels[ch].name, "frame": f,
                                        "ms": (f - 1) * plan.period_us / 1000} for ch, f in plan.startup]}
+    if any(isinstance(st, HostStep) for st in steps(plan)):
+        from .model import host_channel
+        data["host"] = {"protocol": plan.program.host,
+                        "channels": [{"channel": host_channel(c.servo), "servo": c.name}
+                                     for c in sorted(plan.channels, key=lambda c: host_channel(c.servo))],
+                        "sequences": [q.name for q in plan.program.sequences]}
     if plan.cuts:
         data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
                                   "servos": [{"servo": c.name, "low": lo, "high": hi, "unset": unset}
@@ -1042,6 +1048,15 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
         out.append(f"power-up: {how}, {frames} frame{'s' if frames != 1 else ''} = "
                    f"{fmt_ms(frames * plan.period_us)} before the program's first frame: "
                    + ", ".join(f"{plan.channels[ch].name} at {fmt_ms((f - 1) * plan.period_us)}" for ch, f in plan.startup))
+    hosts = [st for st in steps(plan) if isinstance(st, HostStep)]
+    if hosts:
+        from .model import host_channel
+        chans = sorted((host_channel(c.servo), c.name) for c in plan.channels)
+        where = ", ".join(str(source.line_col(st.span.start)[0]) for st in hosts)
+        out.append(f"host (line{'s' if len(hosts) > 1 else ''} {where}): SSC-32 channels "
+                   + ", ".join(f"{k} {name}" for k, name in chans)
+                   + (f"; PL 0 SQ n plays " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences))
+                      if plan.program.sequences else ""))
     for st, hull in plan.cuts:
         line = source.line_col(st.span.start)[0]
         spans = [f"{c.name} N {lo}..{hi}" + (" (or no target yet)" if unset else "") for c, (lo, hi, unset) in _ranges(plan, hull)]

@@ -26,14 +26,15 @@ import jinja2
 
 from . import layout, resources
 from . import costs
-from . import walk, wcet
+from . import flow as flow_mod, walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .flow import (UNBOUNDED, edge_ports, fewest_frames, fewest_frames_in_code, move_starts, port_motions, select_ram, select_slots, send_gap, send_run,
-                   sends, takes_frames, watches)
+from .flow import (UNBOUNDED, edge_ports, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
+                   hosted, move_starts,
+                   port_motions, select_ram, select_slots, send_gap, send_run, sends, takes_frames, watches)
 from .source import SourceFile
-from .steps import (AfterBranch, HoldStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep, Step,
-                    steps)
+from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
+                    Step, steps)
 from .units import N_MAX, fmt_ms
 
 
@@ -78,6 +79,7 @@ def environment() -> jinja2.Environment:
         _ENV.filters["hex8"] = _hex8
         _ENV.filters["hex16"] = _hex16
         _ENV.filters["hi8"] = lambda v: _hex8(v >> 8)
+        _ENV.filters["lo8"] = lambda v: _hex8(v)
     return _ENV
 
 
@@ -125,6 +127,7 @@ class _Ctx:
     selects: list = field(default_factory=list)       # (label, SelectStep) of every select laid out
     watches: int = 0                 # selects with a meanwhile body so far (their ids: 1, 2, ...)
     repeats: bool = False            # a `repeat` is laid out (it counts its passes with rep_next)
+    host_watchers: set = field(default_factory=set)   # selects whose meanwhile body runs `host` (flow.host_watchers)
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -204,6 +207,11 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
         if isinstance(st, SendStep):
             flush()
             out.append({"op": "send", "byte": st.byte, "text": st.text, "where": ctx.where(st.span)})
+            continue
+        if isinstance(st, HostStep):
+            flush()
+            out.append({"op": "host", "label": ctx.label("host"), "where": ctx.where(st.span),
+                        "plays": [{"label": _seq_label(ctx.plan, p.sequence), "name": p.sequence} for p in st.plays]})
             continue
         where = ctx.where(st.span)
         if isinstance(st, LoopStep):
@@ -292,7 +300,7 @@ def _select_op(ctx: _Ctx, st: SelectStep) -> dict:
         ons.append(on)
     named = sorted({on["byte"] for on in ons if on["byte"] is not None})
     other = any(on["other"] for on in ons)
-    serial = ctx.plan.program.serial is not None
+    serial = ctx.plan.program.serial is not None and id(st) not in ctx.host_watchers   # `host` reads the bytes
     byte_map = _byte_map(ctx, named, st) if serial and named else None
     meanwhile = None
     wid = 0
@@ -346,6 +354,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     ctx = _Ctx(plan, source, [], {})
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)
+    ctx.host_watchers = host_watchers(plan)
     main_ops: list[dict] = []
     _ops(ctx, plan.main, main_ops)
     sequences = []
@@ -360,6 +369,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, watches(plan))
     nports = len(plan.ports)
     room_promised = costs.stack_room(serial is not None, taken, nports)
+    if hosted(plan) and costs.stack_bytes(0, serial is not None, watches(plan)) > room_promised:
+        raise layout.HostRam(f"`host` needs {select_ram(plan)} bytes of RAM, which leaves the stack "
+                             f"{room_promised} bytes")      # lint's `host-ram` reports this first
     if stack_bytes > room_promised:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
                                   f"the firmware has {room_promised}")
@@ -375,16 +387,22 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     uses = {"eased": bool(ctx.ease_tables), "repeats": ctx.repeats,
             "holds": any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records),
             "nodur": any(r["flags"] & layout.FLAG["NODUR"] for r in ctx.records),
-            "sends": serial is not None and sends(plan.main, plan, ctx.sends_memo)}
+            "sends": serial is not None and (sends(plan.main, plan, ctx.sends_memo) or hosted(plan))}
+    hosting = serial is not None and hosted(plan)
+    rxq = host_queue(plan)
 
     ram = layout.RamAllocator(state_base - stack_bytes, layout.work_base(nports))     # what the stack leaves
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED"), 0)
     ram.next = layout.work_base(nports)
+    host_vars = list(HOST_VARS) if hosting else []
     if serial is not None:      # first, at a multiple of its size: the serial handler indexes it with ORL
-        assert ram.next % costs.QUEUE == 0
-        ram.alloc("RXQ", costs.QUEUE, "the receive queue")
+        assert ram.next % 8 == 0
+        while host_vars and host_vars[0][1] <= -ram.next % rxq:    # the host's variables fill the gap before it
+            ram.alloc(*host_vars.pop(0))
+        ram.next += -ram.next % rxq         # flow.host_ram counts what is left of the gap
+        ram.alloc("RXQ", rxq, "the receive queue")
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
     ram.alloc("FLEFT", 2, "frames left in the current move or hold")
     if uses["eased"]:
@@ -402,7 +420,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
-    s = None if serial is None else _serial(serial, ram, uses["sends"])
+    s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, hosting)
+    if hosting:
+        for var in host_vars:
+            ram.alloc(*var)
+        for name, size, what in HOST_ARRAYS:
+            ram.alloc(name, size * len(plan.channels), what, direct=False)
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
@@ -427,7 +450,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    for port in sorted({s.port for s in plan.program.servos})]
 
     fneed = []
-    if uses["nodur"]:
+    if uses["nodur"] or hosting:
         for cls, table in enumerate(plan.speed_tables):
             page = (plan.program.target.chip.code_bytes >> 8) - 2 * (len(plan.speed_tables) - cls)   # at the top
             # the runtime looks up only each class's largest |delta|: the table must not fall
@@ -460,7 +483,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
                   looks=ctx.looks, watch=watch, fcall="frame_w" if watch else "frame_io",
-                  lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables, fneed=fneed, pin_dmax=pin_dmax,
+                  lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables,
+                  fneed=fneed if uses["nodur"] else [], ftables=fneed, pin_dmax=pin_dmax,
+                  h=_host(plan, chans, fneed, rxq) if hosting else None,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
                                                  "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},
@@ -688,9 +713,10 @@ def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:
     return sum(bodies[:len(bodies) - swaps])
 
 
-def _serial(serial, ram: layout.RamAllocator, sending: bool) -> dict:
+def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int, hosting: bool) -> dict:
     """The serial line's numbers (serial.asm.j2) and its counters (its queues are allocated with
-    the other buffers). `sending`: the program sends (else no transmit side)."""
+    the other buffers). `sending`: the program sends (else no transmit side); `rxq`: the receive
+    queue's size; `hosting`: a `host` statement answers VER with a string from code memory."""
     q = costs.QUEUE
     ram.alloc("RXW", 1, "bytes received and queued (counts on)")
     ram.alloc("RXR", 1, "bytes the program took from the receive queue (counts on)")
@@ -701,7 +727,66 @@ def _serial(serial, ram: layout.RamAllocator, sending: bool) -> dict:
         ram.alloc("TXON", 1, "1 while a byte is on the line")
     return {"baud": serial.baud, "th1": serial.th1, "smod": serial.smod, "rate": f"{float(serial.actual):.1f}",
             "byte_cycles": target_mod.byte_cycles(serial.th1, serial.smod), "queue": q, "mask": q - 1,
-            "full_bit": q.bit_length() - 1, "sends": sending}
+            "full_bit": q.bit_length() - 1, "sends": sending, "rxq": rxq, "rxmask": rxq - 1, "rom": hosting}
+
+
+HOST_WORDS = ("P", "PO", "S", "T", "Q", "QP", "V", "VE", "VER", "ST", "STO", "STOP", "PL", "SQ")
+assert HOST_WORDS[:4] == ("P", "PO", "S", "T")      # host_item: the words below T are an entry's options
+
+
+# The variables of host.asm.j2 (flow.HOST_VARS bytes; the first 8 fill the gap before a 16-byte
+# receive queue) and its per-servo arrays (flow.HOST_PER_SERVO bytes a servo).
+HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: more flags"),
+             ("HW", 1, "host parser: the word being read"), ("HNUM", 2, "host parser: the number"),
+             ("HCH", 1, "host parser: the servo of the open entry (0xFF: none)"),
+             ("HEP", 2, "host parser: the entry's P (or PO + 100)"),
+             ("HES", 1, "host parser: the entry's S / 16"), ("HARG", 2, "host parser: T, or a command's number"),
+             ("HCMD", 1, "host parser: the line's command word"),
+             ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence"),
+             ("HT", 2, "the longest T of the groups read in this frame"),
+             ("TXS", 2, "a string from code memory being sent (high byte 0: none)"))
+HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none)"),
+               ("HPS", 1, "per servo: the pending S / 16"), ("HOF", 1, "per servo: its offset in us"),
+               ("HPO", 1, "per servo: its pending offset + 100 (0xFF: none)"))
+assert sum(v[1] for v in HOST_VARS) == flow_mod.HOST_VARS and sum(a[1] for a in HOST_ARRAYS) == flow_mod.HOST_PER_SERVO
+
+
+def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int) -> dict:
+    """The numbers of host.asm.j2: per servo its record and table, the channel map and the tables
+    of the protocol's arithmetic (docs/host-protocol.md; servoc.ssc32 is the same in Python)."""
+    from . import ssc32
+    from .model import host_channel
+    period = plan.period_us
+    words = {w: i + 1 for i, w in enumerate(HOST_WORDS)}
+    table = [0xFF] * (32 * (len(HOST_WORDS) + 1))
+    for w, i in words.items():
+        before = words.get(w[:-1], 0)
+        table[32 * before + ord(w[-1]) - 0x40] = i
+    chan_map, chan_act, chan_mask, chan_cur = [0xFF] * 32, [0] * 32, [0] * 32, [0] * 32
+    out = []
+    conv: dict[tuple, dict] = {}        # one table per limit, reverse and trim
+    for h, (c, ch) in enumerate(zip(plan.channels, chans)):
+        servo = c.servo
+        lo, hi = servo.limit if servo.limit is not None else (0, N_MAX)
+        k = host_channel(servo)
+        chan_map[k], chan_act[k], chan_mask[k], chan_cur[k] = h, layout.ADDR["ACT"] + servo.port, 1 << servo.bit, ch["cur"]
+        key = (lo, hi, servo.reverse, servo.trim)
+        if key not in conv:
+            conv[key] = {"label": f"hconv{len(conv)}", "lo": lo, "hi": hi, "reverse": servo.reverse, "trim": servo.trim,
+                         "names": [], "values": [ssc32.output_n(n, lo, hi, servo.reverse, servo.trim)
+                                                 for n in range(N_MAX + 1)]}
+        conv[key]["names"].append(servo.name)
+        out.append({**ch, "port": servo.port, "mask": 1 << servo.bit, "channel": k, "conv": conv[key]["label"],
+                    "fneed": tables[c.speed_class]["label"]})
+    for t in conv.values():
+        t["names"] = ", ".join(t["names"])
+    return {"count": len(out), "chans": out, "conv": list(conv.values()),
+            "chan_act": chan_act, "chan_mask": chan_mask, "chan_cur": chan_cur, "queue": rxq, "passes": host_passes(plan), "words": words, "words_table": table,
+            "chan_map": chan_map, "ports": plan.ports, "rt": ssc32.time_factor(period),
+            "qp": [(500 + 8 * n) // 10 for n in range(N_MAX + 1)],
+            "sq": [ssc32.speed_q(i, period) for i in range(256)],
+            "version": ssc32.VERSION_REPLY.decode().rstrip("\r"),
+            "plays": [_seq_label(plan, q.name) for q in plan.sequences]}
 
 
 def _bytes(n: int) -> str:

@@ -15,12 +15,13 @@ from dataclasses import dataclass
 from typing import Iterator
 
 from . import walk
-from .steps import AfterBranch, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, Step, steps
+from .steps import (AfterBranch, HostStep, LoopStep, MoveStep, Plan, PlayStep, Reach, RepeatStep, SelectStep, Step,
+                    host_range, steps)
 
 
 def _any_frame(acc: bool, st: Step, inner) -> bool:
     kind = walk.kind(st)
-    if kind == "select":
+    if kind in ("select", "host"):
         return True
     return acc or kind == "move" or (kind == "hold" and st.frames > 0) or bool(inner)
 
@@ -63,11 +64,51 @@ def edge_ports(plan: Plan) -> tuple[int, ...]:
 
 
 def select_ram(plan: Plan) -> int:
-    """Bytes of RAM the selects take from the stack: a look's sample of each port in `edge_ports`,
-    and per level of `select_slots` with a meanwhile body, the select running it and its stack pointer."""
+    """Bytes of RAM the selects (and a `host` statement) take from the stack: a look's sample of each
+    port in `edge_ports`, per level of `select_slots` with a meanwhile body, the select running it
+    and its stack pointer, and `host_ram`."""
     slots = select_slots(plan)
     levels = {slots[id(st)] for st in steps(plan) if isinstance(st, SelectStep) and st.meanwhile is not None}
-    return len(edge_ports(plan)) + 2 * len(levels)
+    return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan)
+
+
+HOST_VARS = 17          # the host parser's variables and the transmit side's ROM string pointer (host.asm.j2)
+HOST_PER_SERVO = 5      # per servo: its pending width (2), its pending S, its offset and a pending one
+
+
+def host_passes(plan: Plan) -> int:
+    """The bytes the host parser reads in one frame at the most: one more than can come in a frame
+    (from a host 2 % fast), so that bytes left queued by a late frame are read in the frames after."""
+    return -(-plan.program.target.cycles(plan.period_us) // _host_gap(plan)) + 1
+
+
+def host_queue(plan: Plan) -> int:
+    """The receive queue's size while `host` runs: a power of two that holds the bytes of two frames
+    and two more (the parser's runs are a frame apart on average, and at most two apart); the
+    selects' QUEUE without `host`."""
+    from . import costs
+    if plan.program.serial is None or not hosted(plan):
+        return costs.QUEUE
+    need = -(-2 * plan.program.target.cycles(plan.period_us) // _host_gap(plan)) + 2
+    return max(costs.QUEUE, 1 << (need - 1).bit_length())
+
+
+def _host_gap(plan: Plan) -> int:
+    from . import costs, target as target_mod
+    serial = plan.program.serial
+    return costs.rx_gap(target_mod.byte_cycles(serial.th1, serial.smod))
+
+
+def host_ram(plan: Plan) -> int:
+    """Bytes of RAM a `host` statement takes from the stack: its variables, its per-servo state and
+    the receive queue's growth (0 without `host`)."""
+    if not hosted(plan):
+        return 0
+    from . import costs
+    q = host_queue(plan)
+    pad = max(0, q - 16)    # the queue starts at a multiple of its size; the parser's variables fill the gap
+                            # before it (RAM is laid out 8 bytes at a time: the gap is 0 or 8 bytes for 16)
+    return HOST_VARS + HOST_PER_SERVO * len(plan.channels) + q - costs.QUEUE + pad
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:
@@ -89,6 +130,8 @@ def _fewest(acc: int, st: Step, inner) -> int:
                           for b, v in zip(st.branches, inner)), default=0)
     if kind == "move":
         return acc + (st.frames or 1)
+    if kind == "host":
+        return acc + 1          # it runs frame after frame until an event cuts it
     if kind == "hold":
         return acc + st.frames
     if kind == "repeat":
@@ -223,6 +266,8 @@ def _fold_sends(plan: Plan, blank, send):
             one = send
         elif kind == "move":
             one = blank.frames(st.frames or 1)
+        elif kind == "host":
+            one = blank.frames(1)
         elif kind == "hold":
             one = blank.frames(st.frames)
         elif kind == "select":
@@ -329,7 +374,38 @@ def port_motions(plan: Plan) -> dict[int, frozenset]:
         add(after, {})
     for inst in plan.moves:
         add(inst.start, dict(inst.step.targets))
+    if hosted(plan):        # the host moves any line anywhere it can go
+        reach = tuple(Reach(*host_range(c.servo)) for c in plan.channels)
+        add(reach, dict(enumerate(reach)))
     return {port: frozenset(ms) for port, ms in out.items()}
+
+
+def host_watchers(plan: Plan) -> set[int]:
+    """id() of each select whose meanwhile body runs a `host` statement (in it, or in a select, a
+    repeat, a loop or a sequence inside it): while the host reads every byte, its look takes none."""
+    return {id(st) for st in steps(plan)
+            if isinstance(st, SelectStep) and st.meanwhile is not None and _runs_host(plan, st.meanwhile)}
+
+
+def _runs_host(plan: Plan, body: tuple[Step, ...]) -> bool:
+    """Whether `body` can run a `host` statement (in it, or in anything it plays)."""
+    work, seen = [body], set()
+    while work:
+        for st in work.pop():
+            if isinstance(st, HostStep):
+                return True
+            if isinstance(st, PlayStep):
+                if st.sequence not in seen:
+                    seen.add(st.sequence)
+                    work.append(plan.sequence(st.sequence).body)
+            else:
+                work.extend(walk.blocks(st))
+    return False
+
+
+def hosted(plan: Plan) -> bool:
+    """Whether the program runs a `host` statement (the host may move every servo)."""
+    return any(isinstance(st, HostStep) for st in steps(plan))
 
 
 def _power_up(plan: Plan) -> Iterator[tuple[tuple, tuple, MoveStep]]:
@@ -369,4 +445,6 @@ def move_starts(plan: Plan) -> dict[int, frozenset | None]:
     for inst in plan.moves:
         if id(inst.step) not in power:
             add(inst.start, inst.first, inst.step)
+    if hosted(plan):        # host moves start wherever the servos are
+        out = {port: None for port in plan.ports}
     return {port: None if pairs is None else frozenset(pairs) for port, pairs in out.items()}

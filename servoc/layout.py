@@ -148,6 +148,12 @@ class StackTooDeep(LayoutError):
     help = f"nest `repeat` and `play` at most {costs.max_nesting()} levels deep"
 
 
+class HostRam(LayoutError):
+    """`host` leaves the stack less room than a program without nesting needs."""
+    code = "host-ram"
+    help = "use fewer servos, or put them on fewer ports (each port in use takes 40 bytes of RAM)"
+
+
 class SlowServo(LayoutError):
     code = "too-slow"
     help = "give the move a duration, or a `speed` the frames-needed table can hold (F < 65536)"

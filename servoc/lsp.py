@@ -10,7 +10,8 @@ It speaks the Language Server Protocol over standard input and output (pygls):
   on a name, its declaration;
 - go to definition, find references and rename for servos, groups, poses and
   sequences (names share one namespace, so a name means the same thing everywhere);
-- completion of the declared names and the keywords.
+- completion of the declared names and the keywords (with the words that are keywords only
+  where the grammar expects them, such as `host` and `channel`; after `host`, its protocols).
 
 Every request works on the editor's text, never on the file on disk. Analysis
 never takes the server down: an exception inside servoc becomes "no
@@ -34,7 +35,7 @@ from . import __version__, api, nodes, units, walk
 from .check import quantities
 from .check.context import PORTS
 from .diagnostics import Diagnostic, Reporter, Severity
-from .model import EASES
+from .model import EASES, HOSTS, host_channel
 from .steps import MoveInstance, Plan
 from .printer import format_quantity
 from .source import NO_SPAN, SourceFile, Span
@@ -55,6 +56,8 @@ SYMBOL_KIND = {"servo": lsp.SymbolKind.Variable, "group": lsp.SymbolKind.Array,
                "input": lsp.SymbolKind.Event}
 # After these words only one kind of name fits.
 WANTS = {"move": "pose", "play": "sequence", "wait": "input", "on": "input"}
+# Words that are no keywords but start a declaration, a statement or a servo option (completed with them).
+SOFT_KEYWORDS = frozenset({"home", "stagger", "host", "channel"})
 MAX_INSTANCES = 6       # move contexts shown in one hover
 
 
@@ -239,6 +242,11 @@ def hover_name(a: Analysis, sym: Symbols, name: nodes.Name) -> str:
         return f"`{name.text}` is not declared"
     line, _ = a.source.line_col(decl.name.span.start)
     text = f"**{decl.kind} `{name.text}`**, declared at line {line}:\n```servo\n{_first_line(a, decl.item.span)}\n```"
+    if decl.kind == "servo" and a.program is not None and a.program.host is not None:
+        servo = next((s for s in a.program.servos if s.name == name.text), None)
+        if servo is not None:
+            how = "its `channel`" if servo.channel_option is not None else f"its pin {servo.pin}"
+            text += f"\nhost channel {host_channel(servo)} (`host {a.program.host}`, from {how})"
     if decl.kind == "group" and a.program is not None:
         group = next((g for g in a.program.groups if g.name == name.text), None)
         if group is not None:
@@ -364,14 +372,23 @@ def completion(a: Analysis, offset: int) -> list[lsp.CompletionItem]:
     word = before.group(1) if before else ""
     if word == "ease":
         return [lsp.CompletionItem(label=e, kind=lsp.CompletionItemKind.Keyword, detail="ease") for e in EASES]
+    if word == "host" and _line_start(text, start - len(before.group(0))):
+        return [lsp.CompletionItem(label=h, kind=lsp.CompletionItemKind.Keyword, detail="host protocol")
+                for h in HOSTS]
     wanted = WANTS.get(word, "")
     names = declared_names(a)
     items = [lsp.CompletionItem(label=name, kind=COMPLETION_KIND[kind], detail=kind)
              for name, kind in sorted(names.items()) if not wanted or kind == wanted]
     if not wanted:
         items += [lsp.CompletionItem(label=kw, kind=lsp.CompletionItemKind.Keyword, detail="keyword")
-                  for kw in sorted(keywords() | {"in-out"})]
+                  for kw in sorted(keywords() | SOFT_KEYWORDS | {"in-out"})]
     return items
+
+
+def _line_start(text: str, offset: int) -> bool:
+    """Whether only blanks (or a `;`) come before `offset` on its line: a declaration starts there."""
+    before = text[text.rfind("\n", 0, offset) + 1:offset]
+    return before.strip(" \t") == "" or before.rstrip(" \t").endswith(";")
 
 
 # ---------------------------------------------------------------- rename

@@ -5,8 +5,10 @@ refers to something declared; every target is an output N in 0..250 (limit,
 then reverse, then trim already applied); times are exact Fractions in
 microseconds; servos are on P0.0-P2.7, one per pin; inputs are on other pins
 (P0.0-P3.7, never RXD/TXD when `serial` is declared); every event names a
-declared input or a byte 0..255, and a byte is only used with `serial`. Spans never take part in
-equality, so a program printed and parsed back compares equal.
+declared input or a byte 0..255, and a byte is only used with `serial`; a `Host` statement only
+in a program that declares `host ssc32` (which needs `serial`), and then no two servos share a
+host channel (`host_channel`). Spans never take part in equality, so a program printed and
+parsed back compares equal.
 """
 
 from __future__ import annotations
@@ -20,6 +22,8 @@ from . import target as chips
 from .units import DEFAULT_T_DAV_US
 
 EASES = ("linear", "in", "out", "in-out")
+HOSTS = ("ssc32",)                  # the host protocols `host PROTOCOL` knows
+MAX_HOST_CHANNEL = 31               # `channel K`: K in 0..31
 
 
 def _span() -> Span:
@@ -36,15 +40,24 @@ class Servo:
     limit: tuple[int, int] | None = None   # inclusive N bounds of positions, before reverse and trim
     reverse: bool = False
     span: Span = _span()
+    channel_option: int | None = None       # `channel K` (0..31), None when not given: see `host_channel`
 
     @property
     def channel(self) -> int:
-        """0..23: port x 8 + bit."""
+        """0..23: port x 8 + bit (the firmware's order of the pins; not the host channel)."""
         return self.port * 8 + self.bit
 
     @property
     def pin(self) -> str:
         return f"P{self.port}.{self.bit}"
+
+
+def host_channel(servo: Servo) -> int:
+    """The servo's channel in the host protocol: its `channel K`, else its pin's (as in `servoc
+    import`): P1.b is b, P2.b 8 + b, P0.b 16 + b."""
+    if servo.channel_option is not None:
+        return servo.channel_option
+    return {1: 0, 2: 8, 0: 16}[servo.port] + servo.bit
 
 
 @dataclass(frozen=True)
@@ -202,7 +215,14 @@ class Send:
     span: Span = _span()
 
 
-Stmt = Union[Move, Hold, Repeat, Loop, Play, Select, Send]
+@dataclass(frozen=True)
+class Host:
+    """`host`: obey the host (the protocol of `Program.host`) until the program ends it, as the
+    statement of an `until` or in a select's meanwhile; alone, it never ends."""
+    span: Span = _span()
+
+
+Stmt = Union[Move, Hold, Repeat, Loop, Play, Select, Send, Host]
 
 
 @dataclass(frozen=True)
@@ -230,6 +250,8 @@ class Program:
     home: Pose | None = None                  # `home POSE`, if given
     stagger_us: Fraction | None = None        # `stagger DUR`, if given
     home_span: Span = _span()
+    host: str | None = None                   # `host ssc32`: "ssc32"; None without it
+    host_span: Span = _span()
 
     @property
     def reacts(self) -> bool:

@@ -82,7 +82,14 @@ class ReverseOption:
     span: Span
 
 
-ServoOption = Union[SpeedOption, TrimOption, LimitOption, ReverseOption]
+@dataclass(frozen=True)
+class ChannelOption:
+    """`channel K`: the servo's channel in the host protocol (K not checked yet)."""
+    channel: Quantity
+    span: Span
+
+
+ServoOption = Union[SpeedOption, TrimOption, LimitOption, ReverseOption, ChannelOption]
 
 
 # ---- declarations ----------------------------------------------------------
@@ -272,7 +279,13 @@ class SendStmt:
     span: Span
 
 
-Stmt = Union[MoveStmt, HoldStmt, RepeatStmt, LoopStmt, PlayStmt, SelectStmt, WaitStmt, SendStmt, UntilStmt]
+@dataclass(frozen=True)
+class HostStmt:
+    """`host`: obey the host until the program ends it."""
+    span: Span
+
+
+Stmt = Union[MoveStmt, HoldStmt, RepeatStmt, LoopStmt, PlayStmt, SelectStmt, WaitStmt, SendStmt, UntilStmt, HostStmt]
 
 
 @dataclass(frozen=True)
@@ -293,7 +306,8 @@ class MainDecl:
 
 @dataclass(frozen=True)
 class SettingDecl:
-    """`home POSE` or `stagger DUR`: `word` must be `home` or `stagger` (no keywords)."""
+    """`home POSE`, `stagger DUR` or `host PROTOCOL`: `word` must be `home`, `stagger` or `host`
+    (no keywords)."""
     word: Name
     value: Union[Name, Quantity]
     span: Span

@@ -10,7 +10,9 @@ select, found in the assembler's listing:
   instruction before the `RET` loads A with 1 + the branch, or clears it);
 - `selN_bK`, the first instruction of branch K;
 - in the serial handler, `ui_got` (a byte was just taken from SBUF: the byte and the queue's
-  counters) and `ui_drop` (it was queued, or not: the counters again).
+  counters) and `ui_drop` (it was queued, or not: the counters again);
+- with `host`: `host_run` (a run of the statement begins), `hr_frame` (each frame's reading
+  begins) and `hb_in` (the parser reads a byte: the byte).
 
 `observe` turns the probes of a run into `Observation`: every select reached, in order (`Visit`),
 with each look's window of cycles and the queue it saw, and the branch it took; and every byte
@@ -26,6 +28,8 @@ from dataclasses import dataclass, field
 from .sim import SimTrace
 
 REACH, LOOK, EXIT, BRANCH, RX_GOT, RX_END = "reach", "look", "exit", "branch", "rx_got", "rx_end"
+HOST_START, HOST_FRAME, HOST_BYTE = "host_start", "host_frame", "host_byte"
+HOST_BYTE_RAM = 0x02            # bank 0 R2: the byte host_byte is reading (`hb_in`)
 
 # A listing line (sdas8051 -l, relocated .rst): address in columns 6..11, the source line's number
 # in 34..38, the source from 40.
@@ -133,6 +137,12 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
             add(address, EXIT, lab, k, rx_state)
         for k in range(len(st.branches)):
             add(labels[f"{lab}_b{k}"], BRANCH, lab, k, ())
+    if "host_run" in labels:
+        for lab, kind in (("host_run", HOST_START), ("hr_frame", HOST_FRAME), ("hb_in", HOST_BYTE)):
+            if lab not in labels:
+                raise ProbeError(f"the listing has no {lab}")
+            add(labels[lab], kind, "", None, (HOST_BYTE_RAM,) if kind == HOST_BYTE else
+                rx_state if kind == HOST_FRAME else ())
     if queue:
         for lab in ("ui_got", "ui_drop"):
             if lab not in labels:
@@ -193,11 +203,20 @@ class Received:
     queued: bool
 
 
+@dataclass
+class HostVisit:
+    """A run of a `host` statement: the cycle it began, and per frame's reading (the cycle it began,
+    the receive queue's read counter then, absolute) the bytes the parser read, in order."""
+    start: int
+    frames: list[tuple[int, int, list[int]]] = field(default_factory=list)
+
+
 @dataclass(frozen=True)
 class Observation:
     visits: tuple[Visit, ...]
     received: tuple[Received, ...]
     problems: tuple[str, ...] = ()       # probes out of order: the firmware went where no select is
+    hosts: tuple[HostVisit, ...] = ()
 
 
 class _Counter:
@@ -218,6 +237,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
     problems: list[str] = []
     rxr, rxw = _Counter(), _Counter()
     pending = None
+    hosts: list[HostVisit] = []
     for p, (kind, label, k) in ((p, m) for p in trace.probes for m in probes.meaning[p.tag]):
         if kind == REACH:
             if label in active:
@@ -261,4 +281,19 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
             received.append(Received(pending[0], pending[1], pending[2], p.ram[1] != pending[3]))
             rxw(p.ram[1])
             pending = None
-    return Observation(tuple(visits), tuple(received), tuple(problems))
+        elif kind == HOST_START:
+            hosts.append(HostVisit(p.cycle))
+        elif kind == HOST_FRAME:
+            if not hosts:
+                problems.append(f"the host's reading began at cycle {p.cycle} with no `host` running")
+                continue
+            r = rxr(p.ram[0]) if p.ram else 0
+            if p.ram:
+                rxw(p.ram[1])
+            hosts[-1].frames.append((p.cycle, r, []))
+        elif kind == HOST_BYTE:
+            if not hosts or not hosts[-1].frames:
+                problems.append(f"the host parser read a byte at cycle {p.cycle} outside a frame's reading")
+                continue
+            hosts[-1].frames[-1][2].append(p.ram[0])
+    return Observation(tuple(visits), tuple(received), tuple(problems), tuple(hosts))

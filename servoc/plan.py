@@ -32,11 +32,12 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Iterable, Iterator, Union
 
-from . import model, walk
+from . import model, ssc32, walk
+from .model import host_channel
 from .diagnostics import Reporter
 from .flow import sends, takes_frames
 from .source import NO_SPAN, Span
-from .steps import (AfterBranch, Branch, Channel, HoldStep, LoopStep, MoveInstance, MoveStep, OnBranch, Origin, Plan,
+from .steps import (AfterBranch, Branch, Channel, HoldStep, HostStep, LoopStep, host_range, MoveInstance, MoveStep, OnBranch, Origin, Plan,
                     PlayStep, Reach, RepeatStep, SelectStep, SendStep, SequencePlan, ServoMotion, Step, at_statement,
                     far, far_from, join, steps)
 from .units import DEFAULT_PERIOD_FLOOR_US, N_MAX, frames_for, frames_needed, move_frames, round_half_up
@@ -106,10 +107,19 @@ State = tuple  # per channel: N or None
 
 
 def _moved_servos(program: model.Program) -> set[str]:
-    """The servos that get pulses: those a move names, and those of the `home` pose."""
+    """The servos that get pulses: those a move names, and those of the `home` pose; with a `host`
+    statement, every servo (the host may move any of them)."""
+    if hosts(program):
+        return {s.name for s in program.servos}
     home = {t.servo for t in program.home.targets} if program.home is not None else set()
     return home | {t.servo for st in walk.statements([program.main, *(seq.body for seq in program.sequences)])
                    if isinstance(st, model.Move) for t in st.targets}
+
+
+def hosts(program: model.Program) -> bool:
+    """Whether the program runs a `host` statement anywhere (main, or a sequence)."""
+    return any(isinstance(st, model.Host)
+               for st in walk.statements([program.main, *(seq.body for seq in program.sequences)]))
 
 
 def startup_steps(program: model.Program, channels, period: int) -> tuple[tuple[Step, ...], tuple]:
@@ -183,8 +193,9 @@ def plan(program: model.Program, reporter: Reporter | None = None, period_us: in
     return _plan_at(program, servos, ports, period_us or DEFAULT_PERIOD_FLOOR_US, True, depth)
 
 
-def _model_steps(body: tuple, index: dict[str, int], period: int) -> tuple[Step, ...]:
-    """model statements -> plan steps at period P (`index`: channel of each servo by name)."""
+def _model_steps(body: tuple, index: dict[str, int], period: int, sequences: tuple[str, ...] = ()) -> tuple[Step, ...]:
+    """model statements -> plan steps at period P (`index`: channel of each servo by name;
+    `sequences`: every sequence's name in declaration order, those a `host` can play)."""
     out: list[Step] = []
     for st in body:
         if isinstance(st, model.Move):
@@ -195,19 +206,21 @@ def _model_steps(body: tuple, index: dict[str, int], period: int) -> tuple[Step,
         elif isinstance(st, model.Hold):
             out.append(HoldStep(frames_for(st.duration_us, period), st.duration_us, st.span))
         elif isinstance(st, model.Repeat):
-            out.append(RepeatStep(st.count, _model_steps(st.body, index, period), st.span))
+            out.append(RepeatStep(st.count, _model_steps(st.body, index, period, sequences), st.span))
         elif isinstance(st, model.Loop):
-            out.append(LoopStep(_model_steps(st.body, index, period), st.span))
+            out.append(LoopStep(_model_steps(st.body, index, period, sequences), st.span))
         elif isinstance(st, model.Select):
             branches = tuple(
-                OnBranch(b.event, _model_steps(b.body, index, period), b.span) if isinstance(b, model.On)
+                OnBranch(b.event, _model_steps(b.body, index, period, sequences), b.span) if isinstance(b, model.On)
                 else AfterBranch(frames_for(b.duration_us, period), b.duration_us,
-                                 _model_steps(b.body, index, period), b.span)
+                                 _model_steps(b.body, index, period, sequences), b.span)
                 for b in st.branches)
-            meanwhile = None if st.meanwhile is None else _model_steps(st.meanwhile, index, period)
+            meanwhile = None if st.meanwhile is None else _model_steps(st.meanwhile, index, period, sequences)
             out.append(SelectStep(branches, st.wait, st.span, meanwhile, st.until))
         elif isinstance(st, model.Send):
             out.append(SendStep(st.byte, st.text, st.span))
+        elif isinstance(st, model.Host):
+            out.append(HostStep(tuple(PlayStep(name, st.span) for name in sequences), st.span))
         else:
             out.append(PlayStep(st.sequence, st.span))
     return tuple(out)
@@ -227,10 +240,15 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
 
     speed_classes = tuple(c.speed_class for c in channels)
     startup, schedule = startup_steps(program, channels, period)
-    main = startup + _model_steps(program.main, index, period)
-    seq_bodies = {s.name: SequencePlan(s.name, _model_steps(s.body, index, period), s.span)
+    names = tuple(s.name for s in program.sequences)
+    main = startup + _model_steps(program.main, index, period, names)
+    seq_bodies = {s.name: SequencePlan(s.name, _model_steps(s.body, index, period, names), s.span)
                   for s in program.sequences}
-    walker = _Walker(seq_bodies, tables, speed_classes)
+    if hosts(program):      # a `host` plays any sequence from its own level
+        depth = max(depth, walk.nesting(main, lambda name: seq_bodies[name].body))
+    hosted = tuple(Reach(*host_range(c.servo), True) for c in channels) if hosts(program) else None
+    order = tuple(s.name for s in program.sequences)
+    walker = _Walker(seq_bodies, tables, speed_classes, hosted, order)
     walker.start(main, len(channels), home_state(program, channels))
     # A move without duration whose F is the same in every context gets that F fixed;
     # only the others are left to the firmware's run-time rule.
@@ -245,7 +263,7 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
     if fixed:
         main = _fix_frames(main, fixed)
         seq_bodies = {n: SequencePlan(sp.name, _fix_frames(sp.body, fixed), sp.span) for n, sp in seq_bodies.items()}
-        walker = _Walker(seq_bodies, tables, speed_classes)
+        walker = _Walker(seq_bodies, tables, speed_classes, hosted, order)
     exits, total = walker.start(main, len(channels), home_state(program, channels))
     infinite = not exits
     # Every sequence main can name, also after a `loop` (code there never runs, but later
@@ -296,8 +314,9 @@ def verify_frames(plan: Plan) -> int:
     program that loops forever, everything up to its first `loop` and two passes of it."""
     if plan.total_frames is not None:
         return min(VERIFY_MAX_FRAMES, plan.total_frames + VERIFY_TAIL_FRAMES)
+    hosted = tuple(Reach(*host_range(c.servo), True) for c in plan.channels) if hosts(plan.program) else None
     walker = _Walker({s.name: s for s in plan.sequences}, plan.speed_tables,
-                     tuple(c.speed_class for c in plan.channels))
+                     tuple(c.speed_class for c in plan.channels), hosted, tuple(s.name for s in plan.sequences))
     state: State = home_state(plan.program, plan.channels)
     frames = 0
     for st in plan.main:
@@ -335,8 +354,11 @@ class _Walker:
     again; a loop walks its body from every state a pass can start in until no new one appears.
     Every move instance is recorded once per entry state."""
 
-    def __init__(self, sequences: dict[str, SequencePlan], tables, classes):
+    def __init__(self, sequences: dict[str, SequencePlan], tables, classes, hosted: State | None = None,
+                 order: tuple[str, ...] = ()):
         self.sequences = sequences
+        self.hosted = hosted        # where a `host` statement can leave each servo (a Reach per channel)
+        self.order = order          # the sequences a host can play (`PL 0 SQ n`), in declaration order
         self.tables = tables
         self.classes = classes
         self.instances: dict[tuple, MoveInstance] = {}
@@ -393,6 +415,16 @@ class _Walker:
                     total += st.frames
             elif isinstance(st, SendStep):
                 new = cur
+            elif isinstance(st, HostStep):
+                # the host moves any servo anywhere it can go, switches any off, and plays any
+                # sequence from there: those are walked from that state; it never ends by itself
+                held = tuple(at_statement(v, st.span) for v in self.hosted)
+                more(held)
+                for name in self.order:
+                    self.played.add(name)
+                    _, _, h = self.walk(self.sequences[name].body, held, ("host", st.span), branch)
+                    more(h)
+                total = None
             elif isinstance(st, RepeatStep):
                 for s, where in cur.items():
                     exits, frames, h = self._repeat(st, s, made(where), branch)
@@ -542,6 +574,13 @@ class Choice:
 UNDECIDED = 1 << 60     # Choice.frames of a select that takes no branch within the frames looked at
 
 
+@dataclass(frozen=True)
+class HostRun:
+    """What happens in one run of a `host` statement `expand` reaches: per frame's reading, the
+    bytes the firmware's parser read (docs/host-protocol.md); after the last, it reads none."""
+    reads: tuple[tuple[int, ...], ...] = ()
+
+
 class Decider:
     """Decides at each select what the firmware does: `reach(select, frames)` when it is reached
     (`frames`: frames made so far) gives a token; `look(token, j, frames)` at its j-th look (0: as
@@ -554,13 +593,22 @@ class Decider:
     def look(self, token, j: int, frames: int) -> int | None:
         raise NotImplementedError
 
+    def host(self, st: HostStep) -> HostRun | None:
+        """The bytes a run of `st` reads (None: none at all)."""
+        return None
+
 
 class ListDecider(Decider):
     """`choices` in the order the selects are reached; when they run out, what the firmware does
     when no event comes: the select's `after` after its F frames, or waiting forever."""
 
-    def __init__(self, choices: Iterable[Choice]) -> None:
-        self.picks = iter(choices)
+    def __init__(self, choices: Iterable[Choice | HostRun]) -> None:
+        choices = tuple(choices)
+        self.picks = iter(c for c in choices if not isinstance(c, HostRun))
+        self.hosts = iter(c for c in choices if isinstance(c, HostRun))
+
+    def host(self, st: HostStep) -> HostRun | None:
+        return next(self.hosts, None)
 
     def reach(self, select: SelectStep, frames: int):
         pick = next(self.picks, None)
@@ -593,7 +641,9 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
     """Every frame of the program, from the first timer frame; after main, the last repeats forever.
 
     A select cannot know which event comes: `expand` takes the next of `choices` at each select it
-    reaches, in the order reached (or asks a `Decider`); when they run out it does what the firmware
+    reaches, in the order reached (or asks a `Decider`), and at each run of a `host` statement the
+    next `HostRun` of them (the firmware's model, `servoc.ssc32`, turns its bytes into frames and
+    replies; a `PL 0 SQ n` plays the sequence and the statement runs again); when they run out it does what the firmware
     does when no event comes: it takes the select's `after` after its F frames, or waits there
     forever, repeating the current targets or running its meanwhile body. A meanwhile body is cut
     right after the frame of the look that takes a branch, where the servos are; selects inside
@@ -646,12 +696,43 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
             seen[id(st.branches[taken])] = 0
         yield from run(st.branches[taken].body)
 
+    host_servos = [ssc32.Servo(host_channel(c.servo), *(c.servo.limit or (0, N_MAX)), c.servo.reverse,
+                               c.servo.trim, c.servo.t_dav_us) for c in plan.channels]
+    offsets: dict[int, int] = {}        # the firmware's offsets outlive a run of `host`
+
+    def host(st: HostStep) -> Iterator[GoldenFrame]:
+        names = [q.name for q in plan.program.sequences]
+        while True:
+            run_ = decider.host(st)
+            session = ssc32.Session(host_servos, plan.period_us, len(names),
+                                    {s.channel: state[i] for i, s in enumerate(host_servos)})
+            session.offsets.update(offsets)
+            parser = ssc32.LineParser()
+            reads = iter(run_.reads if run_ is not None else ())
+            while True:
+                for b in next(reads, ()):
+                    cmd = parser.feed(b)
+                    if cmd is not None:
+                        pending.extend(session.line(cmd))
+                offsets.update(session.offsets)
+                played = len(session.plays)
+                now = session.frame()
+                for i, s in enumerate(host_servos):
+                    state[i] = now[s.channel]
+                yield frame(st.span)
+                if played:
+                    break
+            yield from run(plan.sequence(names[session.plays[0]]).body)
+
     def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         for st in body:
             if seen is not None:
                 seen.setdefault(id(st), 0)
             if isinstance(st, SendStep):
                 pending.append(st.byte)
+                continue
+            if isinstance(st, HostStep):
+                yield from host(st)
                 continue
             if isinstance(st, SelectStep):
                 yield from select(st)

@@ -128,6 +128,8 @@ def _option(opt: nodes.ServoOption) -> str:
         return f"limit {format_quantity(opt.low)}..{format_quantity(opt.high)}"
     if isinstance(opt, nodes.ReverseOption):
         return "reverse"
+    if isinstance(opt, nodes.ChannelOption):
+        return f"channel {format_quantity(opt.channel)}"
     raise TypeError(f"not a servo option: {opt!r}")
 
 
@@ -177,4 +179,6 @@ def _stmt(stmt: nodes.Stmt, depth: int, comments: dict) -> list[str]:
         return lines
     if isinstance(stmt, nodes.SendStmt):
         return [f"{pad}send {format_event(stmt.byte)}"]
+    if isinstance(stmt, nodes.HostStmt):
+        return [f"{pad}host"]
     raise TypeError(f"not a statement: {stmt!r}")

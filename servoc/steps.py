@@ -1,7 +1,7 @@
 """The plan's data types: what the planner makes and every later stage reads.
 
 A `Plan` keeps the program's control flow as steps (`MoveStep`, `HoldStep`,
-`RepeatStep`, `LoopStep`, `PlayStep`, `SelectStep`, `SendStep`) with their
+`RepeatStep`, `LoopStep`, `PlayStep`, `SelectStep`, `SendStep`, `HostStep`) with their
 frame counts at the plan's period, the channels (servos that move) in port
 order, and every distinct move instance the program reaches (`MoveInstance`,
 with where each servo can start: an N, or a `Reach` after an interruption).
@@ -116,7 +116,26 @@ class SendStep:
     span: Span = field(default=NO_SPAN, compare=False)
 
 
-Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep, SelectStep, SendStep]
+@dataclass(frozen=True)
+class HostStep:
+    """`host`: the servos obey the host's commands (the SSC-32 protocol, docs/host-protocol.md),
+    frame after frame, until an event of a select around it cuts it; it never ends by itself.
+    `plays`: a `play` of each sequence of the program in declaration order (`PL 0 SQ n` plays
+    sequence n from here: its block, for the folds of `servoc.walk`)."""
+    plays: tuple["PlayStep", ...] = ()
+    span: Span = field(default=NO_SPAN, compare=False)
+
+
+def host_range(servo: model.Servo) -> tuple[int, int]:
+    """The output N a host command can give the servo: its `limit` (0..250 without one), then
+    `reverse` and `trim`, clamped to 0..250 (docs/host-protocol.md)."""
+    lo, hi = servo.limit if servo.limit is not None else (0, 250)
+    ends = [250 - n if servo.reverse else n for n in (lo, hi)]
+    lo, hi = (min(250, max(0, n + servo.trim)) for n in sorted(ends))
+    return lo, hi
+
+
+Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep, SelectStep, SendStep, HostStep]
 Branch = Union[OnBranch, AfterBranch]
 
 

@@ -7,9 +7,11 @@ Input: the decoded text of one .servo file. Output: a `nodes.Program` (see
 The grammar is `grammar/servo.lark`, parsed by lark's LALR(1) parser with its
 contextual lexer; the parser is built once. Keywords are reserved: a postlexer
 turns a NAME token spelled like a keyword into that keyword, so `servo main =`
-fails where a name was expected. Parse errors are described in the words of
-the language ("a pose name", "a position such as `90deg`"), never with lark's
-terminal names. `parse` never raises, whatever the input.
+fails where a name was expected. The words of SOFT_WORDS (`host`, `channel`) are
+written as literals in the grammar but are no keywords: the contextual lexer
+reads them as the word only where the grammar expects it, a NAME elsewhere.
+Parse errors are described in the words of the language ("a pose name", "a
+position such as `90deg`"), never with lark's terminal names. `parse` never raises, whatever the input.
 """
 
 from __future__ import annotations
@@ -39,6 +41,9 @@ MAX_NESTING = 200
 MAX_DIGITS = 60
 
 _NAME_RE = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
+# Words the grammar writes as literals that are nevertheless no keywords: the statement `host`
+# and the servo option `channel` (a pose may be called `host`, a servo `channel`).
+SOFT_WORDS = frozenset({"host", "channel"})
 _MICRO = ("\u00b5", "\u03bc")
 
 
@@ -93,7 +98,8 @@ def _parser() -> Lark:
     parser = Lark(grammar_text(), parser="lalr", lexer="contextual", postlex=postlex,
                   transformer=_Builder(), maybe_placeholders=False)
     for term in parser.terminals:
-        if isinstance(term.pattern, PatternStr) and _NAME_RE.match(term.pattern.value):
+        if (isinstance(term.pattern, PatternStr) and _NAME_RE.match(term.pattern.value)
+                and term.pattern.value not in SOFT_WORDS):
             postlex.keywords[term.pattern.value] = term.name
     return parser
 
@@ -244,6 +250,10 @@ class _Builder:
     def reverse_option(self, ch):
         return nodes.ReverseOption(_rule_span(ch))
 
+    # !channel_option: "channel" NUMBER
+    def channel_option(self, ch):
+        return nodes.ChannelOption(_quantity(ch[1]), _rule_span(ch))
+
     # !group_decl: "group" NAME "=" NAME ("," _NL* NAME)*
     def group_decl(self, ch):
         members = tuple(_name(t) for t in ch[3:] if t.type == "NAME")
@@ -342,6 +352,10 @@ class _Builder:
     def send_stmt(self, ch):
         return nodes.SendStmt(ch[1], _rule_span(ch))
 
+    # !host_stmt: "host"
+    def host_stmt(self, ch):
+        return nodes.HostStmt(_rule_span(ch))
+
     # event: NAME | NAME NAME | NAME STRING | NAME NUMBER | STRING | NUMBER | OTHER
     def event(self, ch):
         tok = ch[0]
@@ -360,9 +374,9 @@ class _Builder:
 # ---- error messages ---------------------------------------------------------
 
 _DECL_KWS = ("SERVO", "GROUP", "POSE", "SEQUENCE", "MAIN", "FRAME", "TARGET", "INPUT", "SERIAL")
-_STMT_KWS = ("MOVE", "HOLD", "REPEAT", "LOOP", "PLAY", "SELECT", "WAIT", "SEND")
+_STMT_KWS = ("MOVE", "HOLD", "REPEAT", "LOOP", "PLAY", "SELECT", "WAIT", "SEND", "HOST")
 _BRANCH_KWS = ("ON", "AFTER", "MEANWHILE")
-_OPTION_KWS = ("SPEED", "TRIM", "LIMIT", "REVERSE")
+_OPTION_KWS = ("SPEED", "TRIM", "LIMIT", "REVERSE", "CHANNEL")
 _EASE_KWS = ("LINEAR", "IN", "OUT", "IN_OUT")
 _ENDS = ("_NL", "SEMICOLON")
 
@@ -384,6 +398,7 @@ _NUMBER_AFTER = {
     "DOTDOT": "a position such as `160deg` (as in `limit 20deg..160deg`)",
     "CLOCK": "a clock frequency such as `12MHz`",
     "SERIAL": "a baud rate such as `9600`",
+    "CHANNEL": "a channel number 0..31 such as `3`",
     "AFTER": _DURATION,
 }
 _EVENT = "an input's name (or `press NAME`, `release NAME`), a byte such as `\"w\"` or `119`, or `other`"
@@ -403,10 +418,20 @@ _NAME_AFTER = {
 }
 
 
+# The settings: declarations whose word is no keyword (`setting_decl`), read by the checker.
+SETTING_WORDS = ("home", "stagger", "host")
+_SETTING_VALUE = {"home": "the name of a pose", "stagger": "a time such as `100ms`",
+                  "host": "the host protocol `ssc32`"}
+_SETTING_HELP = {"home": "`home POSE` parks the robot in POSE at power-up",
+                 "stagger": "`stagger 100ms` starts the servos 100 ms apart at power-up",
+                 "host": "`host ssc32` (with `serial BAUD`) lets host software drive the servos "
+                         "while the program runs the statement `host`"}
+
+
 def declaration_words() -> list[str]:
-    """The words a declaration starts with: the keywords, then the settings `home` and `stagger`."""
+    """The words a declaration starts with: the keywords, then the settings `home`, `stagger` and `host`."""
     term_text = {t.name: t.pattern.value for t in _parser().terminals if isinstance(t.pattern, PatternStr)}
-    return [term_text[n] for n in _DECL_KWS if n in term_text] + ["home", "stagger"]
+    return [term_text[n] for n in _DECL_KWS if n in term_text] + list(SETTING_WORDS)
 
 
 def not_a_declaration(word: str) -> tuple[str, str]:
@@ -432,10 +457,25 @@ def _prefix_tokens(text: str, pos: int) -> list[Token]:
     toks: list[Token] = []
     try:
         for tok in _parser().lex(text[:pos]):
+            if tok.value in SOFT_WORDS and tok.type != "NAME" and not _soft_here(toks, tok.value):
+                tok = Token.new_borrow_pos("NAME", tok.value, tok)
             toks.append(tok)
     except Exception:
         pass
     return toks
+
+
+def _soft_here(toks: list[Token], word: str) -> bool:
+    """Whether a soft word after `toks` is the word, not a name. `lex` reads it without the parser,
+    so this judges by what is before it: `host` where a statement starts in a block of a sequence
+    or `main`, `channel` among a servo's options."""
+    last = toks[-1].type if toks else ""
+    if word == "host":
+        opener = next((t.type for t in reversed(toks) if t.type in _DECL_KWS), "")
+        return (last in ("LBRACE", "_NL", "SEMICOLON") and bool(_open_braces(toks))
+                and opener in ("MAIN", "SEQUENCE"))
+    opener = next((t.type for t in reversed(toks) if t.type in _DECL_KWS or t.type in _ENDS), "")
+    return opener == "SERVO" and last not in ("SERVO", "EQUAL")
 
 
 def _kind(tok: Token, term_text: dict[str, str]) -> str:
@@ -604,10 +644,21 @@ def _describe(exc: UnexpectedInput, text: str) -> tuple[str, Span, str]:
         help_ = ""
         starts = [i + 1 for i, t in enumerate(toks) if t.type in ("_NL", "SEMICOLON")]
         stray = toks[starts[-1] if starts else 0] if toks and (not starts or starts[-1] < len(toks)) else None
-        if (stray is not None and stray.type == "NAME" and stray.value not in ("home", "stagger")
+        if (stray is not None and stray.type == "NAME" and stray.value not in SETTING_WORDS
                 and not _open_braces(toks)):
             message, help_ = not_a_declaration(stray.value)
             return message, Span(stray.start_pos, stray.end_pos), help_
+        if (last_tok is not None and last_tok.type == "NAME" and last_tok.value in SETTING_WORDS
+                and {"NAME", "NUMBER"} <= expected and not _open_braces(toks)):
+            word = last_tok.value
+            return (f"expected {_SETTING_VALUE[word]} after `{word}`, found {found}", span,
+                    _SETTING_HELP[word])
+        if last_tok is not None and last_tok.type == "HOST" and tok.type != "$END":
+            help_ = ("in a block, `host` stands alone; `host ssc32` is a declaration, written at the top "
+                     "level" if tok.value.lower() == "ssc32" else
+                     "put each statement on its own line, or separate them with `;`" if kind == "NAME" else "")
+            words = _expected_words(expected, prev, term_text)
+            return f"expected {_join(words)} after `host`, found {found}", span, help_
         if tok.type in kws.values() and "NAME" in expected:
             return (f"`{tok.value}` is a keyword and cannot be used as a name, expected {_name_word(prev)}",
                     span, f"keywords are reserved; choose another name, such as `{tok.value}_1`")

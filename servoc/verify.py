@@ -19,7 +19,8 @@ from dataclasses import dataclass, field
 
 from . import costs
 from .observe import Observation, Visit
-from .plan import Choice, expand, UNDECIDED
+from .flow import host_queue, host_watchers
+from .plan import Choice, HostRun, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
 from .sim import SimTrace
 from .costs import rise_offsets
@@ -314,7 +315,7 @@ def choices_of(obs: Observation) -> tuple[Choice, ...]:
         if v.select.after is not None:          # a firmware that waited past `after` (a look checks that):
             waited = min(waited, v.select.after.frames)     # the plan of the run waits no longer
         out.append(Choice(v.branch, waited))
-    return tuple(out)
+    return tuple(out) + tuple(HostRun(tuple(tuple(got) for _, _, got in h.frames)) for h in obs.hosts)
 
 
 @dataclass(frozen=True)
@@ -377,8 +378,11 @@ class _Levels:
 def _rule(select, j: int, queue: tuple[int, ...], now, prev, depth: int) -> set[tuple[int | None, int]]:
     """What a look may decide by the rules: a set of (the branch taken or None, the bytes it takes
     from the queue). `j`: the look's number (0 as the select is reached); `queue`: the bytes
-    queued; `now(name)` / `prev(name)`: the input's possible states at this look's sample and the
-    one before; `depth`: the most bytes one look drops (the queue's size)."""
+    queued (None: the look reads none, a `host` statement in its meanwhile body does);
+    `now(name)` / `prev(name)`: the input's possible states at this look's sample and the one
+    before; `depth`: the most bytes one look drops (the queue's size)."""
+    if queue is None:
+        queue, depth = (), 0
     ons = [(k, b.event) for k, b in enumerate(select.branches) if not isinstance(b, AfterBranch)]
     named = {ev.byte for _, ev in ons if ev.byte is not None}
     other = any(ev.other for _, ev in ons)
@@ -533,7 +537,8 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     found = RunCheck([Mismatch(0, "select", "-", None, None, p) for p in obs.problems])
     levels = _Levels(plan, trace)
     sent = host_bytes(plan, trace, events)
-    queue = costs.QUEUE
+    queue = host_queue(plan)
+    watchers = host_watchers(plan)              # selects whose looks leave the bytes to `host`
 
     def when(c: int) -> str:
         return f"{c * target.cycle_us / 1e6:.4f} s"
@@ -596,7 +601,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
             lo_prev, hi_prev = (visit.reached, look.entry) if before is None else (before.entry, before.exit or before.entry)
             allowed: set = set()
             for extra in range(len(new) + 1):
-                allowed |= _rule(sel, j, look.queue + tuple(new[:extra]),
+                allowed |= _rule(sel, j, None if id(sel) in watchers else look.queue + tuple(new[:extra]),
                                  lambda n: levels.during(n, look.entry, look.exit),
                                  lambda n: levels.during(n, lo_prev, hi_prev), queue)
             took = look.rxr_after - look.rxr
@@ -628,8 +633,11 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                                         took.why, len(took.visit.looks) - 1, float(target.cycle_us)))
 
     # What the run did not use: bytes dropped or still queued, inputs no look saw.
+    parsed = {r + k for h in obs.hosts for _, r, got in h.frames for k in range(len(got))}   # read by `host`
     for pos, i in enumerate(enqueued):
         host = sent[i]
+        if pos in parsed:
+            continue
         taker = next((v for v in obs.visits for lk in v.looks if lk.rxr <= pos < lk.rxr_after), None)
         if taker is None:
             found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was still queued when "
@@ -714,7 +722,8 @@ def coverage(plan: Plan, choices: tuple, frames: int, line_of=None, text_of=None
                         walk(br.body)
 
     walk(plan.main)
-    waiting = [sel for i, (_, sel) in enumerate(reached) if i < len(choices) and choices[i].frames == UNDECIDED]
+    picks = [c for c in choices if isinstance(c, Choice)]
+    waiting = [sel for i, (_, sel) in enumerate(reached) if i < len(picks) and picks[i].frames == UNDECIDED]
     if waiting:
         sel = waiting[-1]
         ends = ", ".join(f"`{branch_text(b)}`" for b in sel.branches)
@@ -733,6 +742,8 @@ def settle_frame(plan: Plan, choices: tuple) -> int | None:
     again after the last branch taken (the first select no choice decides, or that was still
     waiting when the run ended); None when it never gets there (a branch that loops forever, or
     main ends first)."""
+    if any(isinstance(c, HostRun) for c in choices):
+        return None                     # `host` runs on: the span is the events' and 2 s more
     stop = next((i for i, c in enumerate(choices) if c.frames == UNDECIDED), len(choices))
     decided = tuple(choices[:stop])
     waited = sum(c.frames for c in decided if c.frames < UNDECIDED)

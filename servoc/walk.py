@@ -22,13 +22,13 @@ BodyOf = Callable[[str], tuple]
 
 # The statement classes of the three trees, by name: nodes.*Stmt, model.*, plan.*Step.
 _KINDS = {f"{word}{suffix}": word.lower()
-          for word in ("Move", "Hold", "Repeat", "Loop", "Play", "Select", "Send", "Wait", "Until")
+          for word in ("Move", "Hold", "Repeat", "Loop", "Play", "Select", "Send", "Wait", "Until", "Host")
           for suffix in ("Stmt", "", "Step")}
 
 
 def kind(st: Any) -> str:
-    """'move', 'hold', 'repeat', 'loop', 'play', 'select', 'send', or 'wait' and 'until' (syntax
-    tree only)."""
+    """'move', 'hold', 'repeat', 'loop', 'play', 'select', 'send', 'host', or 'wait' and 'until'
+    (syntax tree only)."""
     try:
         return _KINDS[type(st).__name__]
     except KeyError:
@@ -45,6 +45,9 @@ def blocks(st: Any) -> tuple[tuple, ...]:
         return tuple(b.body for b in st.branches) + (() if extra is None else (extra,))
     if k == "until":
         return ((st.stmt,),)
+    if k == "host":             # the plan's: a play of each sequence the host can start
+        plays = getattr(st, "plays", ())
+        return (plays,) if plays else ()
     return (st.body,) if k in ("repeat", "loop") else ()
 
 
@@ -161,7 +164,7 @@ def _deepest(acc: int, st: Any, inner: Any) -> int:
         frame = (select_frame(st) + 1) // 2
         watched = inner[-1] if getattr(st, "meanwhile", None) is not None else 0
         return max(acc, max(inner, default=0), frame + watched)
-    return max(acc, inner + (kind(st) != "loop"))
+    return max(acc, inner + (kind(st) not in ("loop", "host")))
 
 
 def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:

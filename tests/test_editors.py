@@ -166,6 +166,23 @@ def test_setting_and_edge_words_are_keywords_only_where_the_grammar_expects_them
         assert is_keyword(one_token(lines[4], word, nth=nth)) == keyword, (word, nth, lines[4])
 
 
+def test_host_and_channel_are_keywords_only_where_the_grammar_expects_them(node):
+    lines = tokenize(node, "\n".join([
+        "host ssc32",
+        "servo channel = P1.0 channel 3",
+        "pose host { channel: 1 }",
+        "main { host; move host; host until press stop }",
+        "  host",
+    ]))
+    assert is_keyword(one_token(lines[0], "host")) and not is_keyword(one_token(lines[0], "ssc32"))
+    assert has(one_token(lines[0], "ssc32"), "entity.name")
+    assert not is_keyword(one_token(lines[1], "channel")) and is_keyword(one_token(lines[1], "channel", nth=1))
+    assert not is_keyword(one_token(lines[2], "host")) and not is_keyword(one_token(lines[2], "channel"))
+    for nth, keyword in ((0, True), (1, False), (2, True)):
+        assert is_keyword(one_token(lines[3], "host", nth=nth)) == keyword, (nth, lines[3])
+    assert is_keyword(one_token(lines[4], "host"))
+
+
 def test_in_out_is_one_token(node):
     lines = tokenize(node, "  move shift_l in 200ms ease in-out\n  move a in 1s ease in\n  move b in 1s ease out # back\n")
     scopes = one_token(lines[0], "in-out")

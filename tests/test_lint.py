@@ -30,7 +30,7 @@ LINT_CODES = [
     "infeasible-speed", "eased-overspeed", "off-grid-width", "inexact-angle", "period-too-short",
     "period-too-long", "short-gap", "short-hold", "empty-loop", "too-long", "unused-servo", "unused-group",
     "unused-pose", "unused-sequence", "unreachable", "p0-pull-up", "too-deep", "duplicate-event", "unused-input",
-    "serial-too-fast", "no-home", "level-in-loop", "until-no-frame",
+    "serial-too-fast", "no-home", "level-in-loop", "until-no-frame", "host-ram", "host-takes-bytes",
 ]
 FRONT_CODES = [
     "syntax-error", "duplicate-name", "pin-conflict", "bad-pin", "unknown-name", "wrong-kind", "bad-unit",
@@ -38,6 +38,7 @@ FRONT_CODES = [
     "duplicate-setting", "late-setting", "bad-frame", "unsupported-target", "bad-count", "recursion",
     "duplicate-target", "duplicate-option", "empty-port", "duplicate-member", "invalid-utf8",
     "bad-baud", "bad-byte", "bad-select", "no-serial", "bad-event", "bad-stagger",
+    "unsupported-host", "host-needs-serial", "host-undeclared", "channel-conflict", "channel-unused",
 ]
 CODES = LINT_CODES + FRONT_CODES
 

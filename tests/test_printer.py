@@ -141,10 +141,14 @@ def programs(draw) -> str:
         chip = draw(st.sampled_from(["at89c52", "AT89C52", "at89s52", "stc89c52"]))
         clock = draw(st.sampled_from(["", " clock 12MHz", " clock 12000kHz"]))
         settings_.append(f"target {chip}{clock}")
+    host = draw(st.booleans())
+    if host:
+        settings_ += ["serial 4800", "host ssc32"]
 
     # servos: (name, port, lo, hi)
     n_servos = draw(st.integers(0, 6))
     pins = draw(st.permutations(PINS))[:n_servos]
+    channels = iter(draw(st.permutations(range(24, 32))))     # no pin's channel: never a conflict
     servos: list[tuple[str, int, int, int]] = []
     for i, pin in enumerate(pins):
         name = f"s{i}"
@@ -163,6 +167,8 @@ def programs(draw) -> str:
             lo, hi = lo + 1, hi - 1
         if draw(st.booleans()):
             options.append("reverse")
+        if draw(st.booleans()):
+            options.append(f"channel {next(channels)}")
         options = draw(st.permutations(options))
         items.append(f"servo {name} = {pin}" + "".join(" " + o for o in options))
         servos.append((name, int(pin[1]), lo, hi))
@@ -211,7 +217,8 @@ def programs(draw) -> str:
         poses.append(f"p{i}")
 
     def statements(depth: int, sequences: list[str]) -> str:
-        kinds = ["hold"] + (["move", "move"] if poses else []) + (["play"] if sequences else [])
+        kinds = ["hold"] + (["move", "move"] if poses else []) + (["play"] if sequences else []) + \
+            (["host"] if host else [])
         if depth < 3:
             kinds += ["repeat", "loop"]
         out = []
@@ -228,6 +235,8 @@ def programs(draw) -> str:
                 text = f"hold {draw(DURATIONS)}"
             elif kind == "play":
                 text = f"play {draw(st.sampled_from(sequences))}"
+            elif kind == "host":
+                text = draw(st.sampled_from(["host", "host until \"s\""]))
             elif kind == "repeat":
                 text = f"repeat {draw(st.integers(1, 5))} {{{statements(depth + 1, sequences)}}}"
             else:

@@ -14,8 +14,9 @@ position's output N is: the position's N, checked against the servo's
 `limit`; then `reverse` (250 - N); then `trim` (+INT); it must end in 0..250.
 
 The checker is a few passes over one `Context`, run in order: declarations
-(the symbol table), settings (`frame`, `target`), servos (pins, options),
-inputs (`input` pins, `serial` and its rate), resolve (groups and poses),
+(the symbol table), settings (`frame`, `target`, `home`, `stagger`, `host`),
+servos (pins, options), inputs (`input` pins, `serial` and its rate), host
+(`host ssc32` needs `serial`; host channels), resolve (groups and poses),
 statements (sequences and `main`, selects and their events) and calls
 (recursion, nesting). Unit conversions are pure functions in `quantities`.
 """
@@ -27,6 +28,7 @@ from ..diagnostics import Reporter
 from .calls import calls
 from .context import Context
 from .declarations import declarations
+from .host import host
 from .inputs import inputs
 from .resolve import resolve
 from .servos import servos
@@ -42,6 +44,7 @@ def check(tree: nodes.Program, reporter: Reporter, path: str) -> model.Program |
     settings(tree, ctx)
     servos(tree, ctx)
     inputs(tree, ctx)
+    host(tree, ctx)
     res = resolve(tree, ctx)
     home = statements(tree, ctx, res)
     calls(tree, ctx)
@@ -55,4 +58,5 @@ def check(tree: nodes.Program, reporter: Reporter, path: str) -> model.Program |
         sequences=tuple(ctx.sequences), main=ctx.main, frame_us=ctx.frame_us, target=ctx.target,
         references=frozenset(ctx.references), main_span=ctx.main_span,
         frame_span=ctx.frame_span, inputs=tuple(ctx.inputs.values()), serial=ctx.serial,
-        home=home, stagger_us=ctx.stagger_us, home_span=ctx.home.span if ctx.home is not None else ctx.main_span)
+        home=home, stagger_us=ctx.stagger_us, home_span=ctx.home.span if ctx.home is not None else ctx.main_span,
+        host=ctx.host, host_span=ctx.host_decl.span if ctx.host_decl is not None else ctx.main_span)

@@ -40,9 +40,12 @@ class Context:
     home: nodes.Name | None = None                                # `home POSE`, resolved after the poses
     stagger_us: Fraction | None = None
     stagger_span: Span = Span(0, 0)
+    host_decl: nodes.SettingDecl | None = None                    # `host PROTOCOL` written (even an unknown one)
+    host: str | None = None                                       # its protocol, when known ("ssc32")
     servos: dict[str, model.Servo] = field(default_factory=dict)  # servos pass, declaration order
     order: dict[str, int] = field(default_factory=dict)          # servo -> declaration index
     servo_limits: dict[str, nodes.LimitOption] = field(default_factory=dict)
+    servo_channels: dict[str, nodes.ChannelOption] = field(default_factory=dict)   # a valid `channel K`
     bad_pins: set[str] = field(default_factory=set)               # servos whose pin was reported
     inputs: dict[str, model.Input] = field(default_factory=dict)  # inputs pass, declaration order
     serial: model.Serial | None = None

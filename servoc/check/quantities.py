@@ -102,6 +102,13 @@ def trim(q: nodes.Quantity) -> int | Problem:
     return int(q.value)
 
 
+def channel(q: nodes.Quantity) -> Fraction | Problem:
+    """A `channel K`'s number (whether it is a whole number 0..31 is the caller's)."""
+    if q.unit != "":
+        return wrong_unit(q, "a channel number such as `3`", "`channel`")
+    return q.value
+
+
 def count(q: nodes.Quantity) -> Fraction | Problem:
     """A repeat count's number (whether it is a whole number of at least 1 is the caller's)."""
     if q.unit != "":

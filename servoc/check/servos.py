@@ -1,4 +1,4 @@
-"""Pass 3, servos: pins (one servo per pin) and options (speed, trim, limit, reverse)."""
+"""Pass 3, servos: pins (one servo per pin) and options (speed, trim, limit, reverse, channel)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from .context import Context
 
 _PIN_RE = re.compile(r"([Pp])([0-9]+)\.([0-9]+)\Z")
 _OPTION_WORD = {nodes.SpeedOption: "speed", nodes.TrimOption: "trim", nodes.LimitOption: "limit",
-                nodes.ReverseOption: "reverse"}
+                nodes.ReverseOption: "reverse", nodes.ChannelOption: "channel"}
 
 
 def servos(tree: nodes.Program, ctx: Context) -> None:
@@ -66,6 +66,7 @@ def options(decl: nodes.ServoDecl, port: int, bit: int, ctx: Context) -> model.S
     trim = 0
     limit_n: tuple[int, int] | None = None
     reverse = False
+    channel: int | None = None
     for opt in decl.options:
         word = _OPTION_WORD[type(opt)]
         if type(opt) in seen:
@@ -89,9 +90,27 @@ def options(decl: nodes.ServoDecl, port: int, bit: int, ctx: Context) -> model.S
             limit_n = limit(opt, ctx)
             if limit_n is not None:
                 ctx.servo_limits[decl.name.text] = opt
+        elif isinstance(opt, nodes.ChannelOption):
+            channel = host_channel(opt, ctx)
+            if channel is not None:
+                ctx.servo_channels[decl.name.text] = opt
         else:
             reverse = True
-    return model.Servo(decl.name.text, port, bit, t_dav, trim, limit_n, reverse, decl.span)
+    return model.Servo(decl.name.text, port, bit, t_dav, trim, limit_n, reverse, decl.span, channel)
+
+
+def host_channel(opt: nodes.ChannelOption, ctx: Context) -> int | None:
+    """`channel K`: a whole number 0..31."""
+    q = opt.channel
+    value = ctx.take(quantities.channel(q), q.span)
+    if value is None:
+        return None
+    if value.denominator != 1 or not 0 <= value <= model.MAX_HOST_CHANNEL:
+        ctx.r.error("out-of-range", f"channel `{format_quantity(q)}` is not a whole number 0..{model.MAX_HOST_CHANNEL}",
+                    q.span, help="the host protocol's channels are 0 to 31; without `channel`, a servo's channel "
+                                 "is its pin's: P1.b is b, P2.b is 8 + b, P0.b is 16 + b")
+        return None
+    return int(value)
 
 
 def speed(opt: nodes.SpeedOption, ctx: Context) -> Fraction | None:

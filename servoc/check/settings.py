@@ -1,10 +1,12 @@
-"""Pass 2, settings: `frame`, `target`, `home` and `stagger`, once each, before the sequences and `main`."""
+"""Pass 2, settings: `frame`, `target`, `home`, `stagger` and `host`, once each; `frame` and `target`
+before the sequences and `main`."""
 
 from __future__ import annotations
 
+import difflib
 from fractions import Fraction
 
-from .. import nodes
+from .. import model, nodes
 from ..diagnostics import Label
 from ..printer import format_quantity
 from ..source import Span
@@ -21,7 +23,7 @@ def settings(tree: nodes.Program, ctx: Context) -> None:
         if isinstance(item, (nodes.SequenceDecl, nodes.MainDecl)) and used_from is None:
             used_from = item
         if isinstance(item, nodes.SettingDecl):
-            if item.word.text not in POWER_UP:
+            if item.word.text not in SETTINGS:
                 message, help_ = not_a_declaration(item.word.text)
                 r.error("syntax-error", message, item.word.span, help=help_)
                 continue
@@ -36,13 +38,15 @@ def settings(tree: nodes.Program, ctx: Context) -> None:
                     help=f"the first `{word}` is at line {ctx.line(first.span)}; keep only one",
                     secondary=[Label(Span(first.span.start, first.span.start + len(word)), "first set here")])
             continue
-        if used_from is not None and word not in POWER_UP:
+        if used_from is not None and word not in SETTINGS:
             what = "main" if isinstance(used_from, nodes.MainDecl) else f"sequence {used_from.name.text}"
             r.error("late-setting", f"`{word}` must come before the sequences and `main` that use it",
                     kw, help=f"move it above `{what}` (line {ctx.line(used_from.span)}), "
                              "e.g. to the top of the file")
         seen[word] = item
-        if isinstance(item, nodes.SettingDecl):
+        if isinstance(item, nodes.SettingDecl) and word == "host":
+            host(item, ctx)
+        elif isinstance(item, nodes.SettingDecl):
             power_up(item, ctx)
         elif isinstance(item, nodes.FrameDecl):
             ctx.frame_span = item.span
@@ -51,7 +55,27 @@ def settings(tree: nodes.Program, ctx: Context) -> None:
             ctx.target = target(item, ctx)
 
 
-POWER_UP = ("home", "stagger")
+# The settings written as a word and a value (`setting_decl`); they may come anywhere.
+SETTINGS = ("home", "stagger", "host")
+
+
+def host(item: nodes.SettingDecl, ctx: Context) -> None:
+    """`host PROTOCOL`: one of model.HOSTS (its need of `serial` is the host pass's)."""
+    ctx.host_decl = item
+    value = item.value
+    text = value.text if isinstance(value, nodes.Name) else format_quantity(value)
+    if isinstance(value, nodes.Name) and value.text.lower() in model.HOSTS:
+        ctx.host = value.text.lower()
+        return
+    known = ", ".join(f"`{h}`" for h in model.HOSTS)
+    close = difflib.get_close_matches(text.lower(), model.HOSTS, n=1, cutoff=0.6)
+    if isinstance(value, nodes.Quantity):
+        help_ = f"the baud rate has a declaration of its own, `serial {text}`; write `host ssc32` for the protocol"
+    else:
+        help_ = ((f"did you mean `host {close[0]}`? " if close else "")
+                 + "`host ssc32` lets Lynxmotion SSC-32 host software drive the servos")
+    ctx.r.error("unsupported-host", f"unknown host protocol `{text}`: servoc speaks {known}", value.span,
+                help=help_)
 
 
 def power_up(item: nodes.SettingDecl, ctx: Context) -> None:

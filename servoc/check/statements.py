@@ -3,7 +3,8 @@
 A `select` needs at least one `on`, at most one `after` and one `meanwhile`, both after every `on`
 (in either order), and at most one `on other`; `wait EVENT` becomes `select { on EVENT { } }` and
 `STATEMENT until EVENT` `select { on EVENT { } meanwhile { STATEMENT } }`. An event is a declared input or a byte (a one-character ASCII string or
-a whole number 0..255), and a byte needs `serial`; so does `send`."""
+a whole number 0..255), and a byte needs `serial`; so does `send`. The statement `host` needs the
+`host ssc32` declaration."""
 
 from __future__ import annotations
 
@@ -86,6 +87,14 @@ class _Statements:
                 return None
             self.need_serial(stmt.span, "`send` transmits on the serial line")
             return model.Send(byte, format_event(stmt.byte), stmt.span)
+        if isinstance(stmt, nodes.HostStmt):
+            if ctx.host_decl is None:
+                ctx.r.error("host-undeclared", "`host` obeys host software, but the program declares no host "
+                            "protocol", stmt.span,
+                            help="add `host ssc32` (with `serial BAUD`) at the top of the file: SSC-32 host "
+                                 "software then drives the servos while `host` runs")
+                return None
+            return model.Host(stmt.span)
         raise TypeError(f"not a statement: {stmt!r}")
 
     def select(self, stmt: nodes.SelectStmt, calls: Calls) -> model.Select | None:

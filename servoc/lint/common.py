@@ -53,7 +53,8 @@ def num(x) -> str:
 
 def origin_text(origin: tuple, source) -> str:
     """Where a state comes from (`MoveInstance.origin`), in words: `the start of `main``, `the end
-    of `walk``, `the end of `move stand` (line 12)`, where a meanwhile body or an `until` statement is cut."""
+    of `walk``, `the end of `move stand` (line 12)`, where a meanwhile body or an `until` statement is cut,
+    wherever a `host` statement leaves the servos."""
     if origin[0] == "play":
         return f"the end of `{origin[1]}`"
     if origin[0] == "move":
@@ -65,6 +66,8 @@ def origin_text(origin: tuple, source) -> str:
         return f"where an event cuts the meanwhile body of the select at line {line}"
     if origin[0] == "home":
         return "the `home` pose"
+    if origin[0] == "host":
+        return f"wherever the host leaves the servos (`host`, line {source.line_col(origin[1].start)[0]}: `PL 0 SQ n` plays any sequence)"
     return "the start of `main`"
 
 

@@ -40,7 +40,13 @@ def infeasible_speed(plan: Plan, report: Report) -> None:
                 secondary = (Label(span, text if inst.branch is not None else "the state comes from here"),)
         fix = (f"use `in {whole_ms_for(frames_min, plan.period_us, need)}` or longer, or drop the duration "
                f"(`move {step.pose}`) to go as fast as the slowest servo allows")
-        if m.cut != NO_SPAN:
+        if m.cut != NO_SPAN and inst.origin[0] == "host":
+            src = report.reporter.source
+            context = (f", played by the host (`PL 0 SQ n`) from wherever `host` (line "
+                       f"{src.line_col(inst.origin[1].start)[0]}) leaves `{ch_.name}`: N {m.n0} at the farthest")
+            secondary = (Label(m.cut, f"`{ch_.name}` can be at N {m.n0} here"),)
+            fix += ", or start the sequence with a move without a duration"
+        elif m.cut != NO_SPAN:
             src = report.reporter.source
             line = src.line_col(m.cut.start)[0]
             stmt = src.text[m.cut.start:m.cut.end].split("\n")[0].strip()

@@ -7,6 +7,7 @@ first of them, that counts them and names the first few."""
 from __future__ import annotations
 
 from ...diagnostics import Severity
+from ...flow import hosted
 from ...steps import Plan
 from .. import Report, rule
 
@@ -22,6 +23,8 @@ _USE = {"servo": ("name it in a pose", "name them in poses"), "group": ("name it
 def _unused(kind: str, declarations: str) -> None:
     def unused(plan: Plan, report: Report) -> None:
         used = plan.program.references
+        if declarations in ("servos", "sequences") and hosted(plan):    # the host moves any servo, plays any sequence
+            used = used | {item.name for item in getattr(plan.program, declarations)}
         items = [item for item in getattr(plan.program, declarations) if item.name not in used]
         if len(items) <= EACH:
             for item in items:

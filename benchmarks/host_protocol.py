@@ -1,0 +1,122 @@
+"""The SSC-32 host protocol (`host ssc32`), measured in ucsim: latency, sustained rate, periods.
+
+    .venv/bin/python benchmarks/host_protocol.py
+
+1. Latency. examples/ssc32_arm.servo (4 servos, 9600 baud, 11.0592 MHz) gets a one-servo group
+   line at 16 phases spread over a frame; for each, the time from its CR's stop bit to the rise
+   of the move's first frame, in frames P (the contract: at most 2 P).
+2. Sustained rate. The same firmware gets 4-servo group lines with T back to back, for the
+   seconds asked (default 10 s of simulated time): every byte must be read by the parser, none
+   dropped, and `servoc verify` must find every pulse and reply exact.
+3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
+   9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
+   the same servos without `host`; and what `servoc lint` says where a configuration is refused.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from servoc import api, events  # noqa: E402
+from servoc.diagnostics import Reporter  # noqa: E402
+from servoc.source import SourceFile  # noqa: E402
+
+ARM = ROOT / "examples" / "ssc32_arm.servo"
+
+
+def build(text: str):
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.servo"
+        path.write_text(text, encoding="utf-8")
+        source = SourceFile(str(path), text)
+        reporter = Reporter(source)
+        fe, firmware = api.build(source, reporter)
+    return fe, firmware, reporter
+
+
+def run(fe, firmware, scenario: str, frames: int):
+    plan = fe.plan
+    evs = events.parse(scenario, plan.program.inputs, True)
+    stim = api.stimulus(plan, evs)
+    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
+    trace = api.simulate(firmware.hex_text, cycles, plan.program.target, stim, api.probes(firmware))
+    _, report = api.events_report(plan, trace, frames, evs)
+    return trace, report
+
+
+def latency() -> list[str]:
+    fe, firmware, _ = build(ARM.read_text(encoding="utf-8"))
+    plan = fe.plan
+    target = plan.program.target
+    period = target.cycles(plan.period_us)
+    bit = 96                                # 9600 baud at 11.0592 MHz: 96 machine cycles a bit
+    lines = []
+    delays = []
+    for k in range(16):
+        at_us = 200_000 + k * plan.period_us / 16
+        line = b"#0P2500\r"
+        trace, report = run(fe, firmware, f'{at_us / 1e6:.6f}s "#0P2500\\r"\n', 120)
+        stop = target.cycles(round(at_us)) + 10 * bit * len(line)      # the CR's stop bit ends
+        edges = trace.pin_edges(1, 0)
+        rises = [c for c, lvl in edges if lvl == 1]
+        widths = [b - a for (a, up), (b, _) in zip(edges, edges[1:]) if up == 1]
+        first = next(r for r, w in zip(rises, widths) if w != widths[0])
+        delays.append((first - stop) / period)
+        assert report.ok, report
+    lines.append(f"latency, CR's stop bit to the move's first rise ({len(delays)} phases, P = {plan.period_us} us): "
+                 f"min {min(delays):.2f} P, max {max(delays):.2f} P (the contract: at most 2 P)")
+    return lines
+
+
+def sustained(seconds: float) -> list[str]:
+    fe, firmware, _ = build(ARM.read_text(encoding="utf-8"))
+    plan = fe.plan
+    n = 0
+    text = ""
+    # 4-servo lines with T, about 40 bytes each: 24 a second at 9600 baud
+    while n * 42 * 10 / 9600 < seconds:
+        text += f"#0P{1000 + 37 * (n % 20)}#1P{1800 - 29 * (n % 20)}#2P{1200 + 23 * (n % 20)}#7P{1400 + 19 * (n % 20)}T90\\r"
+        n += 1
+    frames = int((seconds + 1.5) * 1e6 / plan.period_us)
+    trace, report = run(fe, firmware, f'0.2s "{text}"\n', frames)
+    sent = len(bytes(text, "ascii").decode("unicode_escape"))
+    read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
+    dropped = sum(1 for r in trace.observation.received if not r.queued)
+    return [f"sustained: {n} group lines of 4 servos ({sent} bytes, back to back at 9600 baud, "
+            f"{sent * 10 / 9600:.1f} s): {read} bytes read by the parser, {dropped} dropped; verify "
+            f"{'OK' if report.ok else 'FAILED'} over {report.frames} frames ({report.pulses} pulses, "
+            f"{report.bytes_sent} bytes sent)"]
+
+
+def periods() -> list[str]:
+    out = ["| servos on P1 | clock, baud | P with `host` (us) | P without (us) |", "|---|---|---|---|"]
+    for clock, baud in (("11.0592MHz", 9600), ("12MHz", 4800), ("22.1184MHz", 9600)):
+        for count in (1, 2, 4, 5, 8):
+            servos = "".join(f"servo s{i} = P1.{i}\n" for i in range(count))
+            pose = "pose p { " + ", ".join(f"s{i}: {40 + 20 * i}" for i in range(count)) + " }\n"
+            head = f"target stc89c52rc clock {clock}\nserial {baud}\n"
+            with_host = head + "host ssc32\n" + servos + pose + "home p\nmain {\n  host\n}\n"
+            without = head + servos + pose + "home p\nmain {\n  loop { select { on \"x\" { } } }\n}\n"
+            cells = []
+            for text in (with_host, without):
+                fe, firmware, reporter = build(text)
+                errors = [d for d in reporter.diagnostics if d.is_error]
+                cells.append(f"refused: {errors[0].code}" if errors else f"{fe.plan.min_period_us}")
+            out.append(f"| {count} | {clock}, {baud} | {cells[0]} | {cells[1]} |")
+    return out
+
+
+def main() -> int:
+    seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 10.0
+    for line in latency() + sustained(seconds) + periods():
+        print(line)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

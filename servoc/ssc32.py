@@ -1,0 +1,628 @@
+"""The exact model of the SSC-32 host protocol (docs/host-protocol.md).
+
+Pure Python, no I/O: `servoc verify` uses it to predict, frame by frame,
+what the firmware (firmware_templates/host.asm.j2) does with the bytes a
+host sends while `host` runs. All arithmetic is in integers.
+
+- `LineParser` reads bytes one at a time and returns the command a line
+  end completes (`Group` of `Entry`s, `Offset`, `Query`, `QueryPulse`,
+  `Version`, `Stop`, `Play`), or None.
+- `target_n` (with `output_n`), `group_move`, `frame_n` and the F terms
+  (`time_factor`, `frames_t`, `speed_index`, `speed_q`, `frames_s`,
+  `frames_top`) are the rules of "A group move"; the code generator builds
+  its tables with them.
+- `Session` is the state machine over time at frame granularity;
+  `stops_reading` says which lines end a frame's reading.
+
+The rules, as the document states them:
+
+- Bytes: CR or LF ends a line (an empty line does nothing); spaces and tabs
+  are ignored anywhere, even inside a number or a word; ESC drops the line
+  so far; letters are read in either case. Letters make the words `P`,
+  `PO`, `S`, `T`, `Q`, `QP`, `VER`, `STOP`, `PL`, `SQ`: a letter goes on
+  with the word before it while no digit has followed that word, else it
+  starts a new word (`#1P O5` is `#1 PO5`; `#1PPO5`, `PLSQ3`, `VE` are bad).
+  Digits make a number after `#` or a word: n = min(65535, 10 n + d); no
+  digits is 0 (`QP` is `QP 0`, `#P1500` names channel 0). A digit before any
+  `#` or word is bad. `+` or `-` may come once, right after `PO`, before its
+  digits. Any other byte is bad; a bad line is ignored up to its end
+  (`LineParser.dropped` tells a bad line's end and an ESC).
+- An item is `#` and its number, or a word and its number.
+- A group line: entries `#c` with `P w` and `S v` in any order (a second `P`
+  or `S` in an entry replaces the first), then optionally `T t` (it needs a
+  `P` or `S` before it in the line, and nothing but the line end follows
+  it). An entry with `S` but no `P` does nothing; of a channel named twice,
+  the later entry with `P` replaces the earlier (width and S: an entry
+  without S then has no S). `Group.entries` holds the entries with `P`, in
+  line order (`Entry.offset` None); a group line without one is None.
+- An offset line: entries `#c PO o`, o clamped to -100..100 (a later entry
+  of a channel replaces the earlier, and a second `PO` in an entry the
+  first; `Offset.entries` are `Entry`s with width and speed None). A line
+  with both `PO` and `P` or `S` is bad. Each named servo's offset is set
+  before frame i + 1 is computed: it is added to its widths in later group
+  lines.
+- A command line: `Q`, `QP c`, `VER`, `STOP`, `STOP c`, `PL 0 SQ n`, the
+  command word first; `Q` and `VER` take no number, `PL` only 0, `SQ` comes
+  only right after `PL`'s item; a second command word or a `#` after one is
+  bad. `PL 0` without `SQ` does nothing (None). `STOP c` with c past 255
+  names no channel (`Stop(c)` with no servo on it).
+- Widths: `P 0` stops the pulses; else w' = min(w, 2600) + offset clamped
+  to 500..2500, N = (w' - 500 + 4) // 8, clamped to the limit, reversed,
+  trimmed, clamped to 0..250.
+- A group line that names a servo (an entry with `P` for a channel with a
+  servo) is a move of its own, read in a frame of its own (below): each
+  servo takes its width and S from the last entry naming it, t is the
+  line's `T`. A group line that names no servo does nothing (its `T`
+  neither). The move ends every move under way where frame i has the
+  servos; the named servos without a pulse are set at once; the others go
+  from N0 to N1 over F frames, the largest of 1; F_T = (t x RT + 32768)
+  >> 16 with RT = round(65,536,000 / P), halves up (0 without T); for each
+  such servo with `S v`, v > 0, F_S = ceil(|delta| x q / 256) with i =
+  min(255, max(1, v // 16)) and q = min(65535, ceil(2,048,000,000 / (16 i x
+  P))); and its top speed, ceil(|delta| x t_DAV / P). Frame i + k is
+  `frame_n(N0, N1, k, F)`.
+- P, the frame period, is a whole number of us (an int, or a Fraction equal
+  to one; anything else is a ValueError).
+- `Q` answers `+` while the move has frames still to come after the frame
+  computed last (k < F), even when every servo of it was stopped with
+  `STOP c` or none of them moves (set at once, `P0`, already there), or
+  while `Session.sequence_running` is set; else `.`.
+- `STOP` ends the move (Q answers `.`); `STOP c` ends channel c's part of
+  the move (its frame count goes on); both take effect at once, in the
+  frame their line is read. `PL 0 SQ n` with n < the number of sequences
+  ends the move and records n in `Session.plays` (frame i + 1 repeats frame
+  i; the sequence, from frame i + 2, is not modelled); other n do nothing.
+  ESC and a bad line drop only their own line.
+- A group line that names a servo, an offset line, `VER` and `PL 0 SQ n`
+  (any n) end the frame's reading: the bytes after them are read in the
+  next frame (`stops_reading`, `Session.read`). So a frame reads at most one
+  of them, as its last line: one group per frame (the group lines of one
+  frame never merge; a second one's move replaces the first's from where
+  frame i + 1 left the servos), and no `STOP`, `STOP c`, ESC or bad line
+  comes after a group or an offset line in its frame. The other lines (`Q`,
+  `QP c`, `STOP`, `STOP c`, a group line that names no servo, a line that
+  does nothing, a bad line) do not end the reading.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Iterable, Mapping, Union
+
+from .units import DEFAULT_T_DAV_US
+
+VERSION_REPLY = b"SSC32-servoc-0.1\r"
+
+NUM_MAX = 65535
+OFFSET_MAX = 100
+N_MAX = 250
+WIDTH_MIN = 500
+WIDTH_MAX = 2500
+WIDTH_CAP = 2600            # w is taken as min(w, 2600) before the offset is added
+SPEED_STEP = 16             # S v is taken in steps of 16 us/s
+SPEED_INDEX_MAX = 255
+
+CR, LF, ESC, SPACE, TAB = 13, 10, 27, 32, 9
+
+WORDS = ("P", "PO", "S", "T", "Q", "QP", "VER", "STOP", "PL", "SQ")
+COMMAND_WORDS = ("Q", "QP", "VER", "STOP", "PL")        # a command line's first item
+_PREFIXES = frozenset(w[:i] for w in WORDS for i in range(1, len(w) + 1))
+
+
+# ----------------------------------------------------------------- commands
+
+@dataclass(frozen=True)
+class Entry:
+    """An entry `#c ...`. In a group line: width w of `P w`, speed v of `S v` (None without
+    S; 0 for `S0`: no speed), offset None. In an offset line: width and speed None, offset o
+    of `PO o` clamped to -100..100."""
+    channel: int
+    width: int | None
+    speed: int | None
+    offset: int | None = None
+
+
+@dataclass(frozen=True)
+class Group:
+    """A group line: its entries with `P`, in line order, and `T t` in ms (None without T)."""
+    entries: tuple[Entry, ...]
+    time_ms: int | None
+
+
+@dataclass(frozen=True)
+class Offset:
+    """An offset line: its `#c PO o` entries, in line order."""
+    entries: tuple[Entry, ...]
+
+
+@dataclass(frozen=True)
+class Query:
+    """`Q`."""
+
+
+@dataclass(frozen=True)
+class QueryPulse:
+    """`QP c`."""
+    channel: int
+
+
+@dataclass(frozen=True)
+class Version:
+    """`VER`."""
+
+
+@dataclass(frozen=True)
+class Stop:
+    """`STOP c` (channel None: `STOP` alone, every servo)."""
+    channel: int | None
+
+
+@dataclass(frozen=True)
+class Play:
+    """`PL 0 SQ n`."""
+    seq: int
+
+
+Command = Union[Group, Offset, Query, QueryPulse, Version, Stop, Play]
+
+
+# ----------------------------------------------------------------- the parser
+
+class LineParser:
+    """The firmware's line parser, byte by byte.
+
+    `feed(byte)` returns the command a CR or LF completes, else None (also for a bad
+    line, an empty line, a line that does nothing whatever the servos, and every byte
+    that is no line end); after it, `dropped` is True when the byte was an ESC or a bad
+    line's end (the firmware then drops the entries of the line read so far). The state
+    carries over from one call to the next, so a line may come in pieces (over several
+    frames)."""
+
+    def __init__(self) -> None:
+        self._reset()
+        self.dropped = False
+
+    def _reset(self) -> None:
+        self.bad = False                # the line is ignored up to its end
+        self.item: str | None = None    # the open item: "#" (a channel number) or a word's letters
+        self.digits = False             # a digit has followed the open item
+        self.num = 0
+        self.sign = 0                   # after PO: +1 for '+', -1 for '-'
+        self.items = 0                  # items closed so far in the line
+        self.kind: str | None = None    # "group" once a P or S is read, "offset" once a PO is
+        self.entry: dict[str, int] | None = None   # the open entry: "C", and "P", "S", "PO"
+        self.entries: list[Entry] = []
+        self.time: int | None = None    # T's number, once T's item has ended
+        self.cmd: str | None = None     # the command word (SQ once it follows PL)
+        self.arg: int | None = None
+
+    def feed(self, byte: int) -> Command | None:
+        if byte in (CR, LF):
+            cmd = self._end()
+            self.dropped = self.bad
+            self._reset()
+            return cmd
+        self.dropped = byte == ESC
+        if byte == ESC:
+            self._reset()
+            return None
+        if byte in (SPACE, TAB) or self.bad:
+            return None
+        if 48 <= byte <= 57:                            # a digit: after '#' or a word
+            if self.item is None:
+                self.bad = True
+            else:
+                self.num = min(NUM_MAX, 10 * self.num + byte - 48)
+                self.digits = True
+        elif byte == 35:                                # '#': an entry starts
+            self._close_item()
+            if self.cmd is not None or self.time is not None:
+                self.bad = True
+            if not self.bad:
+                self._close_entry()
+                self.item = "#"
+        elif byte in (43, 45):                          # '+' '-': once, right after PO
+            if self.item == "PO" and not self.digits and not self.sign:
+                self.sign = -1 if byte == 45 else 1
+            else:
+                self.bad = True
+        elif 65 <= byte <= 90 or 97 <= byte <= 122:     # a letter, in either case
+            letter = chr(byte).upper()
+            if self.item not in (None, "#") and not self.digits:
+                self.item += letter                     # the word goes on
+            else:
+                self._close_item()
+                if self.bad:
+                    return None
+                self.item = letter
+            if self.item not in _PREFIXES:
+                self.bad = True
+        else:
+            self.bad = True
+        return None
+
+    def _close_item(self) -> None:
+        """The open item ends (at '#', at a letter that starts a word, at the line end)."""
+        item, n, digits, sign = self.item, self.num, self.digits, self.sign
+        if item is None or self.bad:
+            return
+        self.item, self.num, self.digits, self.sign = None, 0, False, 0
+        first = self.items == 0
+        self.items += 1
+        if item == "#":
+            self.entry = {"C": n}
+            return
+        if item not in WORDS or self.time is not None:  # an unfinished word; anything after T
+            self.bad = True
+        elif item in ("P", "PO", "S"):                  # an entry's field
+            kind = "offset" if item == "PO" else "group"
+            if self.entry is None or self.kind not in (None, kind):
+                self.bad = True
+                return
+            self.kind = kind
+            self.entry[item] = max(-OFFSET_MAX, min(OFFSET_MAX, (sign or 1) * n)) if item == "PO" else n
+        elif item == "T":
+            if self.kind != "group":                    # T needs a P or S before it
+                self.bad = True
+                return
+            self._close_entry()
+            self.time = n
+        elif item == "SQ":
+            if self.cmd != "PL":
+                self.bad = True
+                return
+            self.cmd, self.arg = "SQ", n
+        else:                                           # Q, QP, VER, STOP, PL: the line's first item
+            if not first or (item in ("Q", "VER") and digits) or (item == "PL" and n != 0):
+                self.bad = True
+                return
+            self.cmd = item
+            self.arg = None if item == "STOP" and not digits else n
+
+    def _close_entry(self) -> None:
+        e, self.entry = self.entry, None
+        if e is None:
+            return
+        if "PO" in e:
+            self.entries.append(Entry(e["C"], None, None, e["PO"]))
+        elif "P" in e:
+            self.entries.append(Entry(e["C"], e["P"], e.get("S")))
+        # an entry with S only, or with nothing: it does nothing
+
+    def _end(self) -> Command | None:
+        self._close_item()
+        if self.bad:
+            return None
+        self._close_entry()
+        cmd, arg = self.cmd, self.arg
+        if cmd == "Q":
+            return Query()
+        if cmd == "QP":
+            assert arg is not None
+            return QueryPulse(arg)
+        if cmd == "VER":
+            return Version()
+        if cmd == "STOP":
+            return Stop(arg)
+        if cmd == "SQ":
+            assert arg is not None
+            return Play(arg)
+        if cmd == "PL":
+            return None                                 # PL 0 without SQ: nothing
+        if self.kind == "offset":
+            return Offset(tuple(self.entries))
+        if self.kind == "group" and self.entries:
+            return Group(tuple(self.entries), self.time)
+        return None                                     # empty line, `#c` only, entries with S only
+
+
+def parse_lines(data: bytes) -> list[Command]:
+    """The commands a byte string holds (a convenience over `LineParser`)."""
+    p = LineParser()
+    out = []
+    for b in data:
+        cmd = p.feed(b)
+        if cmd is not None:
+            out.append(cmd)
+    return out
+
+
+# ----------------------------------------------------------------- a group move
+
+@dataclass
+class Servo:
+    """A servo as the host protocol sees it: its channel, its `limit` as inclusive N bounds
+    (before reverse and trim), `reverse`, `trim` and its top speed t_DAV (us per N)."""
+    channel: int
+    lo: int = 0
+    hi: int = N_MAX
+    reverse: bool = False
+    trim: int = 0
+    t_dav_us: Fraction = DEFAULT_T_DAV_US
+
+
+def _clamp(x: int, lo: int, hi: int) -> int:
+    return max(lo, min(hi, x))
+
+
+def _period(period_us: int | Fraction) -> int:
+    """P as an int: the frame period is a whole number of us."""
+    p = Fraction(period_us)
+    if p.denominator != 1 or p <= 0:
+        raise ValueError(f"the frame period must be a whole number of us, not {period_us}")
+    return p.numerator
+
+
+def output_n(n: int, lo: int, hi: int, reverse: bool, trim: int) -> int:
+    """A servo's output N for the N (0..250) a width gives: clamped to its limit lo..hi,
+    reversed (250 - N), + trim, clamped to 0..250 (the firmware's per-servo table)."""
+    n = _clamp(n, lo, hi)
+    if reverse:
+        n = N_MAX - n
+    return _clamp(n + trim, 0, N_MAX)
+
+
+def target_n(servo: Servo, width: int, offset: int) -> int | None:
+    """The output N a width `P w` commands (None for w = 0: pulses stop).
+
+    w' = min(w, 2600) + offset, clamped to 500..2500; N = floor((w' - 500 + 4) / 8);
+    then `output_n`: N clamped to the limit; reversed (250 - N); + trim; clamped to 0..250."""
+    if width == 0:
+        return None
+    w = _clamp(min(width, WIDTH_CAP) + offset, WIDTH_MIN, WIDTH_MAX)
+    return output_n((w - WIDTH_MIN + 4) // 8, servo.lo, servo.hi, servo.reverse, servo.trim)
+
+
+def line_offsets(line: Offset, servos_by_channel: Mapping[int, Servo],
+                 offsets: Mapping[int, int]) -> dict[int, int]:
+    """The offsets after an offset line: its entries in line order (channels with a servo
+    only). `offsets` is not changed."""
+    out = dict(offsets)
+    for e in line.entries:
+        if e.offset is not None and e.channel in servos_by_channel:
+            out[e.channel] = e.offset
+    return out
+
+
+def time_factor(period_us: int | Fraction) -> int:
+    """RT = round(65,536,000 / P), halves up: 65536 x the frames per ms."""
+    p = _period(period_us)
+    return (2 * 65_536_000 + p) // (2 * p)
+
+
+def frames_t(time_ms: int, period_us: int | Fraction) -> int:
+    """F_T = (t x RT + 32768) >> 16: t ms to the nearest whole frame."""
+    return (time_ms * time_factor(period_us) + 32768) >> 16
+
+
+def speed_index(speed: int) -> int:
+    """i of `S v`: 0 for v = 0 (no speed), else min(255, max(1, floor(v / 16)))."""
+    if speed == 0:
+        return 0
+    return min(SPEED_INDEX_MAX, max(1, speed // SPEED_STEP))
+
+
+def speed_q(index: int, period_us: int | Fraction) -> int:
+    """q of speed index i: 0 for i = 0, else min(65535, ceil(2,048,000,000 / (16 i x P))),
+    the frames per N in 1/256."""
+    if index == 0:
+        return 0
+    p = _period(period_us)
+    return min(NUM_MAX, -(-2_048_000_000 // (SPEED_STEP * index * p)))
+
+
+def frames_s(delta: int, speed: int, period_us: int | Fraction) -> int:
+    """F_S = ceil(|delta| x q / 256) for `S v` (0 for v = 0)."""
+    q = speed_q(speed_index(speed), period_us)
+    return -(-abs(delta) * q // 256)
+
+
+def frames_top(delta: int, t_dav_us: Fraction, period_us: int | Fraction) -> int:
+    """ceil(|delta| x t_DAV / P): the servo's top speed."""
+    return math.ceil(abs(delta) * Fraction(t_dav_us) / _period(period_us))
+
+
+def _widths(group: Group, servos_by_channel: Mapping[int, Servo]) -> dict[int, Entry]:
+    """Per channel with a servo, its last entry with P."""
+    out: dict[int, Entry] = {}
+    for e in group.entries:
+        if e.width is not None and e.channel in servos_by_channel:
+            out[e.channel] = e
+    return out
+
+
+def names_a_servo(group: Group, servos_by_channel: Mapping[int, Servo]) -> bool:
+    """The group has an entry with P for a channel with a servo."""
+    return bool(_widths(group, servos_by_channel))
+
+
+def group_move(group: Group, servos_by_channel: Mapping[int, Servo], now: Mapping[int, int | None],
+               offsets: Mapping[int, int], period_us: int | Fraction) -> tuple[int, dict[int, int | None]]:
+    """F and the targets of a group line.
+
+    `now`: per channel its N in frame i (None or missing: no pulse); `offsets`: per channel
+    its offset (missing: 0). Returns (F >= 1, {channel: target N, or None for `P0`}) for
+    every channel with a servo that the line gives a width (its last entry with P wins,
+    with its S). An empty dict: the line names no servo (a line that does nothing). F is
+    the largest of 1, F_T (0 without T), and for each named servo that has a pulse and a
+    target N1 (N0 = now): F_S of its `S v` and its top speed. Servos without a pulse are
+    set at once and do not count, nor do servos sent `P0`; channels without a servo are
+    ignored."""
+    frames = 1
+    if group.time_ms is not None:
+        frames = max(frames, frames_t(group.time_ms, period_us))
+    targets: dict[int, int | None] = {}
+    for ch, e in _widths(group, servos_by_channel).items():
+        servo = servos_by_channel[ch]
+        assert e.width is not None
+        n1 = target_n(servo, e.width, offsets.get(ch, 0))
+        targets[ch] = n1
+        n0 = now.get(ch)
+        if n1 is None or n0 is None:
+            continue
+        delta = n1 - n0
+        frames = max(frames, frames_top(delta, servo.t_dav_us, period_us))
+        if e.speed:
+            frames = max(frames, frames_s(delta, e.speed, period_us))
+    return frames, targets
+
+
+def frame_n(n0: int, n1: int, k: int, frames: int) -> int:
+    """Frame k (0..F) of a move: N0 + sgn(delta) x floor(|delta| x k / F + 1/2)."""
+    delta = n1 - n0
+    step = (2 * abs(delta) * k + frames) // (2 * frames)
+    return n0 + step if delta >= 0 else n0 - step
+
+
+def stops_reading(cmd: Command | None, servos_by_channel: Mapping[int, Servo] | None = None) -> bool:
+    """The line ends its frame's reading (the bytes after it are read in the next frame): a
+    group line that names a servo, an offset line, `VER`, `PL 0 SQ n` (any n). Without
+    `servos_by_channel` every channel counts as one with a servo (a group line with an entry
+    with P stops the reading)."""
+    if isinstance(cmd, Group):
+        if servos_by_channel is None:
+            return any(e.width is not None for e in cmd.entries)
+        return names_a_servo(cmd, servos_by_channel)
+    return isinstance(cmd, (Offset, Version, Play))
+
+
+# ----------------------------------------------------------------- the session
+
+@dataclass
+class Move:
+    """The move under way: frame k (0 before its first frame) of F, and per channel still
+    moving its (N0, N1)."""
+    frames: int
+    paths: dict[int, tuple[int, int]]
+    k: int = 0
+
+
+class Session:
+    """The firmware's host state over time, frame by frame.
+
+    Between two `frame()` calls (frame i is the one `frame()` returned last, or the start),
+    call `line(cmd)` for each command whose line end is read in that frame, in order; it
+    returns the reply bytes (b"" for a command without one). A line that `stops_reading`
+    must be the frame's last: `line` raises RuntimeError for a command after it. So a frame
+    holds at most one group line that names a servo (`pending`) or one offset line
+    (`pending_offsets`), as its last line. `read` does all this from bytes. `frame()`
+    computes frame i + 1: the group line read in frame i makes the move that starts there
+    (or the offset line read in frame i sets its offsets), then the move under way advances
+    by one frame; it returns {channel: N or None (no pulse)} for every servo.
+
+    `start`: the N at the start (None or missing: no pulse). `plays` records the sequence
+    numbers of `PL 0 SQ n` with n < `sequences`: frame i + 1 repeats frame i, and the
+    sequence itself, from frame i + 2, is not modelled (set `now` to where it leaves the
+    servos, and `sequence_running` while it plays, to make `Q` answer `+`). Not modelled
+    either: the transmit queue (the firmware stops reading while it is full, and while a `VER`
+    waits for the line to rest: then the bytes after it wait more than a frame) and a receive
+    queue that overflows."""
+
+    def __init__(self, servos: Iterable[Servo], period_us: int | Fraction, sequences: int = 0,
+                 start: Mapping[int, int | None] | None = None) -> None:
+        self.servos = tuple(servos)
+        self.period_us = _period(period_us)
+        self.sequences = sequences
+        self.by_channel: dict[int, Servo] = {}
+        for s in self.servos:
+            if s.channel in self.by_channel:
+                raise ValueError(f"two servos on channel {s.channel}")
+            self.by_channel[s.channel] = s
+        start = start or {}
+        self.now: dict[int, int | None] = {ch: start.get(ch) for ch in self.by_channel}
+        self.offsets: dict[int, int] = {ch: 0 for ch in self.by_channel}
+        self.move: Move | None = None         # the move under way
+        self.pending: Group | None = None     # the group line (naming a servo) read in this frame
+        self.pending_offsets: Offset | None = None   # the offset line read in this frame
+        self.plays: list[int] = []
+        self.sequence_running = False
+        self.frames = 0                       # frames computed so far
+        self.reading_stopped = False          # a line that stops the reading was read in this frame
+
+    def moving(self) -> bool:
+        """A move has a frame still to come after frame i (k < F), or a sequence runs."""
+        return self.sequence_running or (self.move is not None and self.move.k < self.move.frames)
+
+    def stops_reading(self, cmd: Command | None) -> bool:
+        """The line ends this frame's reading (the module's `stops_reading`, with this session's
+        servos)."""
+        return stops_reading(cmd, self.by_channel)
+
+    def line(self, cmd: Command) -> bytes:
+        if self.reading_stopped:
+            raise RuntimeError(f"{cmd!r} read after a line that ends the frame's reading")
+        if not isinstance(cmd, (Group, Offset, Query, QueryPulse, Version, Stop, Play)):
+            raise TypeError(f"not a command: {cmd!r}")
+        self.reading_stopped = self.stops_reading(cmd)
+        if isinstance(cmd, Query):
+            return b"+" if self.moving() else b"."
+        if isinstance(cmd, QueryPulse):
+            n = self.now.get(cmd.channel)
+            return b"\x00" if n is None else bytes([(WIDTH_MIN + 8 * n) // 10])
+        if isinstance(cmd, Version):
+            return VERSION_REPLY
+        if isinstance(cmd, Stop):
+            if cmd.channel is None:
+                self.move = None                # every move ends where frame i has it
+            elif self.move is not None:
+                self.move.paths.pop(cmd.channel, None)
+            return b""
+        if isinstance(cmd, Play):
+            if cmd.seq < self.sequences:
+                self.move = None
+                self.plays.append(cmd.seq)
+            return b""
+        if isinstance(cmd, Offset):
+            self.pending_offsets = cmd
+        elif self.reading_stopped:              # a group line that names a servo
+            self.pending = cmd
+        return b""
+
+    def read(self, parser: LineParser, data: bytes, limit: int | None = None) -> tuple[bytes, int]:
+        """This frame's reading from bytes: `data` (the bytes received, oldest first) goes to
+        `parser` byte by byte, each command to `line`, until a line that stops the reading has
+        ended, the bytes run out or `limit` bytes are read. Returns the replies and the number
+        of bytes read; the others wait for the next frame (pass them again after `frame()`).
+        Nothing is read when a line that stops the reading has already ended in this frame."""
+        if self.reading_stopped:
+            return b"", 0
+        out = []
+        n = len(data) if limit is None else min(limit, len(data))
+        for i in range(n):
+            cmd = parser.feed(data[i])
+            if cmd is not None:
+                out.append(self.line(cmd))
+            if self.reading_stopped:
+                return b"".join(out), i + 1
+        return b"".join(out), n
+
+    def _commit(self, group: Group) -> None:
+        """The frame's group line becomes the move: the move under way ends."""
+        frames, targets = group_move(group, self.by_channel, self.now, self.offsets, self.period_us)
+        paths: dict[int, tuple[int, int]] = {}
+        for ch, n1 in targets.items():
+            n0 = self.now[ch]
+            if n1 is None or n0 is None:
+                self.now[ch] = n1               # off, or set at once
+            elif n1 != n0:
+                paths[ch] = (n0, n1)
+        self.move = Move(frames, paths)         # the move under way before it ends here
+
+    def frame(self) -> dict[int, int | None]:
+        if self.pending is not None:
+            self._commit(self.pending)
+        if self.pending_offsets is not None:
+            self.offsets = line_offsets(self.pending_offsets, self.by_channel, self.offsets)
+        self.pending = self.pending_offsets = None
+        m = self.move
+        if m is not None:
+            m.k += 1
+            for ch, (n0, n1) in m.paths.items():
+                self.now[ch] = frame_n(n0, n1, m.k, m.frames)
+            if m.k >= m.frames:
+                self.move = None
+        self.reading_stopped = False
+        self.frames += 1
+        return dict(self.now)
