@@ -1055,7 +1055,7 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
         where = ", ".join(str(source.line_col(st.span.start)[0]) for st in hosts)
         out.append(f"host (line{'s' if len(hosts) > 1 else ''} {where}): SSC-32 channels "
                    + ", ".join(f"{k} {name}" for k, name in chans)
-                   + (f"; PL 0 SQ n plays " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences))
+                   + ("; PL 0 SQ n plays " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences))
                       if plan.program.sequences else ""))
     for st, hull in plan.cuts:
         line = source.line_col(st.span.start)[0]

@@ -17,7 +17,6 @@ import dataclasses
 import itertools
 from dataclasses import dataclass, field
 
-from . import costs
 from .observe import Observation, Visit
 from .flow import host_queue, host_watchers
 from .plan import Choice, HostRun, expand, UNDECIDED
