@@ -60,13 +60,15 @@ def test_the_wheel_runs_every_command(installed, tmp_path):
     origin = subprocess.run([str(py), "-c", "import servoc, servoc.imports; print(servoc.__file__)"],
                             cwd=tmp_path, capture_output=True, text=True, check=True).stdout
     assert str(ROOT) not in origin and str(installed) in origin, origin
-    for name in ("biped.servo", "serial_arm.servo"):
+    for name in ("biped.servo", "serial_arm.servo", "ssc32_arm.servo"):
         shutil.copy(ROOT / "examples" / name, tmp_path / name)
-    shutil.copy(ROOT / "examples" / "events" / "serial_arm.events", tmp_path / "serial_arm.events")
+    for name in ("serial_arm.events", "ssc32_arm.events"):
+        shutil.copy(ROOT / "examples" / "events" / name, tmp_path / name)
     shutil.copy(ROOT / "examples" / "import" / "wave.xml", tmp_path / "wave.xml")
     runs = [("lint", "biped.servo"), ("plan", "biped.servo"), ("compile", "biped.servo", "-o", "b.hex"),
             ("verify", "biped.servo", "--frames", "60"),
             ("verify", "serial_arm.servo", "--events", "serial_arm.events"),
+            ("verify", "ssc32_arm.servo", "--events", "ssc32_arm.events"),
             ("import", "wave.xml", "-o", "wave.servo"), ("init", "fresh"), ("--help",),
             ("sim", "serial_arm.servo", "--seconds", "0.5", "--view")]
     said = {}
