@@ -420,7 +420,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
-    s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, hosting)
+    s = None if serial is None else _serial(serial, ram, uses["sends"], rxq)
     if hosting:
         for var in host_vars:
             ram.alloc(*var)
@@ -713,10 +713,10 @@ def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:
     return sum(bodies[:len(bodies) - swaps])
 
 
-def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int, hosting: bool) -> dict:
+def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int) -> dict:
     """The serial line's numbers (serial.asm.j2) and its counters (its queues are allocated with
     the other buffers). `sending`: the program sends (else no transmit side); `rxq`: the receive
-    queue's size; `hosting`: a `host` statement answers VER with a string from code memory."""
+    queue's size."""
     q = costs.QUEUE
     ram.alloc("RXW", 1, "bytes received and queued (counts on)")
     ram.alloc("RXR", 1, "bytes the program took from the receive queue (counts on)")
@@ -727,7 +727,7 @@ def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int, hosting: 
         ram.alloc("TXON", 1, "1 while a byte is on the line")
     return {"baud": serial.baud, "th1": serial.th1, "smod": serial.smod, "rate": f"{float(serial.actual):.1f}",
             "byte_cycles": target_mod.byte_cycles(serial.th1, serial.smod), "queue": q, "mask": q - 1,
-            "full_bit": q.bit_length() - 1, "sends": sending, "rxq": rxq, "rxmask": rxq - 1, "rom": hosting}
+            "full_bit": q.bit_length() - 1, "sends": sending, "rxq": rxq, "rxmask": rxq - 1}
 
 
 HOST_WORDS = ("P", "PO", "S", "T", "Q", "QP", "V", "VE", "VER", "ST", "STO", "STOP", "PL", "SQ")
@@ -744,7 +744,7 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HCMD", 1, "host parser: the line's command word"),
              ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence"),
              ("HT", 2, "the longest T of the groups read in this frame"),
-             ("TXS", 2, "a string from code memory being sent (high byte 0: none)"))
+             ("HVER", 1, "the next byte of the answer to VER"))
 HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none)"),
                ("HPS", 1, "per servo: the pending S / 16"), ("HOF", 1, "per servo: its offset in us"),
                ("HPO", 1, "per servo: its pending offset + 100 (0xFF: none)"))

@@ -72,7 +72,7 @@ def select_ram(plan: Plan) -> int:
     return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan)
 
 
-HOST_VARS = 17          # the host parser's variables and the transmit side's ROM string pointer (host.asm.j2)
+HOST_VARS = 16          # the host parser's variables and the answer to VER's next byte (host.asm.j2)
 HOST_PER_SERVO = 5      # per servo: its pending width (2), its pending S, its offset and a pending one
 
 
