@@ -232,3 +232,26 @@ def test_any_session_verifies():
         dropped = [r for r in trace.observation.received if not r.queued]
         assert not dropped, scenario
     check()
+
+
+@pytest.mark.parametrize("head, baud", [("target at89c52 clock 12MHz", 4800),
+                                        ("target stc89c52rc clock 11.0592MHz mode 6T", 9600),
+                                        ("target stc89c52rc clock 22.1184MHz", 9600)])
+def test_sessions_hold_at_other_clocks_and_in_6t_mode(head, baud):
+    text = (f"{head}\nserial {baud}\nhost ssc32\nservo pan = P1.0\nservo tilt = P2.5 channel 3\n"
+            "pose mid { pan: 122, tilt: 122 }\nhome mid\nmain {\n  host\n}\n")
+    b, trace, report = session('0.1s "VER\\r"\n'
+                               '0.2s "#0P1000#3P2000S300T400\\r"\n'
+                               '0.3s "Q\\r"\n'
+                               '5.5s "Q\\rQP0\\rQP3\\r"\n', int(6.0e6 / 5300), text)
+    # mid is N 122 (1476 us); 1000 us is N 63, 2000 us N 188: QP 100 and 200
+    assert sent(trace) == b"SSC32-servoc-0.1\r+.d\xc8"
+    # S300 (18 steps of 16: 288 us/s): tilt's 66 N take 66 x 8 / 288 = 1.83 s, longer than T400:
+    # the move lasts F = ceil(66 q / 256) frames, q = ceil(2048000000 / (288 P))
+    p = b.plan.period_us
+    f = -(-66 * -(-2048000000 // (288 * p)) // 256)
+    tilt = widths(b, trace, 2, 5)
+    first = next(i for i, w in enumerate(tilt) if w != tilt[0])
+    last = next(i for i, w in enumerate(tilt) if w == tilt[-1])
+    step = [(2 * 66 * k + f) // (2 * f) for k in range(f + 1)]      # frame k moves floor(66 k / F + 1/2) N
+    assert n_of(b, tilt[-1]) == 188 and last - first == step.index(66) - step.index(1)
