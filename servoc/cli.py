@@ -29,7 +29,7 @@ from fractions import Fraction
 
 from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_dict
-from .plan import HostRun, has_selects
+from .plan import has_selects
 from .steps import AfterBranch, branch_text, HostStep, Plan, SelectStep, SendStep, steps
 from .starter import starter
 from .verify import SETTLE_MARGIN, coverage, verify_settle, verify_span
@@ -504,9 +504,6 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
             break
         frames = min(span.limit, settle + SETTLE_MARGIN)
     unchecked = list(span.notes)
-    if any(isinstance(c, HostRun) for c in choices):
-        unchecked.append("the frame in which the firmware read each host byte is the firmware's own (its parser's "
-                         "probes); that it read each one in the first frame after it came is not checked")
     if events is not None and not args.frames:
         settle = verify_settle(plan, choices)
         if settle is not None and settle + SETTLE_MARGIN > frames:

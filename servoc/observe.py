@@ -28,13 +28,13 @@ from dataclasses import dataclass, field
 from .sim import SimTrace
 
 REACH, LOOK, EXIT, BRANCH, RX_GOT, RX_END = "reach", "look", "exit", "branch", "rx_got", "rx_end"
-HOST_START, HOST_FRAME, HOST_BYTE = "host_start", "host_frame", "host_byte"
+HOST_START, HOST_FRAME, HOST_BYTE, HOST_END = "host_start", "host_frame", "host_byte", "host_end"
 HOST_BYTE_RAM = 0x02            # bank 0 R2: the byte host_byte is reading (`hb_in`)
 
 # A listing line (sdas8051 -l, relocated .rst): address in columns 6..11, the source line's number
 # in 34..38, the source from 40.
 _LABEL = re.compile(r"^([A-Za-z_]\w*)::?\s*(.*)$")
-_EQU = re.compile(r"^(RXQ|RXR|RXW|RXB)\s*=\s*0x([0-9A-Fa-f]+)", re.M)
+_EQU = re.compile(r"^(RXQ|RXR|RXW|RXB|HLINE|TXW|TXR)\s*=\s*0x([0-9A-Fa-f]+)", re.M)
 _QUEUE = re.compile(r"RXQ is a multiple of (\d+)")
 
 
@@ -138,11 +138,15 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
         for k in range(len(st.branches)):
             add(labels[f"{lab}_b{k}"], BRANCH, lab, k, ())
     if "host_run" in labels:
-        for lab, kind in (("host_run", HOST_START), ("hr_frame", HOST_FRAME), ("hb_in", HOST_BYTE)):
+        if not {"HLINE", "TXW", "TXR"} <= equ.keys():
+            raise ProbeError("the host's RAM is not named in the assembly")
+        ram = {HOST_BYTE: (HOST_BYTE_RAM,), HOST_FRAME: rx_state, HOST_START: (),
+               HOST_END: rx_state + (equ["HLINE"], equ["TXW"], equ["TXR"])}
+        for lab, kind in (("host_run", HOST_START), ("hr_frame", HOST_FRAME), ("hb_in", HOST_BYTE),
+                          ("hp_end", HOST_END)):
             if lab not in labels:
                 raise ProbeError(f"the listing has no {lab}")
-            add(labels[lab], kind, "", None, (HOST_BYTE_RAM,) if kind == HOST_BYTE else
-                rx_state if kind == HOST_FRAME else ())
+            add(labels[lab], kind, "", None, ram[kind])
     if queue:
         for lab in ("ui_got", "ui_drop"):
             if lab not in labels:
@@ -206,9 +210,22 @@ class Received:
 @dataclass
 class HostVisit:
     """A run of a `host` statement: the cycle it began, and per frame's reading (the cycle it began,
-    the receive queue's read counter then, absolute) the bytes the parser read, in order."""
+    the receive queue's read counter then, absolute) the bytes the parser read, in order; and per
+    reading that ended, why it may have stopped (`Ended`)."""
     start: int
     frames: list[tuple[int, int, list[int]]] = field(default_factory=list)
+    ends: list["Ended"] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Ended:
+    """A frame's reading ended: the bytes queued as it began, those still queued from them, the
+    lines host_step must carry out (HLINE: nonzero stops the reading), the answers waiting to be
+    sent (4: the transmit queue is full)."""
+    queued: int
+    left: int
+    hline: int
+    answers: int
 
 
 @dataclass(frozen=True)
@@ -238,6 +255,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
     rxr, rxw = _Counter(), _Counter()
     pending = None
     hosts: list[HostVisit] = []
+    host_queued = 0
     for p, (kind, label, k) in ((p, m) for p in trace.probes for m in probes.meaning[p.tag]):
         if kind == REACH:
             if label in active:
@@ -288,9 +306,16 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
                 problems.append(f"the host's reading began at cycle {p.cycle} with no `host` running")
                 continue
             r = rxr(p.ram[0]) if p.ram else 0
-            if p.ram:
-                rxw(p.ram[1])
+            w = rxw(p.ram[1]) if p.ram else 0
             hosts[-1].frames.append((p.cycle, r, []))
+            host_queued = w - r
+        elif kind == HOST_END:
+            if not hosts or not hosts[-1].frames:
+                continue
+            r = rxr(p.ram[0])
+            rxw(p.ram[1])
+            read = len(hosts[-1].frames[-1][2])
+            hosts[-1].ends.append(Ended(host_queued, max(0, host_queued - read), p.ram[2], (p.ram[3] - p.ram[4]) & 0xFF))
         elif kind == HOST_BYTE:
             if not hosts or not hosts[-1].frames:
                 problems.append(f"the host parser read a byte at cycle {p.cycle} outside a frame's reading")

@@ -18,6 +18,7 @@ import itertools
 from dataclasses import dataclass, field
 
 from .observe import Observation, Visit
+from . import costs
 from .flow import host_queue, host_watchers
 from .plan import Choice, HostRun, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
@@ -547,6 +548,30 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
 
     def bad(c: int, what: str) -> None:
         found.problems.append(Mismatch(max(0, frame_of(c)), "select", "-", None, None, what))
+
+    # `host`: each frame's reading read every byte that had come before it began, unless a line
+    # that stops the reading was read (docs/host-protocol.md), the transmit queue was full, or it
+    # read as many as a frame's reading reads.
+    if obs.hosts:
+        from . import ssc32
+        from .flow import host_passes
+        from .model import host_channel
+        passes = host_passes(plan)
+        servos = {host_channel(c.servo): None for c in plan.channels}
+        for h in obs.hosts:
+            parser, ver = ssc32.LineParser(), False
+            for (cycle, _, got), ended in zip(h.frames, h.ends):
+                stopped = False
+                for b in got:
+                    cmd = parser.feed(b)
+                    stopped = stopped or ssc32.stops_reading(cmd, servos)
+                    ver = ver or isinstance(cmd, ssc32.Version)
+                if ended.hline and not stopped and not (ended.hline == 2 and ver):
+                    bad(cycle, f"the host parser stopped reading at {when(cycle)} (lines pending {ended.hline:#x}) "
+                               "with no line that stops it")
+                if ended.left and not ended.hline and ended.answers < costs.QUEUE and len(got) < passes:
+                    bad(cycle, f"the host parser left {ended.left} byte{'s' if ended.left != 1 else ''} unread at "
+                               f"{when(cycle)} that had come before that frame's reading began")
 
     # The plan reaches the selects in the order the firmware did.
     reached: list = []

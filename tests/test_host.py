@@ -255,3 +255,13 @@ def test_sessions_hold_at_other_clocks_and_in_6t_mode(head, baud):
     last = next(i for i, w in enumerate(tilt) if w == tilt[-1])
     step = [(2 * 66 * k + f) // (2 * f) for k in range(f + 1)]      # frame k moves floor(66 k / F + 1/2) N
     assert n_of(b, tilt[-1]) == 188 and last - first == step.index(66) - step.index(1)
+
+
+def test_a_firmware_that_reads_late_fails_verify():
+    b = built()
+    asm = b.firmware.unit.text
+    head, loop = asm.split("hr_frame:")
+    passes = int(loop.split("MOV     R7, #", 1)[1].split()[0])
+    slow = loop.replace(f"MOV     R7, #{passes}", "MOV     R7, #1", 1)      # one byte a frame
+    trace, report = watch(b, '0.2s "#0P1000T300\\r"\n', 150, rebuilt(b, head + "hr_frame:" + slow))
+    assert not report.ok and "left" in problems(report) and "unread" in problems(report)
