@@ -614,6 +614,11 @@ def _sim(args, run: _Run, source, plan: Plan, firmware) -> int:
     except api.ToolNotFound as exc:
         raise _Stop(str(exc), "missing-tool") from None
     print(f"{source.path}: {_plan_line(plan)}; the {target.describe()} in ucsim", flush=True)
+    if any(isinstance(st, HostStep) for st in steps(plan)):
+        from .model import host_channel
+        print("host: SSC-32 commands (docs/host-protocol.md) while `host` runs; channels "
+              + ", ".join(f"{k} {name}" for k, name in sorted((host_channel(c.servo), c.name) for c in plan.channels)),
+              flush=True)
     try:
         simlink.run(setup, sys.stdout, sys.stderr)
     except api.ToolNotFound as exc:
