@@ -16,27 +16,15 @@
 from __future__ import annotations
 
 import sys
-import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from servoc import api, events  # noqa: E402
-from servoc.diagnostics import Reporter  # noqa: E402
-from servoc.source import SourceFile  # noqa: E402
+from serial_line import build  # noqa: E402  (benchmarks/serial_line.py)
 
 ARM = ROOT / "examples" / "ssc32_arm.servo"
-
-
-def build(text: str):
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / "bench.servo"
-        path.write_text(text, encoding="utf-8")
-        source = SourceFile(str(path), text)
-        reporter = Reporter(source)
-        fe, firmware = api.build(source, reporter)
-    return fe, firmware, reporter
 
 
 def run(fe, firmware, scenario: str, frames: int):

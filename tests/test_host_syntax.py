@@ -17,6 +17,7 @@ from servoc.check import check
 from servoc.diagnostics import Reporter
 from servoc.printer import format_program
 from servoc.source import SourceFile
+from test_syntax import parse_ok, parse_text
 
 HOST_PROGRAM = """\
 target at89c52 clock 11.0592MHz
@@ -32,18 +33,6 @@ main {
   move rest in 1s
 }
 """
-
-
-def parse_text(text: str):
-    src = SourceFile("t.servo", text)
-    rep = Reporter(src)
-    return syntax.parse(src, rep), rep, src
-
-
-def parse_ok(text: str) -> nodes.Program:
-    tree, rep, _ = parse_text(text)
-    assert tree is not None and rep.diagnostics == [], [d.message for d in rep.diagnostics]
-    return tree
 
 
 def syntax_error(text: str) -> tuple[int, int, str, str]:
