@@ -128,6 +128,7 @@ class _Ctx:
     watches: int = 0                 # selects with a meanwhile body so far (their ids: 1, 2, ...)
     repeats: bool = False            # a `repeat` is laid out (it counts its passes with rep_next)
     host_watchers: set = field(default_factory=set)   # selects whose meanwhile body runs `host` (flow.host_watchers)
+    fbase: str = "frame_io"          # the frame routine: frame_w with a meanwhile body (flow.watches)
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -210,7 +211,7 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
             continue
         if isinstance(st, HostStep):
             flush()
-            out.append({"op": "host", "label": ctx.label("host"), "where": ctx.where(st.span),
+            out.append({"op": "host", "label": ctx.label("host"), "where": ctx.where(st.span), "fbase": ctx.fbase,
                         "plays": [{"label": _seq_label(ctx.plan, p.sequence), "name": p.sequence} for p in st.plays]})
             continue
         where = ctx.where(st.span)
@@ -355,6 +356,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)
     ctx.host_watchers = host_watchers(plan)
+    ctx.fbase = "frame_w" if watches(plan) else "frame_io"
     main_ops: list[dict] = []
     _ops(ctx, plan.main, main_ops)
     sequences = []
@@ -366,10 +368,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                           "where": ctx.where(seq.span)})
     serial = plan.program.serial
     taken = select_ram(plan)
-    stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, watches(plan))
+    deep_runtime = watches(plan) or hosted(plan)      # frame_w's looks, or the host's reading: WATCH_STACK more
+    stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, deep_runtime)
     nports = len(plan.ports)
     room_promised = costs.stack_room(serial is not None, taken, nports)
-    if hosted(plan) and costs.stack_bytes(0, serial is not None, watches(plan)) > room_promised:
+    if hosted(plan) and costs.stack_bytes(0, serial is not None, deep_runtime) > room_promised:
         raise layout.HostRam(f"`host` needs {select_ram(plan)} bytes of RAM, which leaves the stack "
                              f"{room_promised} bytes")      # lint's `host-ram` reports this first
     if stack_bytes > room_promised:     # lint's `too-deep` reports this first
@@ -417,6 +420,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if more:
         ram.alloc("MOREC", 1, "records left that share the flags and F of the one before")
     watch = _select_ram(ctx, ram)
+    fbase = "frame_w" if watch else "frame_io"
+    fcall = "frame_h" if serial is not None and hosted(plan) and plan.sequences else fbase
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
@@ -482,10 +487,10 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   compact=plan.compact, more=more, **{k: uses[k] for k in ("repeats", "eased", "holds")},
                   more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
-                  looks=ctx.looks, watch=watch, fcall="frame_w" if watch else "frame_io",
+                  looks=ctx.looks, watch=watch, fcall=fcall,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables,
                   fneed=fneed if uses["nodur"] else [], ftables=fneed, pin_dmax=pin_dmax,
-                  h=_host(plan, chans, fneed, rxq) if hosting else None,
+                  h=_host(plan, chans, fneed, rxq, fbase) if hosting else None,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
                                                  "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},
@@ -493,9 +498,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   div_text=f"{float(target.div_cycles):g}",
                   fall_text="500 + 8 x N" if target.grid else "round_half_up((500 + 8 N) us / t_c)")
     deepest = runtime_stack(text, [sq["label"] for sq in sequences])
-    if deepest > costs.runtime_stack(bool(watch)):
+    if deepest > costs.runtime_stack(deep_runtime):
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
-                           f"{costs.runtime_stack(bool(watch))} the stack bound counts")
+                           f"{costs.runtime_stack(deep_runtime)} the stack bound counts")
     offsets = tuple(costs.rise_offsets(plan.ports, target).values())
     ram_bytes = ram.total(8 * nports, stack_bytes) + (costs.BUFB_RAM if bport is not None else 0)
     breakdown: dict[str, int] = {}
@@ -744,14 +749,15 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HCMD", 1, "host parser: the line's command word"),
              ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence"),
              ("HT", 2, "the longest T of the groups read in this frame"),
-             ("HVER", 1, "the next byte of the answer to VER"))
+             ("HVER", 1, "the next byte of the answer to VER"),
+             ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
 HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none)"),
                ("HPS", 1, "per servo: the pending S / 16"), ("HOF", 1, "per servo: its offset in us"),
                ("HPO", 1, "per servo: its pending offset + 100 (0xFF: none)"))
 assert sum(v[1] for v in HOST_VARS) == flow_mod.HOST_VARS and sum(a[1] for a in HOST_ARRAYS) == flow_mod.HOST_PER_SERVO
 
 
-def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int) -> dict:
+def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: str) -> dict:
     """The numbers of host.asm.j2: per servo its record and table, the channel map and the tables
     of the protocol's arithmetic (docs/host-protocol.md; servoc.ssc32 is the same in Python)."""
     from . import ssc32
@@ -786,7 +792,8 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int) -> dict:
             "qp": [(500 + 8 * n) // 10 for n in range(N_MAX + 1)],
             "sq": [ssc32.speed_q(i, period) for i in range(256)],
             "version": ssc32.VERSION_REPLY.decode().rstrip("\r"),
-            "plays": [_seq_label(plan, q.name) for q in plan.sequences]}
+            "plays": [_seq_label(plan, q.name) for q in plan.sequences], "fbase": fbase,
+            "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan))}
 
 
 def _bytes(n: int) -> str:

@@ -29,6 +29,7 @@ from .sim import SimTrace
 
 REACH, LOOK, EXIT, BRANCH, RX_GOT, RX_END = "reach", "look", "exit", "branch", "rx_got", "rx_end"
 HOST_START, HOST_FRAME, HOST_BYTE, HOST_END = "host_start", "host_frame", "host_byte", "host_end"
+PLAY_FRAME, PLAY_END = "play_frame", "play_end"      # the same, while a sequence `PL` started plays
 HOST_BYTE_RAM = 0x02            # bank 0 R2: the byte host_byte is reading (`hb_in`)
 
 # A listing line (sdas8051 -l, relocated .rst): address in columns 6..11, the source line's number
@@ -140,13 +141,15 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
     if "host_run" in labels:
         if not {"HLINE", "TXW", "TXR"} <= equ.keys():
             raise ProbeError("the host's RAM is not named in the assembly")
-        ram = {HOST_BYTE: (HOST_BYTE_RAM,), HOST_FRAME: rx_state, HOST_START: (),
+        ram = {HOST_BYTE: (HOST_BYTE_RAM,), HOST_FRAME: rx_state, HOST_START: (), PLAY_FRAME: rx_state,
                HOST_END: rx_state + (equ["HLINE"], equ["TXW"], equ["TXR"])}
-        for lab, kind in (("host_run", HOST_START), ("hr_frame", HOST_FRAME), ("hb_in", HOST_BYTE),
-                          ("hp_end", HOST_END)):
-            if lab not in labels:
+        ram[PLAY_END] = ram[HOST_END]
+        for lab, kind in (("host_run", HOST_START), ("host_read", HOST_FRAME), ("hb_in", HOST_BYTE),
+                          ("hp_end", HOST_END), ("play_read", PLAY_FRAME), ("pr_end", PLAY_END)):
+            if lab in labels:
+                add(labels[lab], kind, "", None, ram[kind])
+            elif not lab.startswith(("play", "pr_")):       # play_read: only with sequences
                 raise ProbeError(f"the listing has no {lab}")
-            add(labels[lab], kind, "", None, ram[kind])
     if queue:
         for lab in ("ui_got", "ui_drop"):
             if lab not in labels:
@@ -211,7 +214,8 @@ class Received:
 class HostVisit:
     """A run of a `host` statement: the cycle it began, and per frame's reading (the cycle it began,
     the receive queue's read counter then, absolute) the bytes the parser read, in order; and per
-    reading that ended, why it may have stopped (`Ended`)."""
+    reading that ended, why it may have stopped (`Ended`). The readings while a sequence `PL`
+    started plays are among them (`Ended.playing`)."""
     start: int
     frames: list[tuple[int, int, list[int]]] = field(default_factory=list)
     ends: list["Ended"] = field(default_factory=list)
@@ -226,6 +230,7 @@ class Ended:
     left: int
     hline: int
     answers: int
+    playing: bool = False
 
 
 @dataclass(frozen=True)
@@ -301,7 +306,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
             pending = None
         elif kind == HOST_START:
             hosts.append(HostVisit(p.cycle))
-        elif kind == HOST_FRAME:
+        elif kind in (HOST_FRAME, PLAY_FRAME):
             if not hosts:
                 problems.append(f"the host's reading began at cycle {p.cycle} with no `host` running")
                 continue
@@ -309,13 +314,14 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
             w = rxw(p.ram[1]) if p.ram else 0
             hosts[-1].frames.append((p.cycle, r, []))
             host_queued = w - r
-        elif kind == HOST_END:
+        elif kind in (HOST_END, PLAY_END):
             if not hosts or not hosts[-1].frames:
                 continue
             r = rxr(p.ram[0])
             rxw(p.ram[1])
             read = len(hosts[-1].frames[-1][2])
-            hosts[-1].ends.append(Ended(host_queued, max(0, host_queued - read), p.ram[2], (p.ram[3] - p.ram[4]) & 0xFF))
+            hosts[-1].ends.append(Ended(host_queued, max(0, host_queued - read), p.ram[2], (p.ram[3] - p.ram[4]) & 0xFF,
+                                        kind == PLAY_END))
         elif kind == HOST_BYTE:
             if not hosts or not hosts[-1].frames:
                 problems.append(f"the host parser read a byte at cycle {p.cycle} outside a frame's reading")

@@ -701,28 +701,43 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
     offsets: dict[int, int] = {}        # the firmware's offsets outlive a run of `host`
 
     def host(st: HostStep) -> Iterator[GoldenFrame]:
+        """A run of `st`: each frame the bytes its reading read go to the model, then the frame; a
+        `PL 0 SQ n` plays sequence n, its frames each followed by a reading (`Q` answers `+`), then
+        a frame repeating its end, and the run goes on with the lines read meanwhile."""
         names = [q.name for q in plan.program.sequences]
+        run_ = decider.host(st)
+        session = ssc32.Session(host_servos, plan.period_us, len(names),
+                                {s.channel: state[i] for i, s in enumerate(host_servos)})
+        session.offsets.update(offsets)
+        parser = ssc32.LineParser()
+        reads = iter(run_.reads if run_ is not None else ())
+        played = 0
+
+        def read() -> None:
+            for b in next(reads, ()):
+                cmd = parser.feed(b)
+                if cmd is not None:
+                    pending.extend(session.line(cmd))
+            offsets.update(session.offsets)
+
         while True:
-            run_ = decider.host(st)
-            session = ssc32.Session(host_servos, plan.period_us, len(names),
-                                    {s.channel: state[i] for i, s in enumerate(host_servos)})
-            session.offsets.update(offsets)
-            parser = ssc32.LineParser()
-            reads = iter(run_.reads if run_ is not None else ())
-            while True:
-                for b in next(reads, ()):
-                    cmd = parser.feed(b)
-                    if cmd is not None:
-                        pending.extend(session.line(cmd))
-                offsets.update(session.offsets)
-                played = len(session.plays)
-                now = session.frame()
-                for i, s in enumerate(host_servos):
-                    state[i] = now[s.channel]
-                yield frame(st.span)
-                if played:
-                    break
-            yield from run(plan.sequence(names[session.plays[0]]).body)
+            read()
+            now = session.frame()
+            for i, s in enumerate(host_servos):
+                state[i] = now[s.channel]
+            yield frame(st.span)
+            if len(session.plays) > played:
+                sequence = plan.sequence(names[session.plays[played]])
+                played += 1
+                session.sequence_running = True
+                for fr in run(sequence.body):
+                    yield fr
+                    session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
+                    read()
+                session.sequence_running = False
+                session.move = None
+                yield frame(st.span)                # the frame that repeats the sequence's end
+                session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
 
     def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         for st in body:

@@ -265,3 +265,22 @@ def test_a_firmware_that_reads_late_fails_verify():
     slow = loop.replace(f"MOV     R7, #{passes}", "MOV     R7, #1", 1)      # one byte a frame
     trace, report = watch(b, '0.2s "#0P1000T300\\r"\n', 150, rebuilt(b, head + "hr_frame:" + slow))
     assert not report.ok and "left" in problems(report) and "unread" in problems(report)
+
+
+def test_q_is_answered_while_a_sequence_plays_and_lines_wait_for_its_end():
+    # the wave (tuck, then rest) takes over a second: Q at 0.4 s answers '+', and so does QP
+    # (the shoulder on its way down from 90deg); a group sent meanwhile moves the base once the
+    # wave has ended; STOP meanwhile does nothing; Q long after answers '.'
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n'
+                               '0.4s "Q\\r"\n'
+                               '0.5s "QP 1\\r"\n'
+                               '0.6s "STOP\\r"\n'
+                               '0.7s "#0P2000\\r"\n'
+                               '4.0s "Q\\r"\n', 800)
+    out = sent(trace)
+    assert out[0:1] == b"+" and 54 * 8 + 500 < 10 * out[1] < 1476 and out[2:] == b"."
+    base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]
+    assert base[-1] == 188                                   # 2000 us, after the wave
+    back = next(i for i in range(len(shoulder) - 1, 0, -1) if shoulder[i - 1] != shoulder[i])   # the wave's end
+    assert all(n == 122 for n in base[:back])               # the base waited for it

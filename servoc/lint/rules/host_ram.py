@@ -16,7 +16,7 @@ def host_short(plan: Plan) -> int:
         return 0
     serial = plan.program.serial is not None
     room = costs.stack_room(serial, select_ram(plan), len(plan.ports))
-    return max(0, costs.stack_bytes(0, serial, watches(plan)) - room)
+    return max(0, costs.stack_bytes(0, serial, watches(plan) or hosted(plan)) - room)
 
 
 @rule("host-ram", Severity.ERROR)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ... import costs, walk
 from ...diagnostics import Reporter, Severity
-from ...flow import select_ram, watches
+from ...flow import hosted, select_ram, watches
 from ...steps import Plan
 from ...source import Span
 from .. import RULES, Report, rule
@@ -19,7 +19,7 @@ from ..common import body_of
 def too_deep(plan: Plan, report: Report) -> None:
     """Nested repeats and plays keep their counters and return addresses on the stack."""
     serial = plan.program.serial is not None
-    watch, taken, ports = watches(plan), select_ram(plan), len(plan.ports)
+    watch, taken, ports = watches(plan) or hosted(plan), select_ram(plan), len(plan.ports)
     from .host_ram import host_short
     if host_short(plan):
         return              # host-ram says it
