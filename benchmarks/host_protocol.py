@@ -64,11 +64,11 @@ def latency() -> list[str]:
 def sustained(seconds: float) -> list[str]:
     fe, firmware, _ = build(ARM.read_text(encoding="utf-8"))
     plan = fe.plan
-    n = 0
-    text = ""
-    # 4-servo lines with T, about 40 bytes each: 24 a second at 9600 baud
-    while n * 42 * 10 / 9600 < seconds:
-        text += f"#0P{1000 + 37 * (n % 20)}#1P{1800 - 29 * (n % 20)}#2P{1200 + 23 * (n % 20)}#7P{1400 + 19 * (n % 20)}T90\\r"
+    n, size, text = 0, 0, ""
+    while size * 10 / 9600 < seconds:      # 4-servo lines with T, about 32 bytes each, back to back
+        line = f"#0P{1000 + 37 * (n % 20)}#1P{1800 - 29 * (n % 20)}#2P{1200 + 23 * (n % 20)}#7P{1400 + 19 * (n % 20)}T90"
+        text += line + "\\r"
+        size += len(line) + 1
         n += 1
     frames = int((seconds + 1.5) * 1e6 / plan.period_us)
     trace, report = run(fe, firmware, f'0.2s "{text}"\n', frames)
