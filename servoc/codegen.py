@@ -34,6 +34,7 @@ from .flow import (UNBOUNDED, edge_ports, fewest_frames, fewest_frames_in_code, 
                    port_motions, select_ram, select_slots, send_gap, send_run, sends, takes_frames, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
+                    host_playable,
                     Step, steps)
 from .units import N_MAX, fmt_ms
 
@@ -212,7 +213,9 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
         if isinstance(st, HostStep):
             flush()
             out.append({"op": "host", "label": ctx.label("host"), "where": ctx.where(st.span), "fbase": ctx.fbase,
-                        "plays": [{"label": _seq_label(ctx.plan, p.sequence), "name": p.sequence} for p in st.plays]})
+                        "plays": [{"label": _seq_label(ctx.plan, p.sequence), "name": p.sequence,
+                                   "n": [q.name for q in ctx.plan.program.sequences].index(p.sequence)}
+                                  for p in st.plays]})
             continue
         where = ctx.where(st.span)
         if isinstance(st, LoopStep):
@@ -421,7 +424,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         ram.alloc("MOREC", 1, "records left that share the flags and F of the one before")
     watch = _select_ram(ctx, ram)
     fbase = "frame_w" if watch else "frame_io"
-    fcall = "frame_h" if serial is not None and hosted(plan) and plan.sequences else fbase
+    fcall = "frame_h" if serial is not None and hosted(plan) and host_playable(plan.program) else fbase
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
@@ -764,6 +767,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
     from .model import host_channel
     period = plan.period_us
     words = {w: i + 1 for i, w in enumerate(HOST_WORDS)}
+    playable = host_playable(plan.program)
     table = [0xFF] * (32 * (len(HOST_WORDS) + 1))
     for w, i in words.items():
         before = words.get(w[:-1], 0)
@@ -792,7 +796,8 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "qp": [(500 + 8 * n) // 10 for n in range(N_MAX + 1)],
             "sq": [ssc32.speed_q(i, period) for i in range(256)],
             "version": ssc32.VERSION_REPLY.decode().rstrip("\r"),
-            "plays": [_seq_label(plan, q.name) for q in plan.sequences], "fbase": fbase,
+            "plays": [_seq_label(plan, name) for name in playable], "fbase": fbase,
+            "playable": [int(q.name in playable) for q in plan.program.sequences],
             "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan))}
 
 

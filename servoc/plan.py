@@ -37,7 +37,7 @@ from .model import host_channel
 from .diagnostics import Reporter
 from .flow import sends, takes_frames
 from .source import NO_SPAN, Span
-from .steps import (AfterBranch, Branch, Channel, HoldStep, HostStep, LoopStep, host_range, MoveInstance, MoveStep, OnBranch, Origin, Plan,
+from .steps import (AfterBranch, Branch, Channel, HoldStep, HostStep, LoopStep, host_playable, host_range, MoveInstance, MoveStep, OnBranch, Origin, Plan,
                     PlayStep, Reach, RepeatStep, SelectStep, SendStep, SequencePlan, ServoMotion, Step, at_statement,
                     far, far_from, join, steps)
 from .units import DEFAULT_PERIOD_FLOOR_US, N_MAX, frames_for, frames_needed, move_frames, round_half_up
@@ -240,14 +240,14 @@ def _plan_at(program: model.Program, servos: list, ports: tuple[int, ...], perio
 
     speed_classes = tuple(c.speed_class for c in channels)
     startup, schedule = startup_steps(program, channels, period)
-    names = tuple(s.name for s in program.sequences)
+    names = host_playable(program)
     main = startup + _model_steps(program.main, index, period, names)
     seq_bodies = {s.name: SequencePlan(s.name, _model_steps(s.body, index, period, names), s.span)
                   for s in program.sequences}
     if hosts(program):      # a `host` plays any sequence from its own level
         depth = max(depth, walk.nesting(main, lambda name: seq_bodies[name].body))
     hosted = tuple(Reach(*host_range(c.servo), True) for c in channels) if hosts(program) else None
-    order = tuple(s.name for s in program.sequences)
+    order = host_playable(program)
     walker = _Walker(seq_bodies, tables, speed_classes, hosted, order)
     walker.start(main, len(channels), home_state(program, channels))
     # A move without duration whose F is the same in every context gets that F fixed;
@@ -706,7 +706,7 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
         a frame repeating its end, and the run goes on with the lines read meanwhile."""
         names = [q.name for q in plan.program.sequences]
         run_ = decider.host(st)
-        session = ssc32.Session(host_servos, plan.period_us, len(names),
+        session = ssc32.Session(host_servos, plan.period_us, {names.index(p.sequence) for p in st.plays},
                                 {s.channel: state[i] for i, s in enumerate(host_servos)})
         session.offsets.update(offsets)
         parser = ssc32.LineParser()

@@ -520,11 +520,13 @@ class Session:
     waits for the line to rest: then the bytes after it wait more than a frame) and a receive
     queue that overflows."""
 
-    def __init__(self, servos: Iterable[Servo], period_us: int | Fraction, sequences: int = 0,
+    def __init__(self, servos: Iterable[Servo], period_us: int | Fraction, sequences: int | Iterable[int] = 0,
                  start: Mapping[int, int | None] | None = None) -> None:
         self.servos = tuple(servos)
         self.period_us = _period(period_us)
-        self.sequences = sequences
+        # the sequences `PL 0 SQ n` plays: n < a count, or the numbers given (a sequence that runs `host`
+        # itself is not among them)
+        self.sequences = frozenset(range(sequences)) if isinstance(sequences, int) else frozenset(sequences)
         self.by_channel: dict[int, Servo] = {}
         for s in self.servos:
             if s.channel in self.by_channel:
@@ -570,7 +572,7 @@ class Session:
                 self.move.paths.pop(cmd.channel, None)
             return b""
         if isinstance(cmd, Play):
-            if cmd.seq < self.sequences:
+            if cmd.seq in self.sequences:
                 self.move = None
                 self.plays.append(cmd.seq)
             return b""

@@ -284,3 +284,49 @@ def test_q_is_answered_while_a_sequence_plays_and_lines_wait_for_its_end():
     assert base[-1] == 188                                   # 2000 us, after the wave
     back = next(i for i in range(len(shoulder) - 1, 0, -1) if shoulder[i - 1] != shoulder[i])   # the wave's end
     assert all(n == 122 for n in base[:back])               # the base waited for it
+
+
+def test_a_line_of_any_length_is_read_byte_by_byte():
+    # 40 entries (the 4 channels named ten times each: the last entry of each wins), 400 bytes
+    entries = "".join(f"#{ch} P{1000 + 10 * k + 100 * i} " for k in range(10) for i, ch in enumerate((0, 1, 2, 7)))
+    b, trace, report = session(f'0.2s "{entries}T200\\r"\n'
+                               '1.0s "QP0\\rQP1\\rQP2\\rQP7\\r"\n', 250)
+    # the last entries: #0 P1090, #1 P1190, #2 P1290, #7 P1390 -> N 74, 86, 99, 111 (rounded half up)
+    # elbow is reversed: N 151 is its output; grip's trim is 3: N 114
+    assert sent(trace) == bytes((500 + 8 * n) // 10 for n in (74, 86, 151, 114))
+
+
+HOST_IN_LOOP = """\
+target stc89c52rc clock 11.0592MHz
+serial 9600
+host ssc32
+input mode = P3.2
+servo a = P1.0
+servo b = P1.1
+pose rest { a: 90deg, b: 90deg }
+home rest
+sequence obey {
+  host until release mode
+}
+main {
+  loop {
+    select {
+      on mode { play obey }
+      after 200ms { move rest }
+    }
+  }
+}
+"""
+
+
+def test_host_in_a_sequence_inside_a_loop_runs_and_ends_again_and_again():
+    b, trace, report = session('0.3s mode active\n'
+                               '0.5s "#0P900T100\\r"\n'
+                               '0.8s mode inactive\n'
+                               '1.4s mode active\n'
+                               '1.6s "#1P2100\\r"\n'
+                               '1.9s mode inactive\n', 450, HOST_IN_LOOP)
+    a = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    bb = [n_of(b, w) for w in widths(b, trace, 1, 1)]
+    assert 50 in a and 200 in bb                 # each run of `host` moved its servo
+    assert a[-1] == 122 and bb[-1] == 122        # and `after` moved them back to rest
