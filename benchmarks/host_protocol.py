@@ -21,19 +21,14 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from servoc import api, events  # noqa: E402
-from serial_line import build  # noqa: E402  (benchmarks/serial_line.py)
+from serial_line import build, run as serial_run  # noqa: E402  (benchmarks/serial_line.py)
 
 ARM = ROOT / "examples" / "ssc32_arm.servo"
 
 
 def run(fe, firmware, scenario: str, frames: int):
-    plan = fe.plan
-    evs = events.parse(scenario, plan.program.inputs, True)
-    stim = api.stimulus(plan, evs)
-    cycles = max(api.cycles_needed(plan, frames), stim.last() + 1)
-    trace = api.simulate(firmware.hex_text, cycles, plan.program.target, stim, api.probes(firmware))
-    _, report = api.events_report(plan, trace, frames, evs)
+    """(trace, report) of a run driven by `scenario` (serial_line.run)."""
+    _, trace, _, report = serial_run(fe, firmware, scenario, frames)
     return trace, report
 
 
