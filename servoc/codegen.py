@@ -751,7 +751,7 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HES", 1, "host parser: the entry's S / 16"), ("HARG", 2, "host parser: T, or a command's number"),
              ("HCMD", 1, "host parser: the line's command word"),
              ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence"),
-             ("HT", 2, "the longest T of the groups read in this frame"),
+             ("HT", 2, "the T of the group line read in this frame (0: none)"),
              ("HVER", 1, "the next byte of the answer to VER"),
              ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
 HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none)"),

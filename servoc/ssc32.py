@@ -69,9 +69,10 @@ The rules, as the document states them:
   while `Session.sequence_running` is set; else `.`.
 - `STOP` ends the move (Q answers `.`); `STOP c` ends channel c's part of
   the move (its frame count goes on); both take effect at once, in the
-  frame their line is read. `PL 0 SQ n` with n < the number of sequences
-  ends the move and records n in `Session.plays` (frame i + 1 repeats frame
-  i; the sequence, from frame i + 2, is not modelled); other n do nothing.
+  frame their line is read. `PL 0 SQ n` with n among the sequences it may
+  play ends the move and records n in `Session.plays` (frame i + 1 repeats
+  frame i; the sequence's frames, from frame i + 2, are `plan.expand`'s);
+  other n do nothing.
   ESC and a bad line drop only their own line.
 - A group line that names a servo, an offset line, `VER` and `PL 0 SQ n`
   (any n) end the frame's reading: the bytes after them are read in the
@@ -512,10 +513,11 @@ class Session:
     (or the offset line read in frame i sets its offsets), then the move under way advances
     by one frame; it returns {channel: N or None (no pulse)} for every servo.
 
-    `start`: the N at the start (None or missing: no pulse). `plays` records the sequence
-    numbers of `PL 0 SQ n` with n < `sequences`: frame i + 1 repeats frame i, and the
-    sequence itself, from frame i + 2, is not modelled (set `now` to where it leaves the
-    servos, and `sequence_running` while it plays, to make `Q` answer `+`). Not modelled
+    `start`: the N at the start (None or missing: no pulse). `sequences`: how many there are
+    (n < it), or the numbers `PL 0 SQ n` plays. `plays` records the sequence numbers of
+    `PL 0 SQ n` it played: frame i + 1 repeats frame i, and the sequence's own frames, from
+    frame i + 2, are `plan.expand`'s (it sets `now` to where they leave the servos, and
+    `sequence_running` while they play, to make `Q` answer `+`). Not modelled
     either: the transmit queue (the firmware stops reading while it is full, and while a `VER`
     waits for the line to rest: then the bytes after it wait more than a frame) and a receive
     queue that overflows."""
