@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from conftest import build_text
+from conftest import build_text, front_end_text
 from servoc import ssc32
 from test_verify_observes import problems, rebuilt, watch
 
@@ -330,3 +330,25 @@ def test_host_in_a_sequence_inside_a_loop_runs_and_ends_again_and_again():
     bb = [n_of(b, w) for w in widths(b, trace, 1, 1)]
     assert 50 in a and 200 in bb                 # each run of `host` moved its servo
     assert a[-1] == 122 and bb[-1] == 122        # and `after` moved them back to rest
+
+
+@pytest.mark.parametrize("head, baud, count", [("target at89c52 clock 12MHz", 4800, 8),
+                                               ("target stc89c52rc clock 11.0592MHz", 9600, 5)])
+def test_the_shortest_period_holds_under_the_heaviest_lines_and_a_microsecond_less_is_refused(head, baud, count):
+    servos = "".join(f"servo s{i} = P1.{i} limit 10deg..170deg{' reverse' if i % 2 else ''} trim {i - 2}\n"
+                     for i in range(count))
+    text = (f"{head}\nserial {baud}\nhost ssc32\n{servos}pose p {{ "
+            + ", ".join(f"s{i}: {40 + 20 * i}" for i in range(count)) + " }\nhome p\nmain {\n  host\n}\n")
+    b = built(text)
+    assert b.plan.period_us == b.plan.min_period_us > 5300           # the default is the shortest
+    # every servo named with S in every line (the commit's longest path), lines back to back, with Q
+    # and QP between them, and PO lines that stop the reading
+    body = ""
+    for k in range(12):
+        body += "".join(f"#{i}P{600 + (k * 370 + i * 190) % 1900}S{300 + 97 * k + i}" for i in range(count))
+        body += f"T30\\rQ\\rQP{k % count}\\r" + (f"#{k % count}PO{k - 8}\\r" if k % 5 == 0 else "")
+    b, trace, report = session(f'0.2s "{body}"\n', int(3.5e6 / b.plan.period_us), text)
+    assert len(sent(trace)) == 24                                       # every Q and QP answered
+    shorter = text.replace("host ssc32\n", f"host ssc32\nframe {b.plan.min_period_us - 1}us\n")
+    _, diags = front_end_text(shorter)
+    assert any(d.code == "period-too-short" for d in diags), [d.code for d in diags]
