@@ -81,6 +81,7 @@ def environment() -> jinja2.Environment:
         _ENV.filters["hex16"] = _hex16
         _ENV.filters["hi8"] = lambda v: _hex8(v >> 8)
         _ENV.filters["lo8"] = lambda v: _hex8(v)
+        _ENV.filters["byte"] = lambda v, b: _hex8(v >> 8 * b)
     return _ENV
 
 
@@ -748,14 +749,14 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HW", 1, "host parser: the word being read"), ("HNUM", 2, "host parser: the number"),
              ("HCH", 1, "host parser: the servo of the open entry (0xFF: none)"),
              ("HEP", 2, "host parser: the entry's P (or PO + 100)"),
-             ("HES", 1, "host parser: the entry's S / 16"), ("HARG", 2, "host parser: T, or a command's number"),
+             ("HES", 2, "host parser: the entry's S"), ("HARG", 2, "host parser: T, or a command's number"),
              ("HCMD", 1, "host parser: the line's command word"),
              ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence"),
              ("HT", 2, "the T of the group line read in this frame (0: none)"),
              ("HVER", 1, "the next byte of the answer to VER"),
              ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
 HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none)"),
-               ("HPS", 1, "per servo: the pending S / 16"), ("HOF", 1, "per servo: its offset in us"),
+               ("HPS", 2, "per servo: the pending S (0: none)"), ("HOF", 1, "per servo: its offset in us"),
                ("HPO", 1, "per servo: its pending offset + 100 (0xFF: none)"))
 assert sum(v[1] for v in HOST_VARS) == flow_mod.HOST_VARS and sum(a[1] for a in HOST_ARRAYS) == flow_mod.HOST_PER_SERVO
 
@@ -794,7 +795,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "chan_act": chan_act, "chan_mask": chan_mask, "chan_cur": chan_cur, "queue": rxq, "passes": host_passes(plan), "words": words, "words_table": table,
             "chan_map": chan_map, "ports": plan.ports, "rt": ssc32.time_factor(period),
             "qp": [(500 + 8 * n) // 10 for n in range(N_MAX + 1)],
-            "sq": [ssc32.speed_q(i, period) for i in range(256)],
+            "st": [ssc32.speed_t(d, period) for d in range(N_MAX + 1)],
             "version": ssc32.VERSION_REPLY.decode().rstrip("\r"),
             "plays": [_seq_label(plan, name) for name in playable], "fbase": fbase,
             "playable": [int(q.name in playable) for q in plan.program.sequences],

@@ -72,8 +72,8 @@ def select_ram(plan: Plan) -> int:
     return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan)
 
 
-HOST_VARS = 17          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
-HOST_PER_SERVO = 5      # per servo: its pending width (2), its pending S, its offset and a pending one
+HOST_VARS = 18          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
+HOST_PER_SERVO = 6      # per servo: its pending width (2), its pending S (2), its offset and a pending one
 
 
 PLAY_PASSES = 1         # bytes a frame's reading reads while a sequence `PL` started plays (a `Q` line in two frames)

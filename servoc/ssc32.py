@@ -8,7 +8,7 @@ host sends while `host` runs. All arithmetic is in integers.
   end completes (`Group` of `Entry`s, `Offset`, `Query`, `QueryPulse`,
   `Version`, `Stop`, `Play`), or None.
 - `target_n` (with `output_n`), `group_move`, `frame_n` and the F terms
-  (`time_factor`, `frames_t`, `speed_index`, `speed_q`, `frames_s`,
+  (`time_factor`, `frames_t`, `speed_t`, `frames_s`,
   `frames_top`) are the rules of "A group move"; the code generator builds
   its tables with them.
 - `Session` is the state machine over time at frame granularity;
@@ -57,9 +57,9 @@ The rules, as the document states them:
   servos; the named servos without a pulse are set at once; the others go
   from N0 to N1 over F frames, the largest of 1; F_T = (t x RT + 32768)
   >> 16 with RT = round(65,536,000 / P), halves up (0 without T); for each
-  such servo with `S v`, v > 0, F_S = ceil(|delta| x q / 256) with i =
-  min(255, max(1, v // 16)) and q = min(65535, ceil(2,048,000,000 / (16 i x
-  P))); and its top speed, ceil(|delta| x t_DAV / P). Frame i + k is
+  such servo with `S v`, v > 0, F_S = min(65535, ceil(8,000,000 x |delta| /
+  (v x P))), |delta| / v to the next whole frame; and its top speed,
+  ceil(|delta| x t_DAV / P). Frame i + k is
   `frame_n(N0, N1, k, F)`.
 - P, the frame period, is a whole number of us (an int, or a Fraction equal
   to one; anything else is a ValueError).
@@ -102,8 +102,7 @@ N_MAX = 250
 WIDTH_MIN = 500
 WIDTH_MAX = 2500
 WIDTH_CAP = 2600            # w is taken as min(w, 2600) before the offset is added
-SPEED_STEP = 16             # S v is taken in steps of 16 us/s
-SPEED_INDEX_MAX = 255
+FRAMES_MAX = 65535          # F_S is at most this many frames
 
 CR, LF, ESC, SPACE, TAB = 13, 10, 27, 32, 9
 
@@ -398,26 +397,18 @@ def frames_t(time_ms: int, period_us: int | Fraction) -> int:
     return (time_ms * time_factor(period_us) + 32768) >> 16
 
 
-def speed_index(speed: int) -> int:
-    """i of `S v`: 0 for v = 0 (no speed), else min(255, max(1, floor(v / 16)))."""
-    if speed == 0:
-        return 0
-    return min(SPEED_INDEX_MAX, max(1, speed // SPEED_STEP))
-
-
-def speed_q(index: int, period_us: int | Fraction) -> int:
-    """q of speed index i: 0 for i = 0, else min(65535, ceil(2,048,000,000 / (16 i x P))),
-    the frames per N in 1/256."""
-    if index == 0:
-        return 0
+def speed_t(delta: int, period_us: int | Fraction) -> int:
+    """T(|delta|) = ceil(8,000,000 x |delta| / P): |delta| N at 1 us/s, in frames."""
     p = _period(period_us)
-    return min(NUM_MAX, -(-2_048_000_000 // (SPEED_STEP * index * p)))
+    return -(-8_000_000 * abs(delta) // p)
 
 
 def frames_s(delta: int, speed: int, period_us: int | Fraction) -> int:
-    """F_S = ceil(|delta| x q / 256) for `S v` (0 for v = 0)."""
-    q = speed_q(speed_index(speed), period_us)
-    return -(-abs(delta) * q // 256)
+    """F_S = min(65535, ceil(T(|delta|) / v)) = min(65535, ceil(8 |delta| us / (v us/s) / P))
+    for `S v` (0 for v = 0: no speed)."""
+    if speed == 0:
+        return 0
+    return min(FRAMES_MAX, -(-speed_t(delta, period_us) // speed))
 
 
 def frames_top(delta: int, t_dav_us: Fraction, period_us: int | Fraction) -> int:

@@ -95,14 +95,13 @@ def test_top_speed_and_s_limit_a_group():
     need = -(-128 * 7400 // (3 * p))         # ceil(128 x 7400/3 us / P)
     base = widths(b, trace, 1, 0)
     assert len([w for w in base if w not in (base[0], base[-1])]) == need - 1
-    # S100 us/s, taken in steps of 16 (96 us/s): q = ceil(2048000000 / (96 P)) frames per N in 1/256,
-    # F = ceil(128 q / 256), some 10.7 s; frame k of it is 122 + floor(128 k / F + 1/2)
+    # S100 us/s: 128 N (1024 us) at 100 us/s is 10.24 s: F = ceil(10,240,000 us / P), the whole
+    # frames that last it; frame k of it is 122 + floor(128 k / F + 1/2)
     b, trace, report = session('0.2s "#0P2500S100\\r"\n', 300)
-    q = -(-2048000000 // (96 * p))
-    f = -(-128 * q // 256)
+    f = -(-128 * 8_000_000 // (100 * p))
     ns = [n_of(b, w) for w in widths(b, trace, 1, 0)]
     k = len(ns) - next(i for i, n in enumerate(ns) if n != 122) - 1 + -(-f // 256)   # N moves first at k = F / 256
-    assert f > 1500 and ns[-1] == 122 + (2 * 128 * k + f) // (2 * f)
+    assert (f - 1) * p < 10_240_000 <= f * p and ns[-1] == 122 + (2 * 128 * k + f) // (2 * f)
 
 
 def test_limits_reverse_trim_and_clamps():
@@ -241,15 +240,15 @@ def test_sessions_hold_at_other_clocks_and_in_6t_mode(head, baud):
     text = (f"{head}\nserial {baud}\nhost ssc32\nservo pan = P1.0\nservo tilt = P2.5 channel 3\n"
             "pose mid { pan: 122, tilt: 122 }\nhome mid\nmain {\n  host\n}\n")
     b, trace, report = session('0.1s "VER\\r"\n'
-                               '0.2s "#0P1000#3P2000S300T400\\r"\n'
+                               '0.2s "#0P1000S500#3P2000S300T400\\r"\n'
                                '0.3s "Q\\r"\n'
                                '5.5s "Q\\rQP0\\rQP3\\r"\n', int(6.0e6 / 5300), text)
     # mid is N 122 (1476 us); 1000 us is N 63, 2000 us N 188: QP 100 and 200
     assert sent(trace) == b"SSC32-servoc-0.1\r+.d\xc8"
-    # S300 (18 steps of 16: 288 us/s): tilt's 66 N take 66 x 8 / 288 = 1.83 s, longer than T400:
-    # the move lasts F = ceil(66 q / 256) frames, q = ceil(2048000000 / (288 P))
+    # S300: tilt's 66 N (528 us) take 1.76 s, longer than T400 and than pan's 59 N (472 us) at
+    # S500, 0.944 s: the move lasts F = ceil(1,760,000 us / P) frames
     p = b.plan.period_us
-    f = -(-66 * -(-2048000000 // (288 * p)) // 256)
+    f = -(-66 * 8_000_000 // (300 * p))
     tilt = widths(b, trace, 2, 5)
     first = next(i for i, w in enumerate(tilt) if w != tilt[0])
     last = next(i for i, w in enumerate(tilt) if w == tilt[-1])

@@ -63,7 +63,7 @@ def test_a_pyserial_client_runs_a_whole_session(tmp_path):
         assert client.moving()
         client.until_still()
         assert client.width(0) == 1000 and client.width(1) == 1800      # 1000 and 1800 are on the 8 us grid
-        # S: the grip (channel 7) at 400 us/s (25 steps of 16): 2000 - 988 us takes some 2.5 s
+        # S: the grip (channel 7) at 400 us/s: 2000 - 988 us takes 2.53 s
         client.port.write(b"#7 P2000 S400\r")
         time.sleep(0.3)
         client.port.write(b"STOP 7\r")

@@ -1,7 +1,7 @@
 """servoc.ssc32: the model of the SSC-32 host protocol (docs/host-protocol.md).
 
 Every expected value is computed by hand in a comment. P = 20000 us unless said
-(RT = round(3276.8) = 3277; q = ceil(2,048,000,000 / (16 i x 20000)) = ceil(6400 / i));
+(RT = round(3276.8) = 3277; T(|d|) = ceil(8,000,000 |d| / 20000) = 400 |d|);
 P53 = 5299 us is a whole-us period near the 11.0592 MHz one (4884 machine cycles,
 254375/48 = 5299.48 us).
 """
@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from servoc.ssc32 import (VERSION_REPLY, Entry, Group, LineParser, Offset, Play, Query, QueryPulse, Servo,
                           Session, Stop, Version, frame_n, frames_s, frames_t, frames_top, group_move,
-                          line_offsets, names_a_servo, output_n, parse_lines, speed_index, speed_q,
+                          line_offsets, names_a_servo, output_n, parse_lines, speed_t,
                           stops_reading, target_n, time_factor)
 
 P20 = 20000
@@ -421,30 +421,29 @@ def test_frames_t():
     assert frames_t(1000, P53) == 189     # (12,368,000 + 32768) / 65536 = 189.22
 
 
-@pytest.mark.parametrize("v, i", [
-    (0, 0), (1, 1), (15, 1), (16, 1), (31, 1), (32, 2), (100, 6), (1000, 62), (4079, 254), (4080, 255),
-    (4096, 255), (65535, 255)])
-def test_speed_index(v, i):
-    assert speed_index(v) == i
+def test_speed_t():
+    assert speed_t(0, P20) == 0
+    assert speed_t(1, P20) == 400         # 8,000,000 / 20,000
+    assert speed_t(-25, P20) == 10000
+    assert speed_t(250, P20) == 100000
+    assert speed_t(1, P53) == 1510        # 8,000,000 / 5299 = 1509.72
+    assert speed_t(250, P53) == 377430    # 2,000,000,000 / 5299 = 377429.7
 
 
-def test_speed_q():
-    assert speed_q(0, P20) == 0
-    assert speed_q(1, P20) == 6400        # 2,048,000,000 / 320,000
-    assert speed_q(2, P20) == 3200
-    assert speed_q(3, P20) == 2134        # 2133.33
-    assert speed_q(6, P20) == 1067        # 1066.67
-    assert speed_q(62, P20) == 104       # 103.23
-    assert speed_q(255, P20) == 26        # 25.10
-    assert speed_q(6, P53) == 4026        # 2,048,000,000 / 508,704 = 4025.92
-    assert speed_q(1, 1000) == 65535      # 128,000 -> 65535
+def test_speed_t_fits_three_bytes_at_the_shortest_period():
+    assert speed_t(250, 2000) < 1 << 24
 
 
 def test_frames_s_and_top():
-    assert frames_s(25, 100, P20) == 105      # ceil(25 x 1067 / 256) = ceil(104.2)
-    assert frames_s(-25, 100, P20) == 105
-    assert frames_s(25, 1, P20) == 625        # 25 x 6400 / 256 exactly
-    assert frames_s(25, 15, P20) == 625       # v < 16 is 16
+    assert frames_s(25, 100, P20) == 100      # 200 us at 100 us/s: 2 s, 100 frames exactly
+    assert frames_s(-25, 100, P20) == 100
+    assert frames_s(25, 96, P20) == 105       # 2.0833 s: 104.17 frames, to the next whole one
+    assert frames_s(25, 1, P20) == 10000      # 200 s
+    assert frames_s(25, 15, P20) == 667       # 13.33 s: 666.67 frames
+    assert frames_s(1, 500, P53) == 4         # ceil(1510 / 500): 16 ms is 3.02 frames of 5.299 ms
+    assert frames_s(250, 1, P53) == 65535     # 377,430 frames: at most 65535
+    assert frames_s(250, 5, P53) == 65535     # 75,486
+    assert frames_s(250, 6, P53) == 62905     # ceil(377430 / 6) = 62905
     assert frames_s(25, 0, P20) == 0
     assert frames_s(0, 100, P20) == 0
     assert frames_top(25, HG, P20) == 4       # ceil(185000/3 / 20000) = ceil(3.08)
@@ -478,19 +477,22 @@ def test_f_from_t_only():
 
 def test_f_from_s_only():
     fast = [Servo(0, t_dav_us=FAST)]
-    # S100: i = 6, q = 1067; |d| = 25: ceil(26675 / 256) = ceil(104.2) = 105
-    assert _move(b"#0P1500S100", fast, {0: 100}) == (105, {0: 125})
-    # S1 and S15: i = 1, q = 6400: 25 x 6400 / 256 = 625
-    assert _move(b"#0P1500S1", fast, {0: 100})[0] == 625
-    assert _move(b"#0P1500S15", fast, {0: 100})[0] == 625
+    # S100, |d| = 25: 200 us at 100 us/s, 2 s: ceil(10000 / 100) = 100
+    assert _move(b"#0P1500S100", fast, {0: 100}) == (100, {0: 125})
+    # S99: ceil(10000 / 99) = ceil(101.01) = 102
+    assert _move(b"#0P1500S99", fast, {0: 100}) == (102, {0: 125})
+    # S1: 10000; S15: ceil(666.67) = 667
+    assert _move(b"#0P1500S1", fast, {0: 100})[0] == 10000
+    assert _move(b"#0P1500S15", fast, {0: 100})[0] == 667
     # S0: no speed
     assert _move(b"#0P1500S0", fast, {0: 100})[0] == 1
-    # S1000: i = 62, q = 104; |d| = 125: ceil(13000 / 256) = ceil(50.8) = 51
-    assert _move(b"#0P1500S1000", fast, {0: 0})[0] == 51
-    # S5000: i = 255, q = 26; ceil(3250 / 256) = ceil(12.7) = 13
-    assert _move(b"#0P1500S5000", fast, {0: 0})[0] == 13
-    # at P53: S100: q = 4026; |d| = 10: ceil(40260 / 256) = ceil(157.3) = 158
-    assert _move(b"#0P580S100", fast, {0: 0}, P53) == (158, {0: 10})
+    # S1000, |d| = 125: ceil(50000 / 1000) = 50
+    assert _move(b"#0P1500S1000", fast, {0: 0})[0] == 50
+    # S5000: 10; S65535 (and anything above, read as 65535): ceil(50000 / 65535) = 1
+    assert _move(b"#0P1500S5000", fast, {0: 0})[0] == 10
+    assert _move(b"#0P1500S99999", fast, {0: 0})[0] == 1
+    # at P53: S100, |d| = 10: T = ceil(80,000,000 / 5299) = 15098: ceil(150.98) = 151
+    assert _move(b"#0P580S100", fast, {0: 0}, P53) == (151, {0: 10})
 
 
 def test_f_from_the_top_speed_only():
@@ -503,15 +505,15 @@ def test_f_from_the_top_speed_only():
 
 def test_f_the_largest_wins():
     hg = [Servo(0)]
-    # 0 -> 125: top 16, S1000 51, T500 25 -> 51
-    assert _move(b"#0P1500S1000T500", hg, {0: 0})[0] == 51
+    # 0 -> 125: top 16, S1000 50, T500 25 -> 50
+    assert _move(b"#0P1500S1000T500", hg, {0: 0})[0] == 50
     # T2000: 100 wins
     assert _move(b"#0P1500S1000T2000", hg, {0: 0})[0] == 100
-    # S5000 13, T100 5; top 16 wins
+    # S5000 10, T100 5; top 16 wins
     assert _move(b"#0P1500S5000T100", hg, {0: 0})[0] == 16
-    # across servos: #0 top 4 (|d| 25), #1 S100 |d| 50: ceil(50 x 1067 / 256) = ceil(208.4) = 209
+    # across servos: #0 top 4 (|d| 25), #1 S99 |d| 50: ceil(20000 / 99) = ceil(202.02) = 203
     two = [Servo(0), Servo(1, t_dav_us=FAST)]
-    assert _move(b"#0P1500#1P900S100", two, {0: 100, 1: 0}) == (209, {0: 125, 1: 50})
+    assert _move(b"#0P1500#1P900S99", two, {0: 100, 1: 0}) == (203, {0: 125, 1: 50})
 
 
 def test_new_servos_are_set_at_once_and_off_servos_do_not_count():
@@ -532,8 +534,8 @@ def test_channels_without_a_servo_and_channels_named_twice():
     assert not names_a_servo(_g(b"#7P900"), by) and names_a_servo(_g(b"#7P900#0P0"), by)
     # the later entry with P replaces the earlier, its S with it (none: top 4 for |d| 25)
     assert _move(b"#0P900S1#0P1500", one, {0: 100}) == (4, {0: 125})
-    # |d| 50, S100: 209 (top 7)
-    assert _move(b"#0P1500#0P900S100", one, {0: 100}) == (209, {0: 50})
+    # |d| 50, S100: 400 us at 100 us/s: 200 (top 7)
+    assert _move(b"#0P1500#0P900S100", one, {0: 100}) == (200, {0: 50})
 
 
 def test_offsets_in_a_group_move():
@@ -663,11 +665,11 @@ def test_a_second_group_replaces_the_first_from_where_its_frame_left_the_servos(
     # 0 -> 50 in 5
     assert s.frame() == {0: 10, 1: 250}
     assert s.read(p, data[7:]) == (b"", 13)
-    # from 10, not 0: 10 -> 125, |d| 115: top ceil(11.5) = 12; S1000: i = 62, q = 104:
-    # ceil(11,960 / 256) = ceil(46.7) = 47: F = 47; 10 + (230k + 47) // 94: k = 1: 277 // 94 = 2
-    assert s.frame() == {0: 12, 1: 250}
-    ns = [s.frame()[0] for _ in range(46)]
-    # k = 46: 10 + (10,580 + 47) // 94 = 10 + 113 = 123; k = 47: 125
+    # from 10, not 0: 10 -> 125, |d| 115: top ceil(11.5) = 12; S1000: 920 us at 1000 us/s:
+    # 0.92 s, 46 frames: F = 46; 10 + (230k + 46) // 92: k = 1: 276 // 92 = 3
+    assert s.frame() == {0: 13, 1: 250}
+    ns = [s.frame()[0] for _ in range(45)]
+    # k = 45: 10 + (10,350 + 46) // 92 = 10 + 113 = 123; k = 46: 125
     assert ns[-2] == 123 and ns[-1] == 125
 
 
@@ -997,12 +999,13 @@ def test_session_at_another_period():
     # 0 -> 10, top speed: F = 5; (20k + 5) // 10 = 2, 4, 6, 8, 10
     _line(s, b"#0P580\r")
     assert [s.frame()[0] for _ in range(5)] == [2, 4, 6, 8, 10]
-    # back with S100: F = 158; 10 - floor(10k/158 + 1/2): 9 first at k = 8 (80/158 = 0.506)
+    # back with S100: 80 us at 100 us/s, 0.8 s: ceil(800,000 / 5299) = ceil(150.97) = 151 frames;
+    # 10 - floor(10k/151 + 1/2): 9 first at k = 8 (80/151 = 0.53)
     _line(s, b"#0P500S100\r")
-    ns = [s.frame()[0] for _ in range(158)]
+    ns = [s.frame()[0] for _ in range(151)]
     assert ns[6] == 10 and ns[7] == 9
-    # k = 150: floor(9.49 + .5) = 9 -> 1; k = 151: floor(9.56 + .5) = 10 -> 0
-    assert ns[149] == 1 and ns[150] == 0 and ns[-1] == 0
+    # k = 143: floor(9.47 + .5) = 9 -> 1; k = 144: floor(9.54 + .5) = 10 -> 0
+    assert ns[142] == 1 and ns[143] == 0 and ns[-1] == 0
     assert _line(s, b"Q\r") == b"."
 
 
