@@ -104,6 +104,33 @@ def test_top_speed_and_s_limit_a_group():
     assert (f - 1) * p < 10_240_000 <= f * p and ns[-1] == 122 + (2 * 128 * k + f) // (2 * f)
 
 
+def _leaves(d: int, f: int) -> int:
+    """The k at which a move of d N over F frames first leaves N0: floor(d k / F + 1/2) >= 1."""
+    return -(-f // (2 * d))
+
+
+def _lands(d: int, f: int) -> int:
+    """The k at which it first commands N1: floor(d k / F + 1/2) >= d."""
+    return -(-(2 * d - 1) * f // (2 * d))
+
+
+def test_the_group_lasts_its_slowest_s_whichever_servo_has_it():
+    # line 1: base 122 -> 63 (59 N, 472 us) at S200: 2.36 s; shoulder 122 -> 125 (3 N) at S20:
+    # 1.2 s: the first entry's S sets F = ceil(2,360,000 us / P). Line 2: base 63 -> 125 (62 N)
+    # at S1000: 0.496 s; shoulder 125 -> 50 (75 N, 600 us) at S400: 1.5 s: the second's sets it.
+    b, trace, report = session('0.2s "#0P1000S200#1P1500S20\\r"\n'
+                               '3.0s "#0P1500S1000#1P900S400\\r"\n', 720)
+    p = b.plan.period_us
+    base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]
+    for f, (n0, n1), (m0, m1) in ((-(-2_360_000 // p), (122, 63), (122, 125)),
+                                  (-(-1_500_000 // p), (63, 125), (125, 50))):
+        start = base.index(n0)
+        one = next(i for i in range(start, len(base)) if base[i] != n0) - _leaves(abs(n1 - n0), f) + 1
+        assert base.index(n1, one) == one + _lands(abs(n1 - n0), f) - 1          # frame k is one + k - 1
+        assert shoulder.index(m1, one) == one + _lands(abs(m1 - m0), f) - 1
+
+
 def test_limits_reverse_trim_and_clamps():
     # shoulder: limit 30..150 deg = N 41..203; P3000 clamps to 2500 (N 250), then to 203
     # elbow reversed: P600 is N 13 (12.5 rounded up), reversed 237
