@@ -5,9 +5,10 @@
 1. Latency. examples/ssc32_arm.servo (4 servos, 9600 baud, 11.0592 MHz) gets a one-servo group
    line at 16 phases spread over a frame; for each, the time from its CR's stop bit to the rise
    of the move's first frame, in frames P (the contract: at most 2 P).
-2. Sustained rate. The same firmware gets 4-servo group lines with T back to back, for the
-   seconds asked (default 10 s of simulated time): every byte must be read by the parser, none
-   dropped, and `servoc verify` must find every pulse and reply exact.
+2. Sustained rate. The same firmware gets group lines with S and T back to back, for the seconds
+   asked (default 10 s of simulated time): lines of its 4 servos, then lines of 24 channels (the
+   20 without a servo are read and ignored); every byte must be read by the parser, none dropped,
+   and `servoc verify` must find every pulse and reply exact.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host`; and what `servoc lint` says where a configuration is refused.
@@ -56,12 +57,21 @@ def latency() -> list[str]:
     return lines
 
 
-def sustained(seconds: float) -> list[str]:
+def _group(n: int, channels: int) -> str:
+    """Group line n: the arm's 4 servos (channels 0, 1, 2 and 7) with S, and with channels=24 every
+    other channel 0-23 too (no servo there: the parser reads and ignores them), then T."""
+    widths = {0: 1000 + 37 * (n % 20), 1: 1800 - 29 * (n % 20), 2: 1200 + 23 * (n % 20), 7: 1400 + 19 * (n % 20)}
+    chans = range(24) if channels == 24 else sorted(widths)
+    return "".join(f"#{c}P{widths.get(c, 1500 + c)}" + (f"S{700 + 13 * (n % 50)}" if c in widths else "")
+                   for c in chans) + "T90"
+
+
+def sustained(seconds: float, channels: int) -> list[str]:
     fe, firmware, _ = build(ARM.read_text(encoding="utf-8"))
     plan = fe.plan
     n, size, text = 0, 0, ""
-    while size * 10 / 9600 < seconds:      # 4-servo lines with T, about 32 bytes each, back to back
-        line = f"#0P{1000 + 37 * (n % 20)}#1P{1800 - 29 * (n % 20)}#2P{1200 + 23 * (n % 20)}#7P{1400 + 19 * (n % 20)}T90"
+    while size * 10 / 9600 < seconds:      # group lines back to back
+        line = _group(n, channels)
         text += line + "\\r"
         size += len(line) + 1
         n += 1
@@ -70,10 +80,10 @@ def sustained(seconds: float) -> list[str]:
     sent = len(bytes(text, "ascii").decode("unicode_escape"))
     read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
     dropped = sum(1 for r in trace.observation.received if not r.queued)
-    return [f"sustained: {n} group lines of 4 servos ({sent} bytes, back to back at 9600 baud, "
-            f"{sent * 10 / 9600:.1f} s): {read} bytes read by the parser, {dropped} dropped; verify "
-            f"{'OK' if report.ok else 'FAILED'} over {report.frames} frames ({report.pulses} pulses, "
-            f"{report.bytes_sent} bytes sent)"]
+    return [f"sustained: {n} group lines of {channels} channels, 4 of them servos, with S and T ({sent} bytes, "
+            f"back to back at 9600 baud, {sent * 10 / 9600:.1f} s): {read} bytes read by the parser, {dropped} "
+            f"dropped; verify {'OK' if report.ok else 'FAILED'} over {report.frames} frames ({report.pulses} "
+            f"pulses, {report.bytes_sent} bytes sent)"]
 
 
 def periods() -> list[str]:
@@ -96,7 +106,7 @@ def periods() -> list[str]:
 
 def main() -> int:
     seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 10.0
-    for line in latency() + sustained(seconds) + periods():
+    for line in latency() + sustained(seconds, 4) + sustained(seconds, 24) + periods():
         print(line)
     return 0
 
