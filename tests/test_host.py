@@ -131,6 +131,22 @@ def test_the_group_lasts_its_slowest_s_whichever_servo_has_it():
         assert shoulder.index(m1, one) == one + _lands(abs(m1 - m0), f) - 1
 
 
+def test_a_move_slower_than_65535_frames_takes_65535():
+    # base 122 -> 250 at S1: 1024 us at 1 us/s would be 1024 s, past 65535 frames: F = 65535, and
+    # frame k commands 122 + floor(128 k / 65535 + 1/2): N 123 first at k = 256, so frame 1 of
+    # the move, 255 frames before it, comes within 2 P of the CR's stop bit (10 bytes at 9600 baud)
+    b, trace, report = session('0.2s "#0P2500S1\\r"\n', 420)
+    assert ssc32.frames_s(128, 1, b.plan.period_us) == 65535
+    target = b.plan.program.target
+    period = target.cycles(b.plan.period_us)
+    edges = trace.pin_edges(1, 0)
+    rises = [c for c, level in edges if level == 1]
+    base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    first = rises[base.index(123) - 255]
+    stop_bit = target.cycles(200_000) + 10 * 10 * 96            # 10 bytes, 96 machine cycles a bit
+    assert stop_bit < first <= stop_bit + 2 * period
+
+
 def test_limits_reverse_trim_and_clamps():
     # shoulder: limit 30..150 deg = N 41..203; P3000 clamps to 2500 (N 250), then to 203
     # elbow reversed: P600 is N 13 (12.5 rounded up), reversed 237
