@@ -755,9 +755,8 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HT", 2, "the T of the group line read in this frame (0: none)"),
              ("HVER", 1, "the next byte of the answer to VER"),
              ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
-HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none)"),
-               ("HPS", 2, "per servo: the pending S (0: none)"), ("HOF", 1, "per servo: its offset in us"),
-               ("HPO", 1, "per servo: its pending offset + 100 (0xFF: none)"))
+HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none), or offset + 100 (0xFC)"),
+               ("HPS", 2, "per servo: the pending S (0: none)"), ("HOF", 1, "per servo: its offset in us"))
 assert sum(v[1] for v in HOST_VARS) == flow_mod.HOST_VARS and sum(a[1] for a in HOST_ARRAYS) == flow_mod.HOST_PER_SERVO
 
 

@@ -73,7 +73,7 @@ def select_ram(plan: Plan) -> int:
 
 
 HOST_VARS = 18          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
-HOST_PER_SERVO = 6      # per servo: its pending width (2), its pending S (2), its offset and a pending one
+HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pending S (2) and its offset
 
 
 PLAY_PASSES = 1         # bytes a frame's reading reads while a sequence `PL` started plays (a `Q` line in two frames)

@@ -1,4 +1,4 @@
-"""host-ram: `host` keeps a parser, a receive queue and 6 bytes per servo in RAM (docs/host-protocol.md)."""
+"""host-ram: `host` keeps a parser, a receive queue and 5 bytes per servo in RAM (docs/host-protocol.md)."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ def host_short(plan: Plan) -> int:
 
 @rule("host-ram", Severity.ERROR)
 def host_ram_rule(plan: Plan, report: Report) -> None:
-    """`host` keeps a parser, a receive queue and 6 bytes per servo in RAM; with several ports of
+    """`host` keeps a parser, a receive queue and 5 bytes per servo in RAM; with several ports of
     servos there may be no room for them."""
     short = host_short(plan)
     if not short:
