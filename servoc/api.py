@@ -112,28 +112,50 @@ def choose_period(program, first: Plan, decide: bool = True) -> Plan:
     speed does not fit the chip's code memory, the plan is the one built for size (`compact`).
     `decide` False: the build `first` asks for, whether it fits or not."""
     result = _periods(program, first)
-    if decide and not result.compact and result.firmware_limit is None and not _fits(result):
+    if decide and not result.compact and result.firmware_limit is None and _overflow(result):
         result = _periods(program, dataclasses.replace(first, compact=True))
+        if result.firmware_limit is None:
+            over = _overflow(result)       # built for size, still too big: lint says so, as compile
+            if over:
+                result = dataclasses.replace(result, firmware_limit=(("rom-overflow", *over, NO_SPAN, ()),))
     return result
 
 
-def _fits(p: Plan) -> bool:
-    """Whether the firmware generated for `p` fits the chip's code memory: surely, when a bound
-    read from the text (3 bytes an instruction, every data byte, a whole page at each page
-    boundary) says so; else as the assembler lays it out (without the toolchain: taken to fit,
-    as nothing can be built then)."""
+def _overflow(p: Plan) -> tuple[str, str] | None:
+    """The rom-overflow message and help when the firmware generated for `p` does not fit the
+    chip's code memory, else None: it surely fits when a bound read from the text (3 bytes an
+    instruction, every data byte, a whole page at each page boundary) says so; else as the
+    assembler lays it out (without the toolchain: taken to fit, as nothing can be built then)."""
     try:
         unit = codegen.generate(p)
     except layout.LayoutError:
-        return True                         # a resource limit: reported as such, whatever the build
+        return None                         # a resource limit: reported as such, whatever the build
     chip = unit.target.chip
     if _rom_bound(unit.text) + 512 * len(unit.fneed_pages) <= chip.code_bytes:
-        return True
+        return None
     try:
         image = toolchain.assemble(unit.text, name="servo")
     except toolchain.ToolNotFound:
-        return True
-    return layout.fit(image.symbols, unit.fneed_pages, chip.code_bytes).fits
+        return None
+    room = layout.fit(image.symbols, unit.fneed_pages, chip.code_bytes)
+    return None if room.fits else rom_overflow(unit, image, room)
+
+
+def rom_overflow(unit: codegen.AsmUnit, image, room: layout.Fit) -> tuple[str, str]:
+    """The rom-overflow diagnostic's message and help for an image that does not fit."""
+    chip = unit.target.chip
+    bigger = [c.display for c in CHIPS.values() if c.code_bytes >= room.needed]
+    message = (f"the firmware needs {room.needed} bytes of code memory"
+               + (" even built for size" if unit.for_size else "")
+               + f", the {chip.display} has {chip.code_bytes}: "
+               f"start-up {image.symbols['runtime_start']}, runtime {room.runtime}, program {room.program}, "
+               f"motion data {room.data} ("
+               + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")")
+    help_ = ("shorten the program: fewer distinct moves (play a sequence several times instead of "
+             "writing its moves out again), shorter eased moves, or one `speed` for servos of one model"
+             + (f"; or build for a chip with more code memory: `target {bigger[0].lower().rstrip('+')}`"
+                if bigger else ""))
+    return message, help_
 
 
 def _rom_bound(text: str) -> int:
@@ -254,19 +276,8 @@ def assemble(unit: codegen.AsmUnit, reporter: Reporter) -> Firmware | None:
     image = toolchain.assemble(unit.text, name="servo")
     room = layout.fit(image.symbols, unit.fneed_pages, chip.code_bytes)
     if not room.fits:
-        bigger = [c.display for c in CHIPS.values() if c.code_bytes >= room.needed]
-        reporter.error("rom-overflow",
-                       f"the firmware needs {room.needed} bytes of code memory"
-                       + (" even built for size" if unit.for_size else "")
-                       + f", the {chip.display} has {chip.code_bytes}: "
-                       f"start-up {image.symbols['runtime_start']}, runtime {room.runtime}, program {room.program}, "
-                       f"motion data {room.data} ("
-                       + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")",
-                       NO_SPAN,
-                       help="shorten the program: fewer distinct moves (play a sequence several times instead of "
-                            "writing its moves out again), shorter eased moves, or one `speed` for servos of one model"
-                            + (f"; or build for a chip with more code memory: `target {bigger[0].lower().rstrip('+')}`"
-                               if bigger else ""))
+        message, help_ = rom_overflow(unit, image, room)
+        reporter.error("rom-overflow", message, NO_SPAN, help=help_)
         return None
     if unit.ram_bytes > chip.ram_bytes:
         reporter.error("ram-overflow", f"the firmware needs {unit.ram_bytes} bytes of RAM, the {chip.display} has {chip.ram_bytes}",

@@ -241,4 +241,6 @@ def _with_blocks(st: Any, new: tuple[tuple, ...]) -> Any:
         return changed
     if kind(st) == "until":
         return dataclasses.replace(st, stmt=new[0][0])
+    if kind(st) == "host":
+        return dataclasses.replace(st, plays=new[0])
     return dataclasses.replace(st, body=new[0])

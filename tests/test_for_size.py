@@ -185,6 +185,11 @@ def test_too_big_even_built_for_size_says_so():
     errors = [d for d in reporter.diagnostics if d.is_error]
     assert fw is None and fe.plan.compact and [d.code for d in errors] == ["rom-overflow"]
     assert "code memory even built for size" in errors[0].message
+    # lint says the same: the period stage measured the build for size (no program lint accepts fails
+    # to compile)
+    linted = Reporter(source)
+    api.front_end(source, linted)
+    assert [(d.code, d.message) for d in linted.diagnostics if d.is_error] == [(d.code, d.message) for d in errors]
 
 
 @st.composite

@@ -394,3 +394,67 @@ def test_the_shortest_period_holds_under_the_heaviest_lines_and_a_microsecond_le
     shorter = text.replace("host ssc32\n", f"host ssc32\nframe {b.plan.min_period_us - 1}us\n")
     _, diags = front_end_text(shorter)
     assert any(d.code == "period-too-short" for d in diags), [d.code for d in diags]
+
+
+HOST_BOARDS = (("target at89c52 clock 12MHz", 4800), ("target stc89c52rc clock 11.0592MHz", 9600),
+               ("target stc89c52rc clock 11.0592MHz mode 6T", 9600), ("target stc89c52rc clock 22.1184MHz", 9600))
+REFUSALS = {"host-ram", "serial-too-fast", "period-too-short", "too-deep", "program-too-big"}
+
+
+def _host_program(draw) -> tuple[str, list[int]]:
+    """A host program on a board of HOST_BOARDS: one or two ports of servos with random options
+    (limits, reverse, trim, channel, speed), a sequence `PL` can play, `host until` an input.
+    Returns its text and the channels of its servos."""
+    st_ = __import__("hypothesis").strategies
+    head, baud = draw(st_.sampled_from(HOST_BOARDS))
+    ports = draw(st_.sampled_from([(1,), (1,), (2,), (1, 2), (0, 1)]))
+    servos, channels, free = [], [], list(range(24, 32))
+    for port in ports:
+        for bit in sorted(draw(st_.sets(st_.integers(0, 7), min_size=1, max_size=8))):
+            opts = ""
+            if draw(st_.booleans()):
+                opts += f" limit {draw(st_.integers(10, 55))}deg..{draw(st_.integers(95, 170))}deg"
+            opts += " reverse" if draw(st_.booleans()) else ""
+            opts += f" trim {draw(st_.integers(-5, 5))}" if draw(st_.booleans()) else ""
+            opts += " speed 0.3s/60deg" if draw(st_.booleans()) else ""
+            channel = {1: bit, 2: 8 + bit, 0: 16 + bit}[port]
+            if draw(st_.booleans()) and free:
+                channel = free.pop(0)
+                opts += f" channel {channel}"
+            servos.append(f"servo s{port}{bit} = P{port}.{bit}{opts}\n")
+            channels.append(channel)
+    names = [line.split()[1] for line in servos]
+    text = (f"{head}\nserial {baud}\nhost ssc32\ninput stop = P3.2\n" + "".join(servos)
+            + "pose mid { " + ", ".join(f"{n}: 90deg" for n in names) + " }\n"
+            + "pose low { " + ", ".join(f"{n}: 60deg" for n in names) + " }\nhome mid\n"
+            + "sequence dip {\n  move low\n  move mid\n}\nmain {\n  host until press stop\n  move low\n}\n")
+    return text, channels
+
+
+def test_any_host_program_lint_accepts_compiles_and_verifies_under_heavy_lines():
+    # every program lint accepts compiles, and verifies in ucsim at its own period under group lines
+    # that name every servo with S (the commit's longest path), back to back, with Q, QP and PL
+    from hypothesis import HealthCheck, Phase, given, settings, strategies as st_
+
+    @settings(max_examples=10, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],
+              suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+    @given(st_.data())
+    def check(data):
+        text, channels = _host_program(data.draw)
+        _, diags = front_end_text(text)
+        errors = {d.code for d in diags if d.is_error}
+        assert errors <= REFUSALS, (errors, text)
+        if errors:
+            return
+        b = built(text)
+        body = ""
+        for k in range(4):
+            body += "".join(f"#{c}P{600 + (k * 370 + i * 190) % 1900}S{150 + 211 * k + 7 * i}"
+                            for i, c in enumerate(channels))
+            body += f"T{40 * k}\\rQ\\rQP{channels[k % len(channels)]}\\r"
+        body += "PL 0 SQ 0\\r"
+        frames = int(3.0e6 / b.plan.period_us)
+        trace, report = watch(b, f'0.2s "{body}"\n', frames)
+        assert report.ok, problems(report) + "\n" + text
+        assert len(sent(trace)) == 8, text                  # every Q and QP answered
+    check()

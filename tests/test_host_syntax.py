@@ -396,3 +396,15 @@ def test_lint_of_a_host_program_is_clean_needs_planner():
     fe = api.front_end(src, rep)
     loud = [(d.code, d.message) for d in rep.diagnostics if d.severity.value != "note"]
     assert fe.plan is not None and loud == []
+
+
+def test_host_until_with_sequences_and_moves_after_it_plans():
+    # a `host until` whose HostStep carries the plays of the sequences, in a main whose move after it
+    # gets its frames fixed by the plan (walk.rebuild once met HostStep without a body)
+    text = ("target at89c52 clock 12MHz\nserial 4800\nhost ssc32\ninput stop = P3.2\nservo a = P1.0\n"
+            "pose mid { a: 90deg }\npose low { a: 60deg }\nhome mid\nsequence dip {\n  move low\n  move mid\n}\n"
+            "main {\n  host until press stop\n  move low\n}\n")
+    source = SourceFile("p.servo", text)
+    reporter = Reporter(source)
+    fe = api.front_end(source, reporter)
+    assert fe.plan is not None and not reporter.has_errors, [d.message for d in reporter.diagnostics]

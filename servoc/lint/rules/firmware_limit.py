@@ -1,7 +1,7 @@
 """The resource limits the generated code hits (serial-too-fast, send-overrun, ram-overflow, ...):
 found from the code generated for the plan, without the assembler, so lint and the language server
 report them as compile does. A limit another rule reports first (too-deep, too-long) is not repeated.
-Only the ROM (rom-overflow) needs the assembler: `servoc compile` reports it."""
+The ROM (rom-overflow) comes from the period stage, which measures the code (api.choose_period)."""
 
 from __future__ import annotations
 
