@@ -518,6 +518,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         breakdown["maps of the bytes selects name"] = 32 * len(ctx.byte_maps)
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
+    if hosting:
+        breakdown["host: the S table T(|delta|)"] = 3 * 256
     motions, starts = port_motions(plan), move_starts(plan)
     budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
                                      tuple(costs.port_load(target, motions[p]) for p in plan.ports),
@@ -774,23 +776,16 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
         table[32 * before + ord(w[-1]) - 0x40] = i
     chan_map, chan_act, chan_mask, chan_cur = [0xFF] * 32, [0] * 32, [0] * 32, [0] * 32
     out = []
-    conv: dict[tuple, dict] = {}        # one table per limit, reverse and trim
     for h, (c, ch) in enumerate(zip(plan.channels, chans)):
         servo = c.servo
         lo, hi = servo.limit if servo.limit is not None else (0, N_MAX)
         k = host_channel(servo)
         chan_map[k], chan_act[k], chan_mask[k], chan_cur[k] = h, layout.ADDR["ACT"] + servo.port, 1 << servo.bit, ch["cur"]
-        key = (lo, hi, servo.reverse, servo.trim)
-        if key not in conv:
-            conv[key] = {"label": f"hconv{len(conv)}", "lo": lo, "hi": hi, "reverse": servo.reverse, "trim": servo.trim,
-                         "names": [], "values": [ssc32.output_n(n, lo, hi, servo.reverse, servo.trim)
-                                                 for n in range(N_MAX + 1)]}
-        conv[key]["names"].append(servo.name)
-        out.append({**ch, "port": servo.port, "mask": 1 << servo.bit, "channel": k, "conv": conv[key]["label"],
+        lim = ssc32.output_params(lo, hi, servo.reverse, servo.trim)
+        out.append({**ch, "port": servo.port, "mask": 1 << servo.bit, "channel": k, "lim": lim,
+                    "lim_what": f"limit {lo}..{hi}{', reverse' if servo.reverse else ''}, trim {servo.trim}",
                     "fneed": tables[c.speed_class]["label"]})
-    for t in conv.values():
-        t["names"] = ", ".join(t["names"])
-    return {"count": len(out), "chans": out, "conv": list(conv.values()),
+    return {"count": len(out), "chans": out,
             "chan_act": chan_act, "chan_mask": chan_mask, "chan_cur": chan_cur, "queue": rxq, "passes": host_passes(plan), "words": words, "words_table": table,
             "chan_map": chan_map, "ports": plan.ports, "rt": ssc32.time_factor(period),
             "qp": [(500 + 8 * n) // 10 for n in range(N_MAX + 1)],

@@ -364,6 +364,28 @@ def output_n(n: int, lo: int, hi: int, reverse: bool, trim: int) -> int:
     return _clamp(n + trim, 0, N_MAX)
 
 
+def output_params(lo: int, hi: int, reverse: bool, trim: int) -> tuple[int, int, int, int]:
+    """(lo', hi', K, m) with which the firmware computes `output_n` in 8 bits: n' = n clamped to
+    lo'..hi', then (K + (n' xor m)) mod 256. lo'..hi' is the part of the limit whose output needs
+    no clamp (g(n) = (250 - n if reverse else n) + trim within 0..250: g falls or rises by 1 a
+    step, so the clamped ends are where g is 0 or 250); m = 0xFF reverses (K + ~n' = K - 1 - n').
+    When no N of the limit gives an output in 0..250, every N gives the same one."""
+    def g(n: int) -> int:
+        return (N_MAX - n if reverse else n) + trim
+    inside = [n for n in range(lo, hi + 1) if 0 <= g(n) <= N_MAX]
+    if not inside:
+        return lo, lo, (output_n(lo, lo, hi, reverse, trim) - lo) % 256, 0
+    if reverse:
+        return inside[0], inside[-1], (N_MAX + trim + 1) % 256, 0xFF
+    return inside[0], inside[-1], trim % 256, 0
+
+
+def output_by(params: tuple[int, int, int, int], n: int) -> int:
+    """`output_n` as the firmware computes it from `output_params`."""
+    lo, hi, k, m = params
+    return (k + (_clamp(n, lo, hi) ^ m)) % 256
+
+
 def target_n(servo: Servo, width: int, offset: int) -> int | None:
     """The output N a width `P w` commands (None for w = 0: pulses stop).
 

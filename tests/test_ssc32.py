@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from servoc.ssc32 import (VERSION_REPLY, Entry, Group, LineParser, Offset, Play, Query, QueryPulse, Servo,
                           Session, Stop, Version, frame_n, frames_s, frames_t, frames_top, group_move,
-                          line_offsets, names_a_servo, output_n, parse_lines, speed_t,
+                          line_offsets, names_a_servo, output_by, output_n, output_params, parse_lines, speed_t,
                           stops_reading, target_n, time_factor)
 
 P20 = 20000
@@ -1086,3 +1086,13 @@ def test_read_takes_every_line_and_stops_after_the_stopping_ones(tokens):
     # next frame; after any other line the reading goes on in the same frame
     for (f, c), (g, _) in zip(seen, seen[1:]):
         assert g == f + (1 if s.stops_reading(c) else 0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.integers(0, 250), st.integers(0, 250), st.booleans(), st.integers(-400, 400))
+def test_the_firmware_form_of_output_n_is_output_n(a, b, reverse, trim):
+    # the firmware clamps N to lo'..hi' and adds K to N xor m, in 8 bits (ssc32.output_params)
+    lo, hi = min(a, b), max(a, b)
+    params = output_params(lo, hi, reverse, trim)
+    assert 0 <= params[0] <= params[1] <= 250 and params[3] in (0, 0xFF)
+    assert [output_by(params, n) for n in range(251)] == [output_n(n, lo, hi, reverse, trim) for n in range(251)]

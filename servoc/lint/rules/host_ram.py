@@ -31,6 +31,6 @@ def host_ram_rule(plan: Plan, report: Report) -> None:
     report(f"`host` needs {host_ram(plan)} bytes of RAM ({HOST_VARS} for its parser, a receive queue of "
            f"{host_queue(plan)} bytes, {HOST_PER_SERVO} for each of the {n} servos); with "
            f"{len(plan.ports)} port{'s' if len(plan.ports) != 1 else ''} of servos and the serial line the chip "
-           f"is {short} bytes short", first.span, label="needs the RAM",
+           f"is {short} byte{'s' if short != 1 else ''} short", first.span, label="needs the RAM",
            help="use fewer servos, or put them on fewer ports (each port in use takes 40 bytes of RAM), "
                 "or a shorter frame (a smaller receive queue)")
