@@ -357,7 +357,7 @@ def _period(period_us: int | Fraction) -> int:
 
 def output_n(n: int, lo: int, hi: int, reverse: bool, trim: int) -> int:
     """A servo's output N for the N (0..250) a width gives: clamped to its limit lo..hi,
-    reversed (250 - N), + trim, clamped to 0..250 (the firmware's per-servo table)."""
+    reversed (250 - N), + trim, clamped to 0..250 (the firmware computes it as `output_by`)."""
     n = _clamp(n, lo, hi)
     if reverse:
         n = N_MAX - n
