@@ -753,9 +753,10 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HEP", 2, "host parser: the entry's P (or PO + 100)"),
              ("HES", 2, "host parser: the entry's S"), ("HARG", 2, "host parser: T, or a command's number"),
              ("HCMD", 1, "host parser: the line's command word"),
-             ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence"),
+             ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence, 4 HANS, 6 a VER waits"),
              ("HT", 2, "the T of the group line read in this frame (0: none)"),
              ("HVER", 1, "the next byte of the answer to VER"),
+             ("HANS", 1, "an answer waiting to be sent (HLINE bit 4)"),
              ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
 HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none), or offset + 100 (0xFC)"),
                ("HPS", 2, "per servo: the pending S (0: none)"), ("HOF", 1, "per servo: its offset in us"))

@@ -72,7 +72,7 @@ def select_ram(plan: Plan) -> int:
     return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan)
 
 
-HOST_VARS = 18          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
+HOST_VARS = 19          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
 HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pending S (2) and its offset
 
 

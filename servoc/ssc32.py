@@ -74,15 +74,19 @@ The rules, as the document states them:
   frame i; the sequence's frames, from frame i + 2, are `plan.expand`'s);
   other n do nothing.
   ESC and a bad line drop only their own line.
-- A group line that names a servo, an offset line, `VER` and `PL 0 SQ n`
-  (any n) end the frame's reading: the bytes after them are read in the
-  next frame (`stops_reading`, `Session.read`). So a frame reads at most one
-  of them, as its last line: one group per frame (the group lines of one
-  frame never merge; a second one's move replaces the first's from where
-  frame i + 1 left the servos), and no `STOP`, `STOP c`, ESC or bad line
-  comes after a group or an offset line in its frame. The other lines (`Q`,
-  `QP c`, `STOP`, `STOP c`, a group line that names no servo, a line that
-  does nothing, a bad line) do not end the reading.
+- A group line that names a servo, an offset line and `PL 0 SQ n` (any n)
+  end the frame's reading: the bytes after them are read in the next frame
+  (`stops_reading`, `Session.read`). So a frame reads at most one of them,
+  as its last line: one group per frame (the group lines of one frame never
+  merge; a second one's move replaces the first's from where frame i + 1
+  left the servos), and no `STOP`, `STOP c`, ESC or bad line comes after a
+  group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
+  `STOP`, `STOP c`, a group line that names no servo, a line that does
+  nothing, a bad line) do not end the reading, except that an answer that
+  cannot be queued at its line end (the transmit queue full, or `VER`'s
+  answer still being queued) waits, computed, and the reading stops until it
+  is queued: the firmware's timing, which `Session` does not model (verify
+  takes it from the firmware's probes).
 """
 
 from __future__ import annotations
@@ -492,14 +496,14 @@ def frame_n(n0: int, n1: int, k: int, frames: int) -> int:
 
 def stops_reading(cmd: Command | None, servos_by_channel: Mapping[int, Servo] | None = None) -> bool:
     """The line ends its frame's reading (the bytes after it are read in the next frame): a
-    group line that names a servo, an offset line, `VER`, `PL 0 SQ n` (any n). Without
+    group line that names a servo, an offset line, `PL 0 SQ n` (any n). Without
     `servos_by_channel` every channel counts as one with a servo (a group line with an entry
     with P stops the reading)."""
     if isinstance(cmd, Group):
         if servos_by_channel is None:
             return any(e.width is not None for e in cmd.entries)
         return names_a_servo(cmd, servos_by_channel)
-    return isinstance(cmd, (Offset, Version, Play))
+    return isinstance(cmd, (Offset, Play))
 
 
 # ----------------------------------------------------------------- the session
@@ -531,9 +535,9 @@ class Session:
     `PL 0 SQ n` it played: frame i + 1 repeats frame i, and the sequence's own frames, from
     frame i + 2, are `plan.expand`'s (it sets `now` to where they leave the servos, and
     `sequence_running` while they play, to make `Q` answer `+`). Not modelled
-    either: the transmit queue (the firmware stops reading while it is full, and while a `VER`
-    waits for the line to rest: then the bytes after it wait more than a frame) and a receive
-    queue that overflows."""
+    either: the transmit queue (an answer that finds it full, or finds `VER`'s answer still
+    going in, waits and stops the reading: then the bytes after it wait more than a frame) and
+    a receive queue that overflows."""
 
     def __init__(self, servos: Iterable[Servo], period_us: int | Fraction, sequences: int | Iterable[int] = 0,
                  start: Mapping[int, int | None] | None = None) -> None:

@@ -18,7 +18,6 @@ import itertools
 from dataclasses import dataclass, field
 
 from .observe import Observation, Visit
-from . import costs
 from .flow import host_queue, host_watchers
 from .plan import Choice, HostRun, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
@@ -98,6 +97,9 @@ SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries
 
 _FIRST_PULSE: dict = {}     # (id(plan), choices) -> (plan, the answer): the search can take seconds
 
+
+HLINE_QUEUING = 0x02    # host.asm.j2's HLINE: VER's answer being queued (the reading goes on)
+HLINE_WAITS = 0x50      # an answer waiting for room (HANS), a VER waiting for the one before
 
 def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     """0-based index of the first golden frame with a pulse, or None if there is none."""
@@ -550,8 +552,9 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         found.problems.append(Mismatch(max(0, frame_of(c)), "select", "-", None, None, what))
 
     # `host`: each frame's reading read every byte that had come before it began, unless a line
-    # that stops the reading was read (docs/host-protocol.md), the transmit queue was full, or it
-    # read as many as a frame's reading reads.
+    # that stops the reading was read (docs/host-protocol.md), or an answering line (Q, QP, VER)
+    # whose answer has to wait for room, in this frame or before (HLINE bits 4 and 6, until host_step
+    # sends it), or it read as many as a frame's reading reads.
     if obs.hosts:
         from . import ssc32
         from .flow import PLAY_PASSES, host_passes
@@ -559,18 +562,21 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         passes = host_passes(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
-            parser, ver = ssc32.LineParser(), False
+            parser, waiting = ssc32.LineParser(), False
             for (cycle, _, got), ended in zip(h.frames, h.ends):
-                stopped = False
+                stopped = answered = False
                 for b in got:
                     cmd = parser.feed(b)
                     stopped = stopped or ssc32.stops_reading(cmd, servos)
-                    ver = ver or isinstance(cmd, ssc32.Version)
-                if ended.hline and not stopped and not (ended.hline == 2 and ver):
+                    answered = answered or isinstance(cmd, (ssc32.Query, ssc32.QueryPulse, ssc32.Version))
+                stops = ended.hline & ~HLINE_QUEUING
+                waits = ended.hline & HLINE_WAITS
+                if stops and not stopped and not (waits and (answered or waiting)):
                     bad(cycle, f"the host parser stopped reading at {when(cycle)} (lines pending {ended.hline:#x}) "
                                "with no line that stops it")
+                waiting = bool(waits)
                 most = min(PLAY_PASSES, passes) if ended.playing else passes
-                if ended.left and not ended.hline and ended.answers < costs.QUEUE and len(got) < most:
+                if ended.left and not stops and len(got) < most:
                     bad(cycle, f"the host parser left {ended.left} byte{'s' if ended.left != 1 else ''} unread at "
                                f"{when(cycle)} that had come before that frame's reading began")
 

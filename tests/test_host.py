@@ -147,6 +147,16 @@ def test_a_move_slower_than_65535_frames_takes_65535():
     assert stop_bit < first <= stop_bit + 2 * period
 
 
+def test_lines_right_after_ver_are_read_while_its_answer_goes_out():
+    # VER's 17-byte answer takes 17 byte times to send; the group line, Q and QP sent right behind
+    # it are read meanwhile (none lost); the Q's and QP's answers wait for VER's, in order
+    b, trace, report = session('0.2s "VER\\r#0P2000S500#1P1000#2P1700T300\\rQ\\rQP1\\r"\n', 200)
+    assert not [r for r in trace.observation.received if not r.queued]
+    out = sent(trace)
+    assert out[:len(ssc32.VERSION_REPLY)] == ssc32.VERSION_REPLY and out[len(ssc32.VERSION_REPLY):][:1] == b"+"
+    assert len(out) == len(ssc32.VERSION_REPLY) + 2
+
+
 def test_limits_reverse_trim_and_clamps():
     # shoulder: limit 30..150 deg = N 41..203; P3000 clamps to 2500 (N 250), then to 203
     # elbow reversed: P600 is N 13 (12.5 rounded up), reversed 237
@@ -259,12 +269,18 @@ def _scenario(draw) -> tuple[str, float]:
     return text, t
 
 
-def test_any_session_verifies():
+def _ucsim_examples(count: int):
+    """A hypothesis test of `count` examples drawn with `data` (derandomized, no shrinking: each
+    example runs ucsim)."""
     from hypothesis import HealthCheck, Phase, given, settings, strategies as st_
+    return lambda check: settings(max_examples=count, deadline=None, derandomize=True,
+                                  phases=[Phase.explicit, Phase.generate],
+                                  suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])(
+        given(st_.data())(check))
 
-    @settings(max_examples=12, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],
-              suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-    @given(st_.data())
+
+def test_any_session_verifies():
+    @_ucsim_examples(12)
     def check(data):
         scenario, end = _scenario(data.draw)
         b = built()
@@ -434,11 +450,7 @@ def _host_program(draw) -> tuple[str, list[int]]:
 def test_any_host_program_lint_accepts_compiles_and_verifies_under_heavy_lines():
     # every program lint accepts compiles, and verifies in ucsim at its own period under group lines
     # that name every servo with S (the commit's longest path), back to back, with Q, QP and PL
-    from hypothesis import HealthCheck, Phase, given, settings, strategies as st_
-
-    @settings(max_examples=10, deadline=None, derandomize=True, phases=[Phase.explicit, Phase.generate],
-              suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-    @given(st_.data())
+    @_ucsim_examples(10)
     def check(data):
         text, channels = _host_program(data.draw)
         _, diags = front_end_text(text)
