@@ -157,6 +157,17 @@ def test_lines_right_after_ver_are_read_while_its_answer_goes_out():
     assert len(out) == len(ssc32.VERSION_REPLY) + 2
 
 
+def test_every_kind_of_line_end_does_what_the_model_says():
+    # the line end takes one path per kind of line (a command, a line ending in '#' c, one ending
+    # in a word of an open entry): each kind, and bad lines of each, against verify's model
+    lines = ["#5", "#0P1100#5", "#0P1200S900", "#0PO5#1", "#1P1300T100", "Q", "QP 0", "P1500", "T500",
+             "#0", "", "#0P1400#7", "#7PO-5#2PO3", "#0P1500Q", "Q#0", "STOP 0", "VER", "#2P1600 S 300 T 50"]
+    scenario = "".join(f'{0.2 + 0.12 * i:.2f}s "{line}\\r"\n' for i, line in enumerate(lines))
+    b, trace, report = session(scenario, 450)
+    assert not [r for r in trace.observation.received if not r.queued]
+    assert len(sent(trace)) == 2 + len(ssc32.VERSION_REPLY)          # Q, QP 0 and VER answered
+
+
 def test_limits_reverse_trim_and_clamps():
     # shoulder: limit 30..150 deg = N 41..203; P3000 clamps to 2500 (N 250), then to 203
     # elbow reversed: P600 is N 13 (12.5 rounded up), reversed 237
