@@ -30,7 +30,7 @@ from fractions import Fraction
 from . import __version__, api
 from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import has_selects
-from .steps import AfterBranch, branch_text, HostStep, Plan, SelectStep, SendStep, steps
+from .steps import AfterBranch, branch_text, HostStep, Plan, SelectStep, SendStep, host_playable, steps
 from .starter import starter
 from .verify import SETTLE_MARGIN, coverage, verify_settle, verify_span
 from .target import fmt_us
@@ -996,7 +996,8 @@ def plan_data(plan: Plan, source) -> dict:
         data["host"] = {"protocol": plan.program.host,
                         "channels": [{"channel": host_channel(c.servo), "servo": c.name}
                                      for c in sorted(plan.channels, key=lambda c: host_channel(c.servo))],
-                        "sequences": [q.name for q in plan.program.sequences]}
+                        "sequences": [q.name for q in plan.program.sequences],
+                        "playable": list(host_playable(plan.program))}
     if plan.cuts:
         data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
                                   "servos": [{"servo": c.name, "low": lo, "high": hi, "unset": unset}
@@ -1057,11 +1058,16 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
     if hosts:
         from .model import host_channel
         chans = sorted((host_channel(c.servo), c.name) for c in plan.channels)
+        playable = host_playable(plan.program)
         where = ", ".join(str(source.line_col(st.span.start)[0]) for st in hosts)
         out.append(f"host (line{'s' if len(hosts) > 1 else ''} {where}): SSC-32 channels "
                    + ", ".join(f"{k} {name}" for k, name in chans)
-                   + ("; PL 0 SQ n plays " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences))
-                      if plan.program.sequences else ""))
+                   + ("; PL 0 SQ n plays " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences)
+                                                       if q.name in playable)
+                      if playable else "")
+                   + ("; PL 0 SQ n does nothing for " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences)
+                                                                  if q.name not in playable)
+                      + " (each runs `host` or has a `select`)" if len(playable) < len(plan.program.sequences) else ""))
     for st, hull in plan.cuts:
         line = source.line_col(st.span.start)[0]
         spans = [f"{c.name} N {lo}..{hi}" + (" (or no target yet)" if unset else "") for c, (lo, hi, unset) in _ranges(plan, hull)]

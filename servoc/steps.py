@@ -137,13 +137,14 @@ def host_range(servo: model.Servo) -> tuple[int, int]:
 
 def host_playable(program: model.Program) -> tuple[str, ...]:
     """The sequences `PL 0 SQ n` plays, in declaration order: those that run no `host` statement
-    (in them or in what they play); a `PL` of another does nothing (it would play itself)."""
+    and no `select` (in them or in what they play); a `PL` of another does nothing (it would play
+    itself, or wait for events while the host's bytes go to the host)."""
     bodies = {q.name: q.body for q in program.sequences}
 
-    def runs_host(name: str) -> bool:
+    def playable(name: str) -> bool:
         names = {name} | walk.reachable(bodies[name], bodies.__getitem__)
-        return any(isinstance(st, model.Host) for st in walk.statements([bodies[n] for n in names]))
-    return tuple(q.name for q in program.sequences if not runs_host(q.name))
+        return not any(isinstance(st, (model.Host, model.Select)) for st in walk.statements([bodies[n] for n in names]))
+    return tuple(q.name for q in program.sequences if playable(q.name))
 
 
 Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep, SelectStep, SendStep, HostStep]

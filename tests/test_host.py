@@ -168,6 +168,42 @@ def test_every_kind_of_line_end_does_what_the_model_says():
     assert len(sent(trace)) == 2 + len(ssc32.VERSION_REPLY)          # Q, QP 0 and VER answered
 
 
+HOST_AND_A_SELECT = """\
+target stc89c52rc clock 11.0592MHz
+serial 9600
+host ssc32
+input stop = P3.2
+input go = P3.3
+servo a = P1.0
+pose mid { a: 90deg }
+pose low { a: 60deg }
+home mid
+sequence dip {
+  select {
+    on press go { move low }
+    meanwhile { move mid in 1s; move low in 1s }
+  }
+  move mid
+}
+main {
+  host until press stop
+  move low
+}
+"""
+
+
+def test_pl_of_a_sequence_with_a_select_does_nothing_and_the_rest_goes_on():
+    # `dip` waits for events (its select would take the host's bytes too): not playable, PL 0 SQ 0
+    # does nothing; the group after it moves the servo, and `stop` ends `host`
+    from servoc.steps import host_playable
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.7s go active\n0.8s go inactive\n'
+                               '1.0s "#0P1000\\r"\n1.6s stop active\n', 400, HOST_AND_A_SELECT)
+    assert host_playable(b.plan.program) == ()
+    a = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    first_move = next(i for i, n in enumerate(a) if n != 122)
+    assert first_move * b.plan.period_us > 1_000_000 and 63 in a      # nothing moved before the group
+
+
 def test_limits_reverse_trim_and_clamps():
     # shoulder: limit 30..150 deg = N 41..203; P3000 clamps to 2500 (N 250), then to 203
     # elbow reversed: P600 is N 13 (12.5 rounded up), reversed 237
