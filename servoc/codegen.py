@@ -29,7 +29,7 @@ from . import costs
 from . import flow as flow_mod, walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .flow import (UNBOUNDED, edge_ports, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
+from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
                    hosted, move_starts,
                    port_motions, select_ram, select_slots, send_gap, send_run, sends, takes_frames, watches)
 from .source import SourceFile
@@ -373,10 +373,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     serial = plan.program.serial
     taken = select_ram(plan)
     deep_runtime = watches(plan) or hosted(plan)      # frame_w's looks, or the host's reading: WATCH_STACK more
-    stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, deep_runtime)
+    wrapped = frame_wrapped(plan)                     # and frame_h around frame_w: WRAP_STACK more
+    stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, deep_runtime, wrapped)
     nports = len(plan.ports)
     room_promised = costs.stack_room(serial is not None, taken, nports)
-    if hosted(plan) and costs.stack_bytes(0, serial is not None, deep_runtime) > room_promised:
+    if hosted(plan) and costs.stack_bytes(0, serial is not None, deep_runtime, wrapped) > room_promised:
         raise layout.HostRam(f"`host` needs {select_ram(plan)} bytes of RAM, which leaves the stack "
                              f"{room_promised} bytes")      # lint's `host-ram` reports this first
     if stack_bytes > room_promised:     # lint's `too-deep` reports this first
@@ -502,9 +503,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   div_text=f"{float(target.div_cycles):g}",
                   fall_text="500 + 8 x N" if target.grid else "round_half_up((500 + 8 N) us / t_c)")
     deepest = runtime_stack(text, [sq["label"] for sq in sequences])
-    if deepest > costs.runtime_stack(deep_runtime):
+    if deepest > costs.runtime_stack(deep_runtime, wrapped):
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
-                           f"{costs.runtime_stack(deep_runtime)} the stack bound counts")
+                           f"{costs.runtime_stack(deep_runtime, wrapped)} the stack bound counts")
     offsets = tuple(costs.rise_offsets(plan.ports, target).values())
     ram_bytes = ram.total(8 * nports, stack_bytes) + (costs.BUFB_RAM if bport is not None else 0)
     breakdown: dict[str, int] = {}

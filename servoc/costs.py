@@ -419,12 +419,14 @@ BUFB_RAM = 17               # sort buffer B (8 pairs of N and lines) and its ris
                             # stack's bytes, taken only where the program's stack leaves that much room
 RUNTIME_STACK = 8
 WATCH_STACK = 5
+WRAP_STACK = 2              # frame_h's call of frame_w (host.asm.j2)
 HANDLER_STACK = 8           # LCALL, PSW, ACC, DPL, DPH, and its own LCALL
 
 
-def runtime_stack(watch: bool = False) -> int:
-    """Bytes the runtime may put on the stack below a program's call (`watch`: a meanwhile body)."""
-    return RUNTIME_STACK + (WATCH_STACK if watch else 0)
+def runtime_stack(watch: bool = False, wrapped: bool = False) -> int:
+    """Bytes the runtime may put on the stack below a program's call (`watch`: a meanwhile body,
+    or `host`; `wrapped`: both, frame_h calling frame_w: flow.frame_wrapped)."""
+    return RUNTIME_STACK + (WATCH_STACK if watch else 0) + (WRAP_STACK if wrapped else 0)
 
 
 def stack_room(serial: bool = False, taken: int = 0, ports: int = 3) -> int:
@@ -434,10 +436,11 @@ def stack_room(serial: bool = False, taken: int = 0, ports: int = 3) -> int:
     return STACK_BYTES + PORT_RAM * (3 - ports) - (SERIAL_RAM if serial else 0) - taken
 
 
-def stack_bytes(nesting: int, serial: bool = False, watch: bool = False) -> int:
+def stack_bytes(nesting: int, serial: bool = False, watch: bool = False, wrapped: bool = False) -> int:
     """Stack bytes a program with `nesting` levels of repeat/play needs."""
-    return 2 * nesting + runtime_stack(watch) + HANDLER_STACK + (SERIAL_STACK if serial else 0)
+    return 2 * nesting + runtime_stack(watch, wrapped) + HANDLER_STACK + (SERIAL_STACK if serial else 0)
 
 
-def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3) -> int:
-    return (stack_room(serial, taken, ports) - runtime_stack(watch) - HANDLER_STACK - (SERIAL_STACK if serial else 0)) // 2
+def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3, wrapped: bool = False) -> int:
+    return (stack_room(serial, taken, ports) - runtime_stack(watch, wrapped) - HANDLER_STACK
+            - (SERIAL_STACK if serial else 0)) // 2

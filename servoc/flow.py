@@ -16,7 +16,7 @@ from typing import Iterator
 
 from . import walk
 from .steps import (AfterBranch, HostStep, LoopStep, MoveStep, Plan, PlayStep, Reach, RepeatStep, SelectStep, Step,
-                    host_range, steps)
+                    host_playable, host_range, steps)
 
 
 def _any_frame(acc: bool, st: Step, inner) -> bool:
@@ -29,6 +29,12 @@ def _any_frame(acc: bool, st: Step, inner) -> bool:
 def watches(plan: Plan) -> bool:
     """True when a select of the program has a meanwhile body (the firmware's frame_w looks)."""
     return any(isinstance(st, SelectStep) and st.meanwhile is not None for st in steps(plan))
+
+
+def frame_wrapped(plan: Plan) -> bool:
+    """Whether the program's frame call is frame_h around frame_w (host.asm.j2): `PL` can play a
+    sequence, and a select has a meanwhile body (costs.WRAP_STACK more runtime stack)."""
+    return plan.program.serial is not None and hosted(plan) and bool(host_playable(plan.program)) and watches(plan)
 
 
 def select_slots(plan: Plan) -> dict[int, int]:

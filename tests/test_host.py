@@ -204,6 +204,83 @@ def test_pl_of_a_sequence_with_a_select_does_nothing_and_the_rest_goes_on():
     assert first_move * b.plan.period_us > 1_000_000 and 63 in a      # nothing moved before the group
 
 
+HOST_PLAYS_AND_MEANWHILE = """\
+target stc89c52rc clock 11.0592MHz
+serial 9600
+host ssc32
+input go = P3.3
+input stop = P3.2
+servo s0 = P1.0
+servo s1 = P1.1
+pose mid { s0: 90deg, s1: 90deg }
+pose low { s0: 60deg, s1: 60deg }
+pose high { s0: 120deg, s1: 120deg }
+home mid
+sequence q0 {
+  hold 200ms
+  move mid
+}
+sequence q1 {
+  send "b"
+  select {
+    on "x" {
+      select {
+        on press go {
+          hold 50ms
+          hold 200ms
+        }
+        on "x" {
+          move mid
+          hold 50ms
+        }
+      }
+    }
+    after 500ms { move mid }
+    meanwhile {
+      repeat 3 {
+        hold 10ms
+        hold 200ms
+      }
+      select {
+        on press stop {
+          move mid in 1000ms
+          move mid in 100ms
+        }
+        on press go {
+          move mid in 300ms
+        }
+        after 100ms { move mid }
+      }
+    }
+  }
+  host until release go
+}
+main {
+  play q1
+  select {
+    on press go {
+      host until release go
+    }
+    on press stop {
+      move high
+    }
+    after 500ms { move mid }
+  }
+  hold 50ms
+  send "a"
+}
+"""
+
+
+def test_a_frame_call_wrapped_twice_fits_the_stack_it_counts():
+    # `PL` can play `q0`, and a select has a meanwhile body: the program's frame call is frame_h
+    # around frame_w, 2 bytes deeper than either alone (costs.WRAP_STACK: it once made the code
+    # generator fail on its own stack bound); it builds and verifies a session that plays q0
+    b, trace, report = session('0.1s "#0P1000S800#1P2000T300\\r"\n0.3s "Q\\r"\n0.4s "PL 0 SQ 0\\r"\n'
+                               '0.9s "QP 0\\r"\n1.2s stop active\n', 300, HOST_PLAYS_AND_MEANWHILE)
+    assert len(sent(trace)) == 2
+
+
 def test_limits_reverse_trim_and_clamps():
     # shoulder: limit 30..150 deg = N 41..203; P3000 clamps to 2500 (N 250), then to 203
     # elbow reversed: P600 is N 13 (12.5 rounded up), reversed 237

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ... import costs
 from ...diagnostics import Severity
-from ...flow import HOST_PER_SERVO, HOST_VARS, host_queue, host_ram, hosted, select_ram, watches
+from ...flow import HOST_PER_SERVO, HOST_VARS, frame_wrapped, host_queue, host_ram, hosted, select_ram, watches
 from ...steps import HostStep, Plan, steps
 from .. import Report, rule
 
@@ -16,7 +16,7 @@ def host_short(plan: Plan) -> int:
         return 0
     serial = plan.program.serial is not None
     room = costs.stack_room(serial, select_ram(plan), len(plan.ports))
-    return max(0, costs.stack_bytes(0, serial, watches(plan) or hosted(plan)) - room)
+    return max(0, costs.stack_bytes(0, serial, watches(plan) or hosted(plan), frame_wrapped(plan)) - room)
 
 
 @rule("host-ram", Severity.ERROR)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ... import costs, walk
 from ...diagnostics import Reporter, Severity
-from ...flow import hosted, select_ram, watches
+from ...flow import frame_wrapped, hosted, select_ram, watches
 from ...steps import Plan
 from ...source import Span
 from .. import RULES, Report, rule
@@ -20,11 +20,13 @@ def too_deep(plan: Plan, report: Report) -> None:
     """Nested repeats and plays keep their counters and return addresses on the stack."""
     serial = plan.program.serial is not None
     watch, taken, ports = watches(plan) or hosted(plan), select_ram(plan), len(plan.ports)
+    wrapped = frame_wrapped(plan)
     from .host_ram import host_short
     if host_short(plan):
         return              # host-ram says it
-    if plan.nesting > costs.max_nesting(serial, watch, taken, ports):
-        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken, ports)
+    if plan.nesting > costs.max_nesting(serial, watch, taken, ports, wrapped):
+        _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken, ports,
+                wrapped)
 
 
 def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
@@ -34,9 +36,10 @@ def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.B
 
 
 def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span,
-            serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3) -> None:
+            serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3,
+            wrapped: bool = False) -> None:
     """At the first repeat or play past the limit."""
-    limit = costs.max_nesting(serial, watch, taken, ports)
+    limit = costs.max_nesting(serial, watch, taken, ports, wrapped)
     st = walk.first_too_deep(main, body_of, limit)
     word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
     report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial, taken, ports)}-byte "
