@@ -594,3 +594,78 @@ def test_any_host_program_lint_accepts_compiles_and_verifies_under_heavy_lines()
         assert report.ok, problems(report) + "\n" + text
         assert len(sent(trace)) == 8, text                  # every Q and QP answered
     check()
+
+
+def _statement(r, depth: int, seqs: list[str]) -> list[str]:
+    """A random statement of a host program (the lines of its text): moves, holds, repeats, selects
+    on inputs, bytes and time with meanwhile bodies, plays, sends and `host until`."""
+    kinds = ["move", "move", "hold", "repeat", "select", "play", "host", "send"] if depth < 3 else ["move", "hold"]
+    k = r.choice(kinds)
+    if k == "move":
+        return [f"move {r.choice(['mid', 'low', 'high'])}" + (f" in {r.choice([100, 300, 1000])}ms" if r.random() < .5 else "")]
+    if k == "hold":
+        return [f"hold {r.choice([10, 50, 200])}ms"]
+    if k == "send":
+        return [f'send "{r.choice("abc")}"']
+    if k == "play" and seqs:
+        return [f"play {r.choice(seqs)}"]
+    if k == "host":
+        return [r.choice(["host until press stop", "host until release go"])]
+    if k == "repeat":
+        body = [line for _ in range(r.randint(1, 2)) for line in _statement(r, depth + 1, seqs)]
+        return [f"repeat {r.randint(1, 3)} {{"] + ["  " + line for line in body] + ["}"]
+    if k == "select":
+        out = ["select {"]
+        for event in r.sample(["press go", "release go", '"x"', "press stop"], r.randint(1, 2)):
+            body = [line for _ in range(r.randint(0, 2)) for line in _statement(r, depth + 1, seqs)]
+            out += [f"  on {event} {{"] + ["    " + line for line in body] + ["  }"]
+        if r.random() < .4:
+            out += [f"  after {r.choice([100, 500])}ms {{ move mid }}"]
+        if r.random() < .5:
+            body = [line for _ in range(r.randint(1, 2)) for line in _statement(r, depth + 1, seqs)]
+            out += ["  meanwhile {"] + ["    " + line for line in body] + ["  }"]
+        return out + ["}"]
+    return ["move mid"]
+
+
+def _structured_host_program(seed: int) -> str:
+    """A host program with sequences and selects around and inside `host`, on one of four boards."""
+    import random
+    r = random.Random(seed)
+    head = r.choice(["target at89c52 clock 12MHz\nserial 4800", "target stc89c52rc clock 11.0592MHz\nserial 9600",
+                     "target stc89c52rc clock 22.1184MHz\nserial 9600",
+                     "target stc89c52rc clock 11.0592MHz mode 6T\nserial 9600"])
+    names = [f"s{i}" for i in range(r.randint(1, 5))]
+    text = f"{head}\nhost ssc32\ninput go = P3.3\ninput stop = P3.2\n" + "".join(f"servo {n} = P1.{n[1:]}\n" for n in names)
+    text += "".join(f"pose {p} {{ " + ", ".join(f"{n}: {v}deg" for n in names) + " }\n"
+                    for p, v in (("mid", 90), ("low", 60), ("high", 120))) + "home mid\n"
+    seqs: list[str] = []
+    for q in range(r.randint(0, 3)):
+        body = [line for _ in range(r.randint(1, 3)) for line in _statement(r, 1, seqs)]
+        text += f"sequence q{q} {{\n" + "".join(f"  {line}\n" for line in body) + "}\n"
+        seqs.append(f"q{q}")
+    body = [line for _ in range(r.randint(1, 4)) for line in _statement(r, 0, seqs)]
+    if not any("host" in line for line in body):
+        body.insert(0, "host until press stop")
+    return text + "main {\n" + "".join(f"  {line}\n" for line in body) + "}\n"
+
+
+def test_any_structured_host_program_lint_accepts_builds_and_verifies():
+    # selects, meanwhile bodies, sequences and sends around and inside `host`, 16 programs: the
+    # front end never fails (a program error is a diagnostic); every program lint accepts builds,
+    # and a session of group lines, Q, QP, PL, bytes and input edges verifies (seed 33 once
+    # stopped the code generator on its own stack bound)
+    scenario = ('0.1s "#0P1000S800#1P2000T300\\r"\n0.3s "Q\\r"\n0.4s "PL 0 SQ 0\\r"\n0.6s go active\n0.7s "x"\n'
+                '0.9s go inactive\n1.1s "PL 0 SQ 1\\r"\n1.3s "QP 0\\r"\n1.6s stop active\n1.9s stop inactive\n'
+                '2.2s go active\n')
+    verified = 0
+    for seed in range(33, 49):
+        text = _structured_host_program(seed)
+        _, diags = front_end_text(text)
+        if any(d.is_error for d in diags):
+            continue
+        b = built(text)
+        trace, report = watch(b, scenario, int(2.8e6 / b.plan.period_us))
+        assert report.ok, problems(report) + "\n" + text
+        verified += 1
+    assert verified >= 8, verified
