@@ -562,7 +562,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         passes = host_passes(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
-            parser, waiting = ssc32.LineParser(), False
+            parser, waiting, held, played = ssc32.LineParser(), False, 0, False
             for (cycle, _, got), ended in zip(h.frames, h.ends):
                 stopped = answered = False
                 for b in got:
@@ -571,10 +571,13 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                     answered = answered or isinstance(cmd, (ssc32.Query, ssc32.QueryPulse, ssc32.Version))
                 stops = ended.hline & ~HLINE_QUEUING
                 waits = ended.hline & HLINE_WAITS
-                if stops and not stopped and not (waits and (answered or waiting)):
+                # a line that stops the reading while a sequence `PL` started plays waits, its bit
+                # set, until host_step carries it out: the frames of the sequence and the one after
+                carried = (played or ended.playing) and not stops & ~held
+                if stops and not stopped and not (waits and (answered or waiting)) and not carried:
                     bad(cycle, f"the host parser stopped reading at {when(cycle)} (lines pending {ended.hline:#x}) "
                                "with no line that stops it")
-                waiting = bool(waits)
+                waiting, held, played = bool(waits), stops, ended.playing
                 most = min(PLAY_PASSES, passes) if ended.playing else passes
                 if ended.left and not stops and len(got) < most:
                     bad(cycle, f"the host parser left {ended.left} byte{'s' if ended.left != 1 else ''} unread at "

@@ -281,6 +281,14 @@ def test_a_frame_call_wrapped_twice_fits_the_stack_it_counts():
     assert len(sent(trace)) == 2
 
 
+def test_an_offset_line_read_while_a_sequence_plays_waits_for_its_end():
+    # the wave plays for over a second; the offset line read meanwhile keeps the reading stopped,
+    # frame after frame, until the wave has ended (verify accepts the wait), and then counts
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.4s "#0PO-40\\r"\n2.5s "#0P1500\\r"\n3.0s "QP0\\r"\n', 650)
+    # 1500 - 40 = 1460 us: N = (1460 - 500 + 4) // 8 = 120; QP0 answers (500 + 960) // 10 = 146
+    assert sent(trace) == bytes([146])
+
+
 def test_limits_reverse_trim_and_clamps():
     # shoulder: limit 30..150 deg = N 41..203; P3000 clamps to 2500 (N 250), then to 203
     # elbow reversed: P600 is N 13 (12.5 rounded up), reversed 237
