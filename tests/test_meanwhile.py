@@ -375,3 +375,45 @@ def test_an_undated_move_after_a_cut_takes_the_frames_of_where_the_servo_is(at_m
     start = UNDATED.index("move mid")
     golden = list(itertools.islice(expand(plan, choices), 260))
     assert sum(1 for f in golden if f.span.start == start) == frames
+
+
+LEVEL_GAP = """\
+serial 4800
+servo a = P1.0
+input go = P3.3
+input stop = P3.2
+pose mid { a: 90deg }
+pose low { a: 60deg }
+home mid
+sequence q {
+  select {
+    on press go { move low }
+    meanwhile {
+      hold 300ms
+      move mid in 500ms
+    }
+  }
+}
+main {
+  play q
+  select {
+    on press stop { }
+    meanwhile { play q }
+  }
+}
+"""
+
+
+def test_a_select_looks_at_its_level_while_the_levels_above_it_are_empty():
+    # q's select has level 1 (q also plays inside a meanwhile body); played first from main, it
+    # runs at level 1 while level 0 is empty: frame_w must still look at it every frame (it once
+    # stopped at the first empty level, and `go` went unseen)
+    from test_verify_observes import problems, watch
+    b = build_text(LEVEL_GAP)
+    assert sorted(flow.select_slots(b.plan).values()) == [0, 1]
+    trace, report = watch(b, "0.1s go active\n", 150)
+    assert report.ok, problems(report)
+    edges = trace.pin_edges(1, 0)
+    widths = [fall - rise for (rise, up), (fall, _) in zip(edges, edges[1:]) if up == 1]
+    low = b.plan.program.target.width_cycles(81)                   # 60deg is N 81
+    assert widths.index(low) * b.plan.period_us < 300_000          # low within 0.3 s: `go` taken at once
