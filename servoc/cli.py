@@ -1067,7 +1067,7 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
                       if playable else "")
                    + ("; PL 0 SQ n does nothing for " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences)
                                                                   if q.name not in playable)
-                      + " (each runs `host` or has a `select`)" if len(playable) < len(plan.program.sequences) else ""))
+                      + " (each runs `host`)" if len(playable) < len(plan.program.sequences) else ""))
     for st, hull in plan.cuts:
         line = source.line_col(st.span.start)[0]
         spans = [f"{c.name} N {lo}..{hi}" + (" (or no target yet)" if unset else "") for c, (lo, hi, unset) in _ranges(plan, hull)]

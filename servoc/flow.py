@@ -59,6 +59,8 @@ def select_slots(plan: Plan) -> dict[int, int]:
                 work.append((st.body, depth))
             elif isinstance(st, PlayStep):
                 work.append((plan.sequence(st.sequence).body, depth))
+            elif isinstance(st, HostStep):      # `PL 0 SQ n` plays a sequence from the host's level
+                work.extend((plan.sequence(p.sequence).body, depth) for p in st.plays)
     return slots
 
 

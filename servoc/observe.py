@@ -35,7 +35,7 @@ HOST_BYTE_RAM = 0x02            # bank 0 R2: the byte host_byte is reading (`hb_
 # A listing line (sdas8051 -l, relocated .rst): address in columns 6..11, the source line's number
 # in 34..38, the source from 40.
 _LABEL = re.compile(r"^([A-Za-z_]\w*)::?\s*(.*)$")
-_EQU = re.compile(r"^(RXQ|RXR|RXW|RXB|HLINE|TXW|TXR)\s*=\s*0x([0-9A-Fa-f]+)", re.M)
+_EQU = re.compile(r"^(RXQ|RXR|RXW|RXB|HLINE|TXW|TXR|HPLAY)\s*=\s*0x([0-9A-Fa-f]+)", re.M)
 _QUEUE = re.compile(r"RXQ is a multiple of (\d+)")
 
 
@@ -109,6 +109,8 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
         queue = int(q.group(1))
     rx_state = (equ["RXR"], equ["RXW"]) if queue else ()
     look_ram = rx_state + tuple(equ["RXQ"] + i for i in range(queue)) if queue else ()
+    if queue and "HPLAY" in equ:        # then whether a sequence `PL` started plays (its bytes are the host's)
+        look_ram += (equ["HPLAY"],)
     points: list[tuple[int, int, tuple[int, ...]]] = []
     meaning: dict[int, list[tuple[str, str, int | None]]] = {}
     at: dict[int, int] = {}                    # address -> its tag: a branch whose body begins with
@@ -184,6 +186,7 @@ class Look:
     rxw: int = 0
     exit: int | None = None
     outcome: int | None = None
+    playing: bool = False       # a sequence `PL` started plays: the bytes queued are the host's
     rxr_after: int = 0
 
 
@@ -278,7 +281,8 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
             if p.ram:
                 r, w = rxr(p.ram[0]), rxw(p.ram[1])
                 queued = tuple(p.ram[2 + ((r + i) % probes.queue)] for i in range(w - r))
-            visit.looks.append(Look(p.cycle, queued, r, w))
+            visit.looks.append(Look(p.cycle, queued, r, w,
+                                    playing=len(p.ram) > 2 + probes.queue and p.ram[2 + probes.queue] != 0))
         elif kind == EXIT:
             visit = active.get(label)
             if visit is None or not visit.looks or visit.looks[-1].exit is not None:

@@ -137,13 +137,13 @@ def host_range(servo: model.Servo) -> tuple[int, int]:
 
 def host_playable(program: model.Program) -> tuple[str, ...]:
     """The sequences `PL 0 SQ n` plays, in declaration order: those that run no `host` statement
-    and no `select` (in them or in what they play); a `PL` of another does nothing (it would play
-    itself, or wait for events while the host's bytes go to the host)."""
+    (in them or in what they play); a `PL` of another does nothing (it would play itself). A select
+    in a sequence `PL` plays waits for inputs and time only: the bytes received are the host's."""
     bodies = {q.name: q.body for q in program.sequences}
 
     def playable(name: str) -> bool:
         names = {name} | walk.reachable(bodies[name], bodies.__getitem__)
-        return not any(isinstance(st, (model.Host, model.Select)) for st in walk.statements([bodies[n] for n in names]))
+        return not any(isinstance(st, (model.Host,)) for st in walk.statements([bodies[n] for n in names]))
     return tuple(q.name for q in program.sequences if playable(q.name))
 
 

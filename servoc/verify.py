@@ -635,7 +635,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
             lo_prev, hi_prev = (visit.reached, look.entry) if before is None else (before.entry, before.exit or before.entry)
             allowed: set = set()
             for extra in range(len(new) + 1):
-                allowed |= _rule(sel, j, None if id(sel) in watchers else look.queue + tuple(new[:extra]),
+                allowed |= _rule(sel, j, None if id(sel) in watchers or look.playing else look.queue + tuple(new[:extra]),
                                  lambda n: levels.during(n, look.entry, look.exit),
                                  lambda n: levels.during(n, lo_prev, hi_prev), queue)
             took = look.rxr_after - look.rxr

@@ -194,16 +194,24 @@ main {
 """
 
 
-def test_pl_of_a_sequence_with_a_select_does_nothing_and_the_rest_goes_on():
-    # `dip` waits for events (its select would take the host's bytes too): not playable, PL 0 SQ 0
-    # does nothing; the group after it moves the servo, and `stop` ends `host`
+def test_pl_plays_a_sequence_with_a_select_an_input_ends_and_the_host_reads_meanwhile():
+    # `dip` plays: its meanwhile body holds `a` at mid (N 122) until go is pressed, then `a` goes to
+    # low (60 deg: N 81) and back; the Q read while the select waits is answered '+' (the select
+    # leaves the host's bytes alone), the frame the press cuts the body is read too, and the group
+    # after the sequence moves `a` to 1000 us (N 63); `stop` ends `host`
     from servoc.steps import host_playable
-    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.7s go active\n0.8s go inactive\n'
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.5s "Q\\r"\n0.7s go active\n0.8s go inactive\n'
                                '1.0s "#0P1000\\r"\n1.6s stop active\n', 400, HOST_AND_A_SELECT)
-    assert host_playable(b.plan.program) == ()
+    assert host_playable(b.plan.program) == ("dip",)
+    assert sent(trace) == b"+"
     a = [n_of(b, w) for w in widths(b, trace, 1, 0)]
-    first_move = next(i for i, n in enumerate(a) if n != 122)
-    assert first_move * b.plan.period_us > 1_000_000 and 63 in a      # nothing moved before the group
+    low = a.index(81)
+    press = round(0.7e6 / b.plan.period_us)
+    assert all(n == 122 for n in a[:press - 2]) and press - 2 < low < press + 30
+    assert 122 in a[low:] and a.index(63) > low + a[low:].index(122)
+    reads = [round((c - trace.observation.hosts[0].start) / b.plan.program.target.cycles(b.plan.period_us))
+             for c, _, _ in trace.observation.hosts[0].frames]
+    assert len(set(reads)) == len(reads) and max(reads) - min(reads) + 1 - len(reads) <= 1
 
 
 HOST_PLAYS_AND_MEANWHILE = """\

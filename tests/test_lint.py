@@ -30,7 +30,7 @@ LINT_CODES = [
     "infeasible-speed", "eased-overspeed", "off-grid-width", "inexact-angle", "period-too-short",
     "period-too-long", "short-gap", "short-hold", "empty-loop", "too-long", "unused-servo", "unused-group",
     "unused-pose", "unused-sequence", "unreachable", "p0-pull-up", "too-deep", "duplicate-event", "unused-input",
-    "serial-too-fast", "no-home", "level-in-loop", "until-no-frame", "host-ram", "host-takes-bytes",
+    "serial-too-fast", "no-home", "level-in-loop", "until-no-frame", "host-ram", "host-takes-bytes", "host-play-waits",
 ]
 FRONT_CODES = [
     "syntax-error", "duplicate-name", "pin-conflict", "bad-pin", "unknown-name", "wrong-kind", "bad-unit",

@@ -8,6 +8,6 @@ from . import (  # noqa: F401
     unused, unreachable, duplicate_event,
     no_home, level_in_loop, until_no_frame,
     p0_pull_up,
-    host_ram, host_takes_bytes, too_deep,
+    host_ram, host_takes_bytes, host_play_waits, too_deep,
     firmware_limit,
 )

@@ -1,0 +1,104 @@
+"""The frame engine's bad cases for its edges, each run in ucsim at exactly the shortest period
+servoc reports for it, every pulse exact to the machine cycle, and that period less 1 µs refused.
+
+The cases: all 24 lines at one N; every line one N from the next across three ports; half of each
+port at N 0 and half at N 250, swapping; a port of one servo beside a port of eight; pairs of lines
+whose order swaps every frame; and bytes back to back, at the highest rate the clock accepts, into a
+select whose meanwhile body moves the lines one N apart. Four clocks: 12 MHz, 11.0592 MHz,
+22.1184 MHz, and 11.0592 MHz in 6T mode.
+"""
+
+import pytest
+
+from conftest import build_text, front_end_text, simulate_events
+from servoc import api
+from test_costs import all_at, at_period, own_minimum, servos
+
+pytestmark = pytest.mark.toolchain
+
+CLOCKS = {
+    "12MHz": "",
+    "11.0592MHz": "target stc89c52rc clock 11.0592MHz\n",
+    "22.1184MHz": "target at89c52 clock 22.1184MHz\n",
+    "11.0592MHz-6T": "target stc89c52rc clock 11.0592MHz mode 6T\n",
+}
+
+SWAP = "main { loop { move b in {1P}us; move a in {1P}us } }\n"
+
+PAIRS = ((100, 101), (40, 200), (0, 250), (124, 126), (7, 9), (60, 61),
+         (180, 90), (249, 250), (30, 31), (150, 152), (1, 2), (220, 210))
+
+
+def crossed(i: int, first: bool) -> int:
+    lo, hi = PAIRS[i // 2]
+    return lo if (i % 2 == 0) == first else hi
+
+
+ONE_AND_EIGHT = "servo s0 = P1.0 speed 0.0001s/60deg\n" + "".join(
+    f"servo s{i} = P2.{i - 1} speed 0.0001s/60deg\n" for i in range(1, 9))
+
+CASES = {
+    "same-n": (24, servos(24) + all_at("a", 24, lambda i: 125) + all_at("b", 24, lambda i: 126) + SWAP),
+    "one-apart": (24, servos(24) + all_at("a", 24, lambda i: i) + all_at("b", 24, lambda i: 250 - i) + SWAP),
+    "ends": (24, servos(24) + all_at("a", 24, lambda i: 250 * (i % 2)) + all_at("b", 24, lambda i: 250 * (1 - i % 2))
+             + SWAP),
+    "one-and-eight": (9, ONE_AND_EIGHT + all_at("a", 9, lambda i: i) + all_at("b", 9, lambda i: 250 - i) + SWAP),
+    "crossing": (24, servos(24) + all_at("a", 24, lambda i: crossed(i, True))
+                 + all_at("b", 24, lambda i: crossed(i, False)) + SWAP),
+}
+
+SERIAL = (servos(24) + all_at("a", 24, lambda i: i) + all_at("b", 24, lambda i: 250 - i)
+          + 'main { loop { select { on "x" { move a in {1P}us; send "k" } '
+          + "meanwhile { loop { move b in {1P}us; move a in {1P}us } } } } }\n")
+
+FRAMES = 120
+
+
+def minimum(clock: str, template: str) -> int:
+    return own_minimum(template, 9000) if CLOCKS[clock] else own_minimum(template)
+
+
+def refused(template: str, period: int) -> bool:
+    _, diags = front_end_text(at_period(template, period))
+    return "period-too-short" in [d.code for d in diags if d.is_error]
+
+
+@pytest.mark.parametrize("name,clock", [
+    ("same-n", "12MHz"), ("same-n", "22.1184MHz"), ("same-n", "11.0592MHz-6T"),
+    ("one-apart", "12MHz"), ("one-apart", "11.0592MHz"), ("one-apart", "11.0592MHz-6T"),
+    ("ends", "11.0592MHz"), ("ends", "22.1184MHz"),
+    ("one-and-eight", "12MHz"), ("one-and-eight", "11.0592MHz"), ("one-and-eight", "11.0592MHz-6T"),
+    ("crossing", "11.0592MHz"), ("crossing", "22.1184MHz"), ("crossing", "11.0592MHz-6T"),
+])
+def test_dense_edges_verify_at_their_reported_minimum(name, clock):
+    count, program = CASES[name]
+    template = CLOCKS[clock] + program
+    period = minimum(clock, template)
+    built = build_text(at_period(template, period))
+    assert built.plan.period_us == built.plan.min_period_us == period
+    report = built.verify(FRAMES)
+    assert report.ok and report.max_error_cycles == 0, (name, clock, period, report.summary(),
+                                                        [str(m) for m in report.mismatches[:5]])
+    assert report.pulses == FRAMES * count
+    assert refused(template, period - 1)
+
+
+@pytest.mark.parametrize("clock,baud,faster,refusal", [("12MHz", 4800, 9600, "bad-baud"),
+                                                       ("22.1184MHz", 9600, 14400, "serial-too-fast")])
+def test_bytes_back_to_back_at_the_highest_rate_during_dense_edges(clock, baud, faster, refusal):
+    """Bytes come back to back for the whole run: the select takes one whenever it looks and the
+    queue drops the rest; every pulse stays exact and every answer is sent in time."""
+    template = CLOCKS[clock] + f"serial {baud}\n" + SERIAL
+    period = minimum(clock, template)
+    text = at_period(template, period)
+    scenario = "50ms " + " ".join(['"x"'] * (FRAMES * period * baud // 10_000_000)) + "\n"
+    plan, evs, trace = simulate_events(text, scenario, FRAMES)
+    assert plan.period_us == plan.min_period_us == period
+    report = api.check_events(plan, trace, FRAMES, evs)
+    assert report.ok and report.max_error_cycles == 0, (clock, baud, period, report.summary(),
+                                                        [str(m) for m in report.mismatches[:5]])
+    assert report.pulses == FRAMES * 24
+    assert report.bytes_sent >= FRAMES // 2
+    assert refused(template, period - 1)
+    with pytest.raises(AssertionError, match=refusal):
+        build_text(at_period(template.replace(f"serial {baud}", f"serial {faster}"), period))
