@@ -794,6 +794,8 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "st": [ssc32.speed_t(d, period) for d in range(N_MAX + 1)],
             "version": ssc32.VERSION_REPLY.decode().rstrip("\r"),
             "plays": [_seq_label(plan, name) for name in playable], "fbase": fbase,
+            "play_list": [{"n": [q.name for q in plan.program.sequences].index(name), "name": name,
+                           "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
             "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan))}
 

@@ -730,11 +730,16 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                 sequence = plan.sequence(names[session.plays[played]])
                 played += 1
                 session.sequence_running = True
-                for fr in run(sequence.body):
+                frames_ = run(sequence.body)
+                for fr in frames_:
                     yield fr
                     session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
                     read()
-                session.sequence_running = False
+                    if session.stop_play:       # `STOP` read: the sequence ends in this frame
+                        frames_.close()
+                        session.reading_stopped = False
+                        break
+                session.sequence_running = session.stop_play = False
                 session.move = None
                 yield frame(st.span)                # the frame that repeats the sequence's end
                 session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}

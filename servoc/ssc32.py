@@ -494,15 +494,19 @@ def frame_n(n0: int, n1: int, k: int, frames: int) -> int:
     return n0 + step if delta >= 0 else n0 - step
 
 
-def stops_reading(cmd: Command | None, servos_by_channel: Mapping[int, Servo] | None = None) -> bool:
+def stops_reading(cmd: Command | None, servos_by_channel: Mapping[int, Servo] | None = None,
+                  playing: bool = False) -> bool:
     """The line ends its frame's reading (the bytes after it are read in the next frame): a
-    group line that names a servo, an offset line, `PL 0 SQ n` (any n). Without
-    `servos_by_channel` every channel counts as one with a servo (a group line with an entry
-    with P stops the reading)."""
+    group line that names a servo, an offset line, `PL 0 SQ n` (any n), and `STOP` alone while a
+    sequence `PL` started plays (`playing`: it ends the sequence). Without `servos_by_channel`
+    every channel counts as one with a servo (a group line with an entry with P stops the
+    reading)."""
     if isinstance(cmd, Group):
         if servos_by_channel is None:
             return any(e.width is not None for e in cmd.entries)
         return names_a_servo(cmd, servos_by_channel)
+    if isinstance(cmd, Stop):
+        return playing and cmd.channel is None
     return isinstance(cmd, (Offset, Play))
 
 
@@ -559,6 +563,7 @@ class Session:
         self.pending_offsets: Offset | None = None   # the offset line read in this frame
         self.plays: list[int] = []
         self.sequence_running = False
+        self.stop_play = False                # STOP was read while a sequence played: it ends there
         self.frames = 0                       # frames computed so far
         self.reading_stopped = False          # a line that stops the reading was read in this frame
 
@@ -569,7 +574,7 @@ class Session:
     def stops_reading(self, cmd: Command | None) -> bool:
         """The line ends this frame's reading (the module's `stops_reading`, with this session's
         servos)."""
-        return stops_reading(cmd, self.by_channel)
+        return stops_reading(cmd, self.by_channel, self.sequence_running)
 
     def line(self, cmd: Command) -> bytes:
         if self.reading_stopped:
@@ -585,7 +590,9 @@ class Session:
         if isinstance(cmd, Version):
             return VERSION_REPLY
         if isinstance(cmd, Stop):
-            if cmd.channel is None:
+            if self.sequence_running:           # STOP ends the sequence in frame i; STOP c does nothing
+                self.stop_play = self.stop_play or cmd.channel is None
+            elif cmd.channel is None:
                 self.move = None                # every move ends where frame i has it
             elif self.move is not None:
                 self.move.paths.pop(cmd.channel, None)

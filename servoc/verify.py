@@ -567,7 +567,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                 stopped = answered = False
                 for b in got:
                     cmd = parser.feed(b)
-                    stopped = stopped or ssc32.stops_reading(cmd, servos)
+                    stopped = stopped or ssc32.stops_reading(cmd, servos, ended.playing)
                     answered = answered or isinstance(cmd, (ssc32.Query, ssc32.QueryPulse, ssc32.Version))
                 stops = ended.hline & ~HLINE_QUEUING
                 waits = ended.hline & HLINE_WAITS

@@ -470,11 +470,11 @@ def test_a_firmware_that_reads_late_fails_verify():
 def test_q_is_answered_while_a_sequence_plays_and_lines_wait_for_its_end():
     # the wave (tuck, then rest) takes over a second: Q at 0.4 s answers '+', and so does QP
     # (the shoulder on its way down from 90deg); a group sent meanwhile moves the base once the
-    # wave has ended; STOP meanwhile does nothing; Q long after answers '.'
+    # wave has ended; STOP c meanwhile does nothing; Q long after answers '.'
     b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n'
                                '0.4s "Q\\r"\n'
                                '0.5s "QP 1\\r"\n'
-                               '0.6s "STOP\\r"\n'
+                               '0.6s "STOP 1\\r"\n'
                                '0.7s "#0P2000\\r"\n'
                                '4.0s "Q\\r"\n', 800)
     out = sent(trace)
@@ -484,6 +484,33 @@ def test_q_is_answered_while_a_sequence_plays_and_lines_wait_for_its_end():
     assert base[-1] == 188                                   # 2000 us, after the wave
     back = next(i for i in range(len(shoulder) - 1, 0, -1) if shoulder[i - 1] != shoulder[i])   # the wave's end
     assert all(n == 122 for n in base[:back])               # the base waited for it
+
+
+def test_stop_ends_a_sequence_pl_started_where_the_servos_are():
+    # STOP at 0.45 s, in the wave's first move (the shoulder on its way from 90deg to 40deg): the
+    # wave ends there, the shoulder stays where that frame had it, Q answers '.', and the group
+    # after it moves the base at once (it waits for no sequence)
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.45s "STOP\\r"\n0.5s "Q\\r"\n'
+                               '0.7s "#0P2000\\r"\n1.5s "Q\\r"\n', 330)
+    assert sent(trace) == b".."
+    shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]
+    base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
+    assert shoulder[frame(0.2)] == 122 and shoulder[frame(0.4)] < 122
+    still = shoulder[frame(0.5):]
+    assert len(set(still)) == 1 and still[0] > 55              # stopped half-way (40deg is N 55)
+    assert base[frame(0.7) + 3] != 122 and base[-1] == 188
+
+
+def test_stop_ends_a_sequence_pl_started_while_its_select_waits():
+    # `dip` plays and waits in its select; STOP ends it there: the press of go after it finds no
+    # select waiting (`a` stays at mid), and the group after it moves `a`
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.4s "STOP\\r"\n0.5s "Q\\r"\n0.7s go active\n'
+                               '0.8s go inactive\n1.0s "#0P1000\\r"\n1.6s stop active\n', 400, HOST_AND_A_SELECT)
+    assert sent(trace) == b"."
+    a = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
+    assert all(n == 122 for n in a[:frame(1.0)]) and a[frame(1.5)] == 63 and a[-1] == 81   # `move low` after `host`
 
 
 def test_a_line_of_any_length_is_read_byte_by_byte():

@@ -869,6 +869,18 @@ def test_version_and_play():
     assert _line(s, b"Q\r") == b"+"
 
 
+def test_stop_while_a_sequence_plays_ends_it_and_the_reading():
+    # while a sequence plays, STOP c does nothing and reads on; STOP asks for the sequence's end
+    # (plan.expand ends it in that frame) and ends the frame's reading
+    s = Session([Servo(0, t_dav_us=Fraction(2000))], P20, sequences=1, start={0: 0})
+    p = LineParser()
+    s.sequence_running = True
+    assert s.read(p, b"STOP 0\rQ\rSTOP\rQ\r") == (b"+", 14)
+    assert s.stop_play and s.reading_stopped
+    assert stops_reading(Stop(None), playing=True) and not stops_reading(Stop(None))
+    assert not stops_reading(Stop(0), playing=True)
+
+
 def test_play_after_a_group_is_read_in_the_next_frame():
     s = Session([Servo(0, t_dav_us=Fraction(2000))], P20, sequences=1, start={0: 0})
     p = LineParser()
