@@ -204,7 +204,8 @@ def _budgeted(p: Plan) -> Plan:
         return dataclasses.replace(p, min_period_us=p.period_us,
                                    firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
     return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
-                               period_holds=unit.min_period_us is None or unit.period_holds)
+                               period_holds=unit.min_period_us is None or unit.period_holds,
+                               rise_offsets=unit.rise_offsets)
 
 
 def lint(plan_: Plan, reporter: Reporter) -> None:
@@ -527,9 +528,10 @@ def _holds(text: str, period_us: int) -> bool:
 
 
 def _default_period_on(pins: list) -> int:
-    """The default frame period (µs at the default target) of a program with servos on `pins`."""
+    """The default frame period (µs at the default target) of a program with servos on `pins` that
+    may go anywhere (the longest pulse, N 250, on each port)."""
     text = "".join(f"servo s{i} = {pin}\n" for i, pin in enumerate(pins))
-    text += "pose p { " + ", ".join(f"s{i}: 1500us" for i in range(len(pins))) + " }\nmain { move p }\n"
+    text += "pose p { " + ", ".join(f"s{i}: 2500us" for i in range(len(pins))) + " }\nmain { move p }\n"
     source = SourceFile("<pins>", text)
     fe = front_end(source, Reporter(source))
     assert fe.plan is not None, "a program of servos and one pose always plans"

@@ -20,6 +20,8 @@ Firmware shape (AT89C52, 12 MHz, 1 us per machine cycle):
 
 from __future__ import annotations
 
+import dataclasses
+
 from dataclasses import dataclass, field
 
 import jinja2
@@ -31,7 +33,7 @@ from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
                    hosted, move_starts,
-                   port_motions, select_ram, select_slots, send_gap, send_run, sends, takes_frames, watches)
+                   port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
                     host_playable,
@@ -444,7 +446,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base
     bport = plan.ports[-1] if len(plan.ports) == 3 and stack_bytes + costs.BUFB_RAM <= room else None
-    e = _engine(plan, ram, period_cycles, bport)
+    tops = port_tops(plan)
+    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top) for top in tops))
     e["framed"] = ctx.flagged
     chans = []
     for c in plan.channels:
@@ -482,7 +485,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         raise layout.PeriodTooLong(
             f"a frame of {plan.period_us} us is {period_cycles} machine cycles at {target.describe()}, "
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
-    text = render("firmware.asm.j2",
+    lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
                   ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit, bfull_bit=framed_bit + 1,
                   byte_maps=list(ctx.byte_maps.values()),
@@ -502,11 +505,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   target_text=target.describe(), cycle_text=fmt_us(target.cycle_us),
                   div_text=f"{float(target.div_cycles):g}",
                   fall_text="500 + 8 x N" if target.grid else "round_half_up((500 + 8 N) us / t_c)")
+    text = lay_out()
     deepest = runtime_stack(text, [sq["label"] for sq in sequences])
     if deepest > costs.runtime_stack(deep_runtime, wrapped):
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
                            f"{costs.runtime_stack(deep_runtime, wrapped)} the stack bound counts")
-    offsets = tuple(costs.rise_offsets(plan.ports, target).values())
     ram_bytes = ram.total(8 * nports, stack_bytes) + (costs.BUFB_RAM if bport is not None else 0)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
@@ -528,6 +531,14 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                                      else costs.start_loads(target, starts[plan.ports[0]]),
                                      0 if s is None else s["byte_cycles"], bport is not None,
                                      uses["sends"], uses["holds"])
+    spans = e["spans"]
+    if budget is not None:      # a port's span longer where the next port's sort needs it (the code's
+        spans = costs.fit_spans(target, budget, tops)       # cycles do not depend on the spans)
+        if spans != e["spans"]:
+            _set_rises(e, plan, period_cycles, spans)
+            text = lay_out()
+        budget = dataclasses.replace(budget, spans=spans)
+    offsets = tuple(costs.rise_offsets(plan.ports, target, spans).values())
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
@@ -610,25 +621,26 @@ def _engine_ram(ram: layout.RamAllocator) -> None:
     ram.alloc("SRT", 1, "ports frame_io has sorted into it (counts on)")
 
 
-def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None) -> dict:
+def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None,
+            spans: tuple[int, ...]) -> dict:
     """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2).
-    `bport`: the port sorted into buffer B (None: every port goes through buffer A)."""
+    `bport`: the port sorted into buffer B (None: every port goes through buffer A); `spans`: each
+    port's rise to the next one's (costs.fit_spans)."""
     target = plan.program.target
     ports = []
     for k, port in enumerate(plan.ports):
         last = k == len(plan.ports) - 1
         nxt = plan.ports[0 if last else k + 1]
-        rise = costs.rise_offsets(plan.ports, target)
         ports.append({"port": port, "pins": _port_pins(plan, port), "win": f"win_p{port}", "last": last,
                       "cur0": layout.CUR_BASE + layout.ram_pin(plan.ports, port, 0),
                       "state0": layout.state_base(len(plan.ports)) + layout.STATE_BYTES * layout.ram_pin(plan.ports, port, 0),
-                      "next_port": nxt, "next_win": f"win_p{nxt}", "rise": rise[port],
-                      "rnext": (period_cycles if last else rise[nxt]) - rise[port]})
+                      "next_port": nxt, "next_win": f"win_p{nxt}"})
         ports[-1]["s"] = len(ports[-1]["pins"])
         # built for size, a port whose servos are its pins 0, 1, ... loads its pairs in a loop
         ports[-1]["looped"] = plan.compact and [pin["bit"] for pin in ports[-1]["pins"]] == list(range(ports[-1]["s"]))
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
-        ports[-1]["rest_add"] = (costs.STOP - ports[-1]["rnext"]) % 0x10000   # no fall: straight to the next rise
+    e_ports = {"ports": ports}
+    _set_rises(e_ports, plan, period_cycles, spans)
     most = _most_lines(plan)
     ram.symbols += [("WN", layout.SORT_BASE, "sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)"),
                     ("WM", layout.SORT_BASE + 1, "sort buffer A: the lines of pair i at WM + 2i")]
@@ -664,7 +676,19 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
                    "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in costs.SORTING_NETWORKS[n]]}
                   for n in sizes],
+        "spans": spans,
     }
+
+
+def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) -> None:
+    """Each port's rise in the engine's numbers `e`: from the first port's, each `spans` after the
+    one before; the next port's rise after it (the first's, a frame later, after the last)."""
+    rise = costs.rise_offsets(plan.ports, plan.program.target, spans)
+    for k, p in enumerate(e["ports"]):
+        p["rise"] = rise[p["port"]]
+        p["rnext"] = (period_cycles if p["last"] else rise[p["next_port"]]) - p["rise"]
+        p["rest_add"] = (costs.STOP - p["rnext"]) % 0x10000   # no fall: straight to the next rise
+    e["spans"] = spans
 
 
 def runtime_stack(text: str, sequence_labels: list[str]) -> int:

@@ -11,7 +11,9 @@ stops Timer0 for STOP cycles and adds (65536 - interval + STOP), so the next
 overflow comes exactly `interval` cycles after the last one, whatever the
 handler took: widths and the period are counter arithmetic.
 
-Port k rises at k x port_span(target); its lines fall C(N) cycles later. At
+Port k rises at the sum of the spans of the ports before it (`fit_spans`: a port's longest
+pulse, for the highest N its lines reach, and an entry; longer where the next port's sort needs
+it); its lines fall C(N) cycles later. At
 the rise the handler writes that port's items from the distinct N the
 background sorted (frame_irq.asm.j2): one sorted buffer, filled for each port
 between the previous port's rise and its own.
@@ -22,7 +24,7 @@ the handler's worst load per port (its rise entry, read from the code, and
 its falls in the worst frame the program's moves can put out: `port_load`)
 must fit the frame, and so must the pulses themselves:
 
-    P >= ports x port_span
+    P >= the sum of the spans
     P >= sum(sorts) + W + sum(handler loads)
     P >= R(m-2) + sort(m-1) + W + sort(0) + load(m-2) + load(m-1)   (m >= 2 ports)
     P >= R(m-1) + sort(0) + load(m-1)
@@ -65,14 +67,37 @@ SPLIT = ENTRY + EXIT + 1   # edges this far apart or more: separate entries (the
 SLED = SPLIT - 1 - STEP    # NOPs before each port's edge: any gap from STEP to SPLIT - 1
 
 
-def port_span(target) -> int:
-    """A port's rise to the next port's: its longest pulse, then an entry of its own."""
-    return target.width_cycles(250) + SPLIT
+def port_span(target, top: int = 250) -> int:
+    """A port's rise to the next port's: its longest pulse (its lines reach N `top` at the most),
+    then an entry of its own."""
+    return target.width_cycles(top) + SPLIT
 
 
-def rise_offsets(ports: tuple[int, ...], target) -> dict[int, int]:
-    """Cycles from the first port's rise to each port's rise."""
-    return {port: k * port_span(target) for k, port in enumerate(ports)}
+def rise_offsets(ports: tuple[int, ...], target, spans: tuple[int, ...] = ()) -> dict[int, int]:
+    """Cycles from the first port's rise to each port's rise: each port `spans` after the one
+    before (`fit_spans`; none given: every port's longest pulse N 250)."""
+    spans = spans or (port_span(target),) * len(ports)
+    return {port: sum(spans[:k]) for k, port in enumerate(ports)}
+
+
+def fit_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int, ...]:
+    """Each port's span: its longest pulse, the highest N its lines can reach (`tops`, in port
+    order: flow.port_tops), then an entry of its own; longer where the sort of the port after it
+    in buffer A (its sort, the port's handler load, the serial handler's runs in that time) needs
+    more time between the two rises."""
+    m = len(budget.lines)
+    spans = [port_span(target, top) for top in tops]
+    load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
+    for j in range(1, m - 1 if budget.last_in_b else m):
+        need = spans[j - 1]
+        while True:
+            runs = serial_load(target, budget, need) if budget.byte_cycles else 0
+            more = budget.sorts[j] + load[j - 1] + runs
+            if more <= need:
+                break
+            need = more
+        spans[j - 1] = need
+    return tuple(spans)
 
 
 def handler_load(rise_cycles: int, falls: int) -> int:
@@ -227,6 +252,7 @@ class Budget:
     byte_cycles: int = 0        # one byte on the serial line (10 bits)
     serial_sends: bool = False  # the program sends: the serial handler also runs for each byte that goes out
     last_in_b: bool = False     # the last port has sort buffer B: frame_io sorts it before the others
+    spans: tuple[int, ...] = ()     # each port's rise to the next one's (`fit_spans`; none: N 250 each)
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -266,8 +292,8 @@ def _first_failing(target, budget: Budget, period: int) -> int | None:
     time, so once a step holds with a run to spare, every longer period does."""
     gap, reach = rx_gap(budget.byte_cycles), run_reach(target, budget)
     m = len(budget.lines)
-    span = port_span(target)
-    offsets = {0} if m == 0 else {0, (m - 1) * span, (m - 2) * span}
+    rise = _rises(target, budget)
+    offsets = {0} if m == 0 else {0, rise[m - 1], rise[max(0, m - 2)]}
     # (spacing, shift): a window's count of runs steps where its length crosses shift mod spacing
     steps = {(gap, 1)} | ({(gap, 1 - reach)} if reach is not None else set()) | \
         ({(budget.byte_cycles, 1)} if budget.serial_sends else set())
@@ -295,25 +321,32 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     m = len(budget.lines)
     if m == 0:
         return budget.work + runs(period)
-    span = port_span(target)
+    rise = _rises(target, budget)
+    span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
     frame = sum(budget.sorts) + budget.work + sum(load)
     if budget.start_frame is not None:      # one port: a frame's work, then its sort, within its period
         frame = max(budget.sorts[0] + budget.other_work + load[0], budget.start_frame + budget.rises[0])
-    need = [m * span, frame + runs(period)]
-    last = period - (m - 1) * span     # the last port's rise to the first port's next
+    need = [rise[m], frame + runs(period)]
+    last = period - rise[m - 1]     # the last port's rise to the first port's next
     if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
-        need.append((m - 1) * span + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))
+        need.append(rise[m - 1] + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))
     else:
-        need.append((m - 1) * span + budget.sorts[0] + load[-1] + runs(last))
+        need.append(rise[m - 1] + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:
-            need.append((m - 2) * span + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
-                        + runs(last + span))
+            need.append(rise[m - 2] + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
+                        + runs(period - rise[m - 2]))
     for j in range(1, m - 1 if budget.last_in_b else m):   # each later port's sort in A fits between the rise before and its own
-        if budget.sorts[j] + load[j - 1] + runs(span) > span:
+        if budget.sorts[j] + load[j - 1] + runs(span[j - 1]) > span[j - 1]:
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
-                          f"handler's {runs(span)}) does not fit between the rise before it and its own")
+                          f"handler's {runs(span[j - 1])}) does not fit between the rise before it and its own")
     return max(need)
+
+
+def _rises(target, budget: Budget) -> list[int]:
+    """Each port's rise from the first port's, in port order, then the end of the last port's span."""
+    spans = budget.spans or (port_span(target),) * len(budget.lines)
+    return [sum(spans[:k]) for k in range(len(spans) + 1)]
 
 
 class TooSlow(Exception):

@@ -391,6 +391,18 @@ def port_motions(plan: Plan) -> dict[int, frozenset]:
     return {port: frozenset(ms) for port, ms in out.items()}
 
 
+def port_tops(plan: Plan) -> tuple[int, ...]:
+    """Per port, in port order, the highest N any of its lines can have in any frame (0: none ever
+    has a target): the longest pulse its span must hold (`costs.fit_spans`). Every frame of a move
+    lies between its start and its end (`port_motions`; eased curves never overshoot)."""
+    motions = port_motions(plan)
+
+    def top(v) -> int:
+        return v if isinstance(v, int) else v.hi
+    return tuple(max((top(n) for lines in motions[port] for ab in lines if ab is not None for n in ab), default=0)
+                 for port in plan.ports)
+
+
 def host_watchers(plan: Plan) -> set[int]:
     """id() of each select whose meanwhile body runs a `host` statement (in it, or in a select, a
     repeat, a loop or a sequence inside it): while the host reads every byte, its look takes none."""

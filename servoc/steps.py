@@ -281,6 +281,8 @@ class Plan:
     compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
                                             # does not fit the code memory): loops where the fast one is unrolled
     period_holds: bool = True               # the code generated holds P itself (below min_period_us it may not)
+    rise_offsets: tuple[int, ...] = ()      # per port, cycles from the first port's rise to its own, as the code
+                                            # generated has them (costs.fit_spans; empty: not generated yet)
 
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)

@@ -22,7 +22,6 @@ from .flow import host_queue, host_watchers
 from .plan import Choice, HostRun, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
 from .sim import SimTrace
-from .costs import rise_offsets
 from .target import byte_cycles
 RESET_LOW_US = 20          # servo lines low this soon after reset
 MAX_JITTER_US = 2          # a rise may stand this far from its frame slot
@@ -174,7 +173,7 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = (), driven
     lead = first_pulse_frame(plan, choices)
     golden = [] if lead is None else list(itertools.islice(expand(plan, choices), lead, lead + frames))
     target = plan.program.target
-    port_offset = rise_offsets(plan.ports, target)
+    port_offset = plan_rise_offsets(plan)
     reset_limit = int(RESET_LOW_US / target.cycle_us)
     unit = "us" if target.grid else "cycles"
     max_jitter = int(MAX_JITTER_US / target.cycle_us)
@@ -288,9 +287,19 @@ def _show(b: int) -> str:
 
 # ---------------------------------------------------------------- runs with events, observed
 
+def plan_rise_offsets(plan: Plan) -> dict[int, int]:
+    """Per port, cycles from the first port's rise to its own, as the firmware generated for `plan`
+    has them (`Plan.rise_offsets`; a plan the period stage did not see gets the code's again)."""
+    offsets = plan.rise_offsets
+    if len(offsets) != len(plan.ports):
+        from . import codegen
+        offsets = codegen.generate(plan).rise_offsets
+    return dict(zip(plan.ports, offsets))
+
+
 def first_rise(plan: Plan, trace: SimTrace) -> int | None:
     """The first frame's rise of the first port, in machine cycles from reset (None: no pulse)."""
-    offsets = rise_offsets(plan.ports, plan.program.target)
+    offsets = plan_rise_offsets(plan)
     firsts = [ps[0][0] - offsets[c.port] for c in plan.channels if (ps := trace.pulses(c.port, c.bit))]
     return min(firsts) if firsts else None
 

@@ -325,13 +325,13 @@ def test_angle_table():
 
 def test_min_period_formula(tmp_path: Path):
     text = doc_text()
-    assert f"ports × span                                  the pulses: span = C(250) + {costs.SPLIT}" in text
+    assert f"Σ span                                        the pulses: span = C(top) + {costs.SPLIT}" in text
     assert f"fixed {costs.ENTRY} cycles before the edge" in text and f"less than {costs.SPLIT} cycles apart" in text
     # the worked example quotes what servoc reports
     (tmp_path / "one.servo").write_text("servo arm = P1.0\npose a { arm: 100 }\nmain { move a }\n", encoding="utf-8")
     source, reporter = api.load_source(str(tmp_path / "one.servo"))
     plan = api.front_end(source, reporter).plan
-    assert f"one servo on P1 moved by one pose: P_min = {plan.min_period_us} µs" in text
+    assert f"one servo on P1 moved by one pose to N 100: P_min = {plan.min_period_us} µs" in text
     assert units.DEFAULT_PERIOD_FLOOR_US == 5300 and units.DEFAULT_T_DAV_US == units.Fraction(7400, 3)
     assert "2.467 ms" in text
 

@@ -419,13 +419,13 @@ main {
 
 
 def test_period_rules_name_the_minimum():
-    _, diags, _ = diagnose("frame 1ms\nservo a = P1.0\npose p { a: 1 }\nmain { move p }\n")
+    _, diags, _ = diagnose("frame 1ms\nservo a = P1.0\npose p { a: 250 }\nmain { move p }\n")
     d = next(d for d in diags if d.code == "period-too-short")
-    plan = diagnose("servo a = P1.0\npose p { a: 1 }\nmain { move p }\n")[0].plan
+    plan = diagnose("servo a = P1.0\npose p { a: 250 }\nmain { move p }\n")[0].plan
     shown = re.search(r"at least ([\d.]+) ms", d.message).group(1)
     assert Fraction(shown) * 1000 == plan.min_period_us
     # exactly the minimum is fine; one microsecond less is not
-    at_min = f"frame {plan.min_period_us}us\nservo a = P1.0\npose p {{ a: 1 }}\nmain {{ move p }}\n"
+    at_min = f"frame {plan.min_period_us}us\nservo a = P1.0\npose p {{ a: 250 }}\nmain {{ move p }}\n"
     assert "period-too-short" not in codes(at_min)
     below = at_min.replace(f"{plan.min_period_us}us", f"{plan.min_period_us - 1}us")
     assert "period-too-short" in codes(below)

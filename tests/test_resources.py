@@ -85,21 +85,27 @@ def _without_tail_3(frame: str) -> str:
     return re.sub(r"^frame 20ms.*$", f"frame {frame}", text, flags=re.M)
 
 
+def _without_tails(frame: str) -> str:
+    text = re.sub(r"^servo tail_[23] .*\n", "", HEXAPOD, flags=re.M).replace(", tail_3", "").replace(", tail_2", "")
+    return re.sub(r"^frame 20ms.*$", f"frame {frame}", text, flags=re.M)
+
+
 def test_a_frame_above_the_old_minimum_that_misses_the_model_is_refused():
-    """The serial charge grows with the frame: 9.6 ms needs more than it has, although it is above
-    the first period that holds (9.535 ms). The shortest reported is the one from which on every
+    """The serial charge grows with the frame: 8.7 ms needs more than it has, although it is above
+    the first period that holds (8.654 ms). The shortest reported is the one from which on every
     period holds, and the model is evaluated at the program's own period."""
-    fe, diags = front_end_text(_without_tail_3("9600us"))
+    fe, diags = front_end_text(_without_tails("8700us"))
     errors = [d for d in diags if d.is_error]
     assert [d.code for d in errors] == ["period-too-short"], [d.message for d in errors]
     shortest = fe.plan.min_period_us
-    assert f"{shortest / 1000:g} ms" in errors[0].message and shortest > 9600
-    fe, diags = front_end_text(_without_tail_3(f"{shortest}us"))
-    assert not [d for d in diags if d.is_error]
+    assert f"{shortest / 1000:g} ms" in errors[0].message and shortest > 8700
+    assert not [d for d in front_end_text(_without_tails("8654us"))[1] if d.code == "period-too-short"]
+    fe, diags = front_end_text(_without_tails(f"{shortest}us"))
+    assert not [d for d in diags if d.code == "period-too-short"]
     # periods from the shortest on hold the model of the code built for each
     for period in (shortest + 1, shortest + 500, shortest + 1111, shortest + 2080, shortest + 4999):
-        fe, diags = front_end_text(_without_tail_3(f"{period}us"))
-        assert fe.plan.period_holds and not [d for d in diags if d.is_error], period
+        fe, diags = front_end_text(_without_tails(f"{period}us"))       # (sends may be too close: send-overrun)
+        assert fe.plan.period_holds and not [d for d in diags if d.code == "period-too-short"], period
 
 
 @pytest.mark.toolchain
@@ -152,7 +158,7 @@ def test_serial_limits_point_at_their_causes():
 
 
 def test_a_frame_too_short_for_the_ports_is_said_before_any_send_overrun():
-    text = ("serial 4800\nframe 1ms\nservo a = P1.0\npose p { a: 10 }\npose q { a: 20 }\nmain {\n"
+    text = ("serial 4800\nframe 1ms\nservo a = P1.0\npose p { a: 240 }\npose q { a: 250 }\nmain {\n"
             '  loop { move p in 30ms; send "a"; move q in 30ms; send "b" }\n}\n')
     fe, diags = front_end_text(text)
     assert [d.code for d in diags if d.is_error] == ["period-too-short"], [d.message for d in diags]
@@ -317,5 +323,6 @@ def test_the_serial_hexapod_verifies_at_exactly_its_shortest_period_under_bursts
     import json
     assert main(["verify", "--format", "json", str(prog), "--events", str(ev)]) == 0
     data = json.loads(capsys.readouterr().out)
-    assert data["ok"] and data["max_error_cycles"] == 0 and data["bytes_sent"] >= 60, data["mismatches"][:3]
+    # the answers each checked (how many the select takes depends on the period: one a frame)
+    assert data["ok"] and data["max_error_cycles"] == 0 and data["bytes_sent"] >= 50, data["mismatches"][:3]
     assert data["period_cycles"]["min"] == data["period_cycles"]["max"] == period

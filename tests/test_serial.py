@@ -265,7 +265,7 @@ def test_the_serial_handler_is_in_the_budget():
     # 24 servos with `serial` keep one sort buffer: the work after the last sort binds, in the window
     # from the second port's rise to the first port's next one, with every run that can come in it
     assert not budget.last_in_b
-    window = slower - costs.port_span(target)
+    window = slower - budget.spans[0]
     loaded = dataclasses.replace(quiet, work=quiet.work + costs.serial_load(target, budget, window))
     assert slower == costs.frame_cycles(target, loaded)
 

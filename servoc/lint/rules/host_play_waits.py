@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ... import walk
 from ...diagnostics import Severity
+from ...flow import hosted
 from ...steps import AfterBranch, Plan, SelectStep, host_playable
 from .. import Report, rule
 
@@ -12,7 +13,7 @@ from .. import Report, rule
 def host_play_waits(plan: Plan, report: Report) -> None:
     """While a sequence `PL 0 SQ n` started plays, the bytes received are the host's: a select in it
     that waits only for bytes (no input, no `after`) would keep it playing for ever."""
-    if plan.program.serial is None:
+    if plan.program.serial is None or not hosted(plan):
         return
     names = [q.name for q in plan.program.sequences]
     told: set[int] = set()

@@ -1,0 +1,80 @@
+"""Each port's span (costs.fit_spans): a port rises the longest pulse its lines can have after the
+port before it (the highest N any of its lines reaches, flow.port_tops), and an entry of the edge
+handler; longer where the next port's sort needs it. Each program here runs in ucsim at exactly
+the shortest period servoc reports for it, every pulse exact, and that period less 1 us is refused.
+"""
+
+import dataclasses
+
+import pytest
+
+from conftest import build_text, front_end_text
+from servoc import costs
+from servoc.flow import port_tops
+from test_costs import at_period, own_minimum
+
+pytestmark = pytest.mark.toolchain
+
+CLOCKS = ["", "target stc89c52rc clock 11.0592MHz\n", "target at89c52 clock 22.1184MHz\n",
+          "target stc89c52rc clock 11.0592MHz mode 6T\n"]
+
+
+def ports_of(tops: dict[int, int], per_port: int = 8) -> str:
+    """Servos on each port, moving every frame between N 0 and their port's top, in steps so that
+    lines fall apart: the port's highest N is its top, reached in some frames."""
+    lines, a, b = [], [], []
+    for port, top in tops.items():
+        for bit in range(per_port):
+            name = f"s{port}{bit}"
+            lines.append(f"servo {name} = P{port}.{bit} speed 0.0001s/60deg")
+            a.append(f"{name}: {top * bit // max(1, per_port - 1)}")
+            b.append(f"{name}: {top - top * bit // max(1, per_port - 1)}")
+    return ("\n".join(lines) + f"\npose a {{ {', '.join(a)} }}\npose b {{ {', '.join(b)} }}\n"
+            + "main { loop { move b in {1P}us; move a in {1P}us } }\n")
+
+
+def check_at_minimum(template: str, start: int) -> tuple:
+    period = own_minimum(template, start)
+    built = build_text(at_period(template, period))
+    assert built.plan.period_us == built.plan.min_period_us == period
+    report = built.verify(100)
+    assert report.ok and report.max_error_cycles == 0, (period, report.summary(), [str(m) for m in report.mismatches[:5]])
+    _, diags = front_end_text(at_period(template, period - 1))
+    assert "period-too-short" in [d.code for d in diags if d.is_error]
+    return built, period
+
+
+@pytest.mark.parametrize("clock", CLOCKS)
+def test_three_ports_of_different_reach_verify_at_their_minimum(clock):
+    template = clock + ports_of({0: 120, 1: 250, 2: 180})
+    built, period = check_at_minimum(template, 9000 if clock else 20000)
+    target, unit = built.plan.program.target, built.firmware.unit
+    assert port_tops(built.plan) == (120, 250, 180)
+    b = unit.budget
+    for k, top in enumerate((120, 250, 180)):       # its longest pulse, or what the next port's sort needs
+        sort_need = b.sorts[k + 1] + b.rises[k] + b.falls[k] if k + 1 < (2 if b.last_in_b else 3) else 0
+        assert b.spans[k] == max(costs.port_span(target, top), sort_need)
+    assert unit.rise_offsets == (0, unit.budget.spans[0], sum(unit.budget.spans[:2]))
+    full = costs.frame_cycles(target, dataclasses.replace(b, spans=()))    # every port's span for N 250
+    assert costs.frame_cycles(target, b) <= full and (clock or costs.frame_cycles(target, b) < full)
+
+
+def test_a_span_is_longer_where_the_next_ports_sort_needs_it():
+    # P0's lines stay within N 0..10 (a 691-cycle span at 12 MHz), but the sort of P1's eight lines
+    # and P0's own edges need more time between the two rises: P0's span grows to hold them
+    template = ports_of({0: 10, 1: 250})
+    built, period = check_at_minimum(template, 20000)
+    target, budget = built.plan.program.target, built.firmware.unit.budget
+    assert budget.spans[0] > costs.port_span(target, 10)
+    load = budget.rises[0] + budget.falls[0]
+    assert budget.spans[0] == budget.sorts[1] + load and budget.spans[1] == costs.port_span(target)
+
+
+def test_host_lines_reach_what_the_limits_allow():
+    # `host` can put each line anywhere its limit allows: P1's span holds 120deg (N 162), P2's the
+    # whole range
+    text = ("serial 4800\nhost ssc32\ninput stop = P3.2\nservo a = P1.0 limit 30deg..120deg\n"
+            "servo b = P2.0\npose mid { a: 90deg, b: 90deg }\nhome mid\nmain { host until press stop }\n")
+    fe, diags = front_end_text(text)
+    assert fe.plan is not None and not [d for d in diags if d.is_error], diags
+    assert port_tops(fe.plan) == (162, 250)
