@@ -998,12 +998,22 @@ def plan_data(plan: Plan, source) -> dict:
                                      for c in sorted(plan.channels, key=lambda c: host_channel(c.servo))],
                         "sequences": [q.name for q in plan.program.sequences],
                         "playable": list(host_playable(plan.program))}
+    if len(plan.rise_offsets) == len(plan.ports) > 1:
+        data["ports"] = _port_rises(plan)
     if plan.cuts:
         data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
                                   "servos": [{"servo": c.name, "low": lo, "high": hi, "unset": unset}
                                              for c, (lo, hi, unset) in _ranges(plan, hull)]}
                                  for st, hull in plan.cuts]
     return data
+
+
+def _port_rises(plan: Plan) -> list[dict]:
+    """Each port's rise in the frame (µs from the first port's) and the highest N its lines reach."""
+    from .flow import port_tops
+    cycle = plan.program.target.cycle_us
+    return [{"port": p, "rise_us": round(float(r * cycle), 3), "top": t}
+            for p, r, t in zip(plan.ports, plan.rise_offsets, port_tops(plan))]
 
 
 def startup_frames(plan: Plan) -> int:
@@ -1047,6 +1057,9 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
         ms_text = "-" if frames is None else f"{frames * plan.period_us / 1000:.1f}"
         lines.append((line, 0, f"{line:>5}  {head:<14} {f_text:>6} {ms_text:>9}  {what}"))
     out += [text for _, _, text in sorted(lines, key=lambda x: (x[0], x[1]))]
+    if len(plan.rise_offsets) == len(plan.ports) > 1:        # where each port's pulses begin in the frame
+        out.append("ports: " + ", ".join(f"P{r['port']} rises at {fmt_ms(r['rise_us'])} (its lines reach N {r['top']})"
+                                         for r in _port_rises(plan)))
     if plan.startup:
         frames = startup_frames(plan)
         how = (f"`home {plan.program.home.name}`" if plan.program.home is not None

@@ -78,3 +78,20 @@ def test_host_lines_reach_what_the_limits_allow():
     fe, diags = front_end_text(text)
     assert fe.plan is not None and not [d for d in diags if d.is_error], diags
     assert port_tops(fe.plan) == (162, 250)
+
+
+def test_plan_says_where_each_port_rises(tmp_path, capsys):
+    import json
+    from servoc import cli
+    prog = tmp_path / "two.servo"
+    prog.write_text(ports_of({1: 100, 2: 250}).replace("{1P}", "20000"))
+    assert cli.main(["plan", str(prog)]) == 0
+    out = capsys.readouterr().out
+    # P1's lines reach N 100: its span is C(100) + 111 = 1411 cycles (12 MHz: us), if its sort fits
+    fe, _ = front_end_text(prog.read_text())
+    span = fe.plan.rise_offsets[1]
+    assert span >= 1411
+    assert f"ports: P1 rises at 0 ms (its lines reach N 100), P2 rises at {span / 1000:g} ms (its lines reach N 250)" in out
+    assert cli.main(["plan", "--json", str(prog)]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["ports"] == [{"port": 1, "rise_us": 0.0, "top": 100}, {"port": 2, "rise_us": float(span), "top": 250}]
