@@ -269,7 +269,7 @@ def main() -> None:
             p = shortest_exact_period(ports, per_port, rf)
             print(f"ports={ports} servos={ports * per_port:2d} runtime_f={rf!s:5}: shortest exact P = {p} us "
                   f"(servoc reports {budget_period(ports, per_port, rf)} us), "
-                  f"{p - pulse_floor(ports)} cycles over the pulses alone", flush=True)
+                  f"{p - pulse_floor(ports)} cycles over the pulses at N 250", flush=True)
 
 
 if __name__ == "__main__":

@@ -289,7 +289,7 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
         rows += [
             (f"servoc: shortest P reported / shortest exact in ucsim / difference, {name} (us)", "", "",
              f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{res} / {x['difference_us']:+d} ({_over(x)})"),
-            (f"servoc: cycles over the pulses alone (shortest exact P - ports x {SPAN}), {name}", "", "",
+            (f"servoc: cycles over the pulses at N 250 (shortest exact P - ports x {SPAN}; below 0: the spans fitted to the lines are shorter), {name}", "", "",
              f"{x['over_pulses_cycles']}{res}"),
         ]
         if not kind:
