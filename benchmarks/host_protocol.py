@@ -11,7 +11,8 @@
    and `servoc verify` must find every pulse and reply exact.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
-   the same servos without `host`; and what `servoc lint` says where a configuration is refused.
+   the same servos without `host` (moved by bytes between their home and N 250, as far as a host
+   can move them); and what `servoc lint` says where a configuration is refused.
 """
 
 from __future__ import annotations
@@ -94,7 +95,9 @@ def periods() -> list[str]:
             pose = "pose p { " + ", ".join(f"s{i}: {40 + 20 * i}" for i in range(count)) + " }\n"
             head = f"target stc89c52rc clock {clock}\nserial {baud}\n"
             with_host = head + "host ssc32\n" + servos + pose + "home p\nmain {\n  host\n}\n"
-            without = head + servos + pose + "home p\nmain {\n  loop { select { on \"x\" { } } }\n}\n"
+            far = "pose q { " + ", ".join(f"s{i}: 250" for i in range(count)) + " }\n"     # anywhere, as the host
+            without = (head + servos + pose + far + "home p\nmain {\n  loop { select { on \"x\" { move q } "
+                       "on \"y\" { move p } } }\n}\n")
             cells = []
             for text in (with_host, without):
                 fe, firmware, reporter = build(text)
