@@ -998,7 +998,7 @@ def plan_data(plan: Plan, source) -> dict:
                                      for c in sorted(plan.channels, key=lambda c: host_channel(c.servo))],
                         "sequences": [q.name for q in plan.program.sequences],
                         "playable": list(host_playable(plan.program))}
-    if len(plan.rise_offsets) == len(plan.ports) > 1:
+    if len(plan.rise_offsets) == len(plan.ports) > 0:
         data["ports"] = _port_rises(plan)
     if plan.cuts:
         data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
