@@ -537,7 +537,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         if spans != e["spans"]:
             _set_rises(e, plan, period_cycles, spans)
             text = lay_out()
-        budget = dataclasses.replace(budget, spans=spans)
+        budget = dataclasses.replace(budget, spans=spans, tops=tops)
     offsets = tuple(costs.rise_offsets(plan.ports, target, spans).values())
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for

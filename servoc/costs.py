@@ -44,6 +44,7 @@ their own minimum.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -84,9 +85,23 @@ def fit_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int, ...
     """Each port's span: its longest pulse, the highest N its lines can reach (`tops`, in port
     order: flow.port_tops), then an entry of its own; longer where the sort of the port after it
     in buffer A (its sort, the port's handler load, the serial handler's runs in that time) needs
-    more time between the two rises."""
+    more time between the two rises. With a serial line whose bytes the edge handler would keep
+    waiting too long, each span also leaves the serial handler the time to take a byte between its
+    port's last edge and the next port's rise (`busy_stretch`), where that makes it short enough."""
+    spans = _fit_spans(target, budget, tops, 0)
+    if budget.byte_cycles:
+        late = serial_latency(target, dataclasses.replace(budget, spans=spans, tops=tops))
+        if late > rx_gap(budget.byte_cycles):
+            apart = _fit_spans(target, budget, tops, serial_gap(budget) - 1)
+            if serial_latency(target, dataclasses.replace(budget, spans=apart, tops=tops)) < late:
+                return apart
+    return spans
+
+
+def _fit_spans(target, budget: "Budget", tops: tuple[int, ...], gap: int) -> tuple[int, ...]:
+    """`fit_spans` with `gap` more cycles than its longest pulse and an entry in each span."""
     m = len(budget.lines)
-    spans = [port_span(target, top) for top in tops]
+    spans = [port_span(target, top) + gap for top in tops]
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
     for j in range(1, m - 1 if budget.last_in_b else m):
         need = spans[j - 1]
@@ -253,6 +268,7 @@ class Budget:
     serial_sends: bool = False  # the program sends: the serial handler also runs for each byte that goes out
     last_in_b: bool = False     # the last port has sort buffer B: frame_io sorts it before the others
     spans: tuple[int, ...] = ()     # each port's rise to the next one's (`fit_spans`; none: N 250 each)
+    tops: tuple[int, ...] = ()      # the highest N each port's lines reach (flow.port_tops; none: 250)
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -366,18 +382,34 @@ def busy_stretch(target, budget: Budget) -> int:
     """The longest time the edge handler (of high priority) can keep the CPU from the serial
     handler: one port's lines, each an entry of at most SPLIT cycles (or a step shorter than it),
     ending just before the next port's rise, and that rise's entry; when the gap the rise leaves
-    before the earliest fall is too short for the serial handler to take a byte, that port's lines
-    as well."""
+    before the earliest fall is too short for the serial handler to take a byte (`serial_gap`),
+    that port's lines as well. Where a port's span leaves that gap after its longest pulse's exit,
+    before the next port's rise, its lines and that rise are apart."""
     m = len(budget.lines)
     c0 = target.width_cycles(0)
+    need = serial_gap(budget)
     worst = 0
     for k in range(m):
         nxt = (k + 1) % m
-        stretch = SPLIT * budget.lines[k] + budget.rises[nxt]
-        if c0 - budget.rises[nxt] < SERIAL_WAIT + budget.serial_head:
-            stretch += c0 - budget.rises[nxt] + SPLIT * budget.lines[nxt]
-        worst = max(worst, stretch)
+        rise = budget.rises[nxt]
+        if c0 - budget.rises[nxt] < need:
+            rise += c0 - budget.rises[nxt] + SPLIT * budget.lines[nxt]
+        chain = SPLIT * budget.lines[k]
+        worst = max(worst, chain, rise) if span_slack(target, budget, k) + 1 >= need else max(worst, chain + rise)
     return worst
+
+
+def serial_gap(budget: Budget) -> int:
+    """The time between two runs of the edge handler in which the serial handler surely takes a
+    byte: the instruction under way, a run for TI under way (when the program sends), its head."""
+    return SERIAL_WAIT + (budget.serial_run if budget.serial_sends else 0) + budget.serial_head
+
+
+def span_slack(target, budget: Budget, k: int) -> int:
+    """Cycles port k's span has beyond its longest pulse and an entry (0 where not known)."""
+    if not budget.spans or not budget.tops:
+        return 0
+    return budget.spans[k] - port_span(target, budget.tops[k])
 
 
 def serial_latency(target, budget: Budget) -> int:
