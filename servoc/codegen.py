@@ -525,18 +525,22 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if hosting:
         breakdown["host: the S table T(|delta|)"] = 3 * 256
     motions, starts = port_motions(plan), move_starts(plan)
-    budget, work_from = frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
-                                     tuple(costs.port_load(target, motions[p]) for p in plan.ports),
-                                     None if len(plan.ports) != 1 or starts[plan.ports[0]] is None
-                                     else costs.start_loads(target, starts[plan.ports[0]]),
-                                     0 if s is None else s["byte_cycles"], bport is not None,
-                                     uses["sends"], uses["holds"])
+    def measure(text: str):
+        return frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
+                            tuple(costs.port_load(target, motions[p]) for p in plan.ports),
+                            None if len(plan.ports) != 1 or starts[plan.ports[0]] is None
+                            else costs.start_loads(target, starts[plan.ports[0]]),
+                            0 if s is None else s["byte_cycles"], bport is not None,
+                            uses["sends"], uses["holds"])
+    budget, work_from = measure(text)
     spans = e["spans"]
-    if budget is not None:      # a port's span longer where the next port's sort needs it (the code's
-        spans = costs.fit_spans(target, budget, tops)       # cycles do not depend on the spans)
-        if spans != e["spans"]:
+    if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
+        spans = costs.fit_spans(target, budget, tops)
+        if spans != e["spans"]:     # the spans are immediates: the code's cycles must not change
             _set_rises(e, plan, period_cycles, spans)
             text = lay_out()
+            if measure(text) != (budget, work_from):
+                raise RuntimeError("the code laid out again for its spans takes other cycles than before")
         budget = dataclasses.replace(budget, spans=spans, tops=tops)
     offsets = tuple(costs.rise_offsets(plan.ports, target, spans).values())
     if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
@@ -639,8 +643,6 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         # built for size, a port whose servos are its pins 0, 1, ... loads its pairs in a loop
         ports[-1]["looped"] = plan.compact and [pin["bit"] for pin in ports[-1]["pins"]] == list(range(ports[-1]["s"]))
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
-    e_ports = {"ports": ports}
-    _set_rises(e_ports, plan, period_cycles, spans)
     most = _most_lines(plan)
     ram.symbols += [("WN", layout.SORT_BASE, "sort buffer A: N of pair i at WN + 2i (distinct N, ascending, once sorted)"),
                     ("WM", layout.SORT_BASE + 1, "sort buffer A: the lines of pair i at WM + 2i")]
@@ -662,7 +664,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
                  "MOVC    A, @A+DPTR", "XCH     A, R7", "INC     DPH", "MOVC    A, @A+DPTR", "XCH     A, R7"]
     table = [] if target.grid else ["MOV     DPTR, #ctab"]
     sizes = sorted({p["s"] for p in ports})
-    return {
+    e = {
         "window": 2 ** costs.WINDOW_BITS, "cascade": [(k, 2 ** k) for k in range(costs.WINDOW_BITS)],
         "stop": costs.STOP, "add": costs.STOP + 1,        # ~interval + STOP + 1 = 65536 - interval + STOP
         "entry": costs.ENTRY, "split": costs.SPLIT, "sled_add": costs.SLED + 8,   # ~gap + SLED + 8 = SLED + 7 - gap
@@ -676,15 +678,16 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
                    "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in costs.SORTING_NETWORKS[n]]}
                   for n in sizes],
-        "spans": spans,
     }
+    _set_rises(e, plan, period_cycles, spans)
+    return e
 
 
 def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) -> None:
     """Each port's rise in the engine's numbers `e`: from the first port's, each `spans` after the
     one before; the next port's rise after it (the first's, a frame later, after the last)."""
     rise = costs.rise_offsets(plan.ports, plan.program.target, spans)
-    for k, p in enumerate(e["ports"]):
+    for p in e["ports"]:
         p["rise"] = rise[p["port"]]
         p["rnext"] = (period_cycles if p["last"] else rise[p["next_port"]]) - p["rise"]
         p["rest_add"] = (costs.STOP - p["rnext"]) % 0x10000   # no fall: straight to the next rise

@@ -77,8 +77,21 @@ def port_span(target, top: int = 250) -> int:
 def rise_offsets(ports: tuple[int, ...], target, spans: tuple[int, ...] = ()) -> dict[int, int]:
     """Cycles from the first port's rise to each port's rise: each port `spans` after the one
     before (`fit_spans`; none given: every port's longest pulse N 250)."""
-    spans = spans or (port_span(target),) * len(ports)
-    return {port: sum(spans[:k]) for k, port in enumerate(ports)}
+    return dict(zip(ports, _rises(target, spans, len(ports))))
+
+
+def _rises(target, spans: tuple[int, ...], m: int) -> list[int]:
+    """Each of `m` ports' rise from the first port's, in port order, then the end of the last
+    port's span (no `spans`: each N 250's)."""
+    spans = spans or (port_span(target),) * m
+    return [sum(spans[:k]) for k in range(m + 1)]
+
+
+def _sort_need(target, budget: "Budget", j: int, span: int) -> int:
+    """What must fit in the span of the port before port j (j >= 1) for port j's sort to be there
+    before its rise: that sort, the port before's handler load, the serial handler's runs."""
+    runs = serial_load(target, budget, span) if budget.byte_cycles else 0
+    return budget.sorts[j] + handler_load(budget.rises[j - 1], budget.falls[j - 1]) + runs
 
 
 def fit_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int, ...]:
@@ -102,16 +115,9 @@ def _fit_spans(target, budget: "Budget", tops: tuple[int, ...], gap: int) -> tup
     """`fit_spans` with `gap` more cycles than its longest pulse and an entry in each span."""
     m = len(budget.lines)
     spans = [port_span(target, top) + gap for top in tops]
-    load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
     for j in range(1, m - 1 if budget.last_in_b else m):
-        need = spans[j - 1]
-        while True:
-            runs = serial_load(target, budget, need) if budget.byte_cycles else 0
-            more = budget.sorts[j] + load[j - 1] + runs
-            if more <= need:
-                break
-            need = more
-        spans[j - 1] = need
+        while (more := _sort_need(target, budget, j, spans[j - 1])) > spans[j - 1]:
+            spans[j - 1] = more
     return tuple(spans)
 
 
@@ -308,7 +314,7 @@ def _first_failing(target, budget: Budget, period: int) -> int | None:
     time, so once a step holds with a run to spare, every longer period does."""
     gap, reach = rx_gap(budget.byte_cycles), run_reach(target, budget)
     m = len(budget.lines)
-    rise = _rises(target, budget)
+    rise = _rises(target, budget.spans, m)
     offsets = {0} if m == 0 else {0, rise[m - 1], rise[max(0, m - 2)]}
     # (spacing, shift): a window's count of runs steps where its length crosses shift mod spacing
     steps = {(gap, 1)} | ({(gap, 1 - reach)} if reach is not None else set()) | \
@@ -337,7 +343,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     m = len(budget.lines)
     if m == 0:
         return budget.work + runs(period)
-    rise = _rises(target, budget)
+    rise = _rises(target, budget.spans, m)
     span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
     frame = sum(budget.sorts) + budget.work + sum(load)
@@ -353,16 +359,10 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
             need.append(rise[m - 2] + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
                         + runs(period - rise[m - 2]))
     for j in range(1, m - 1 if budget.last_in_b else m):   # each later port's sort in A fits between the rise before and its own
-        if budget.sorts[j] + load[j - 1] + runs(span[j - 1]) > span[j - 1]:
+        if _sort_need(target, budget, j, span[j - 1]) > span[j - 1]:
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
                           f"handler's {runs(span[j - 1])}) does not fit between the rise before it and its own")
     return max(need)
-
-
-def _rises(target, budget: Budget) -> list[int]:
-    """Each port's rise from the first port's, in port order, then the end of the last port's span."""
-    spans = budget.spans or (port_span(target),) * len(budget.lines)
-    return [sum(spans[:k]) for k in range(len(spans) + 1)]
 
 
 class TooSlow(Exception):
