@@ -705,10 +705,11 @@ def _structured_host_program(seed: int) -> str:
 def test_any_structured_host_program_lint_accepts_builds_and_verifies():
     # selects, meanwhile bodies, sequences and sends around and inside `host`, 16 programs: the
     # front end never fails (a program error is a diagnostic); every program lint accepts builds,
-    # and a session of group lines, Q, QP, PL, bytes and input edges verifies (seed 33 once
-    # stopped the code generator on its own stack bound)
+    # and a session of group lines, Q, QP, PL, STOP while a sequence may play, bytes and input
+    # edges verifies (seed 33 once stopped the code generator on its own stack bound)
     scenario = ('0.1s "#0P1000S800#1P2000T300\\r"\n0.3s "Q\\r"\n0.4s "PL 0 SQ 0\\r"\n0.6s go active\n0.7s "x"\n'
-                '0.9s go inactive\n1.1s "PL 0 SQ 1\\r"\n1.3s "QP 0\\r"\n1.6s stop active\n1.9s stop inactive\n'
+                '0.9s go inactive\n1.1s "PL 0 SQ 1\\r"\n1.2s "STOP\\r"\n1.3s "QP 0\\r"\n1.6s stop active\n'
+                '1.9s stop inactive\n'
                 '2.2s go active\n')
     verified = 0
     for seed in range(33, 49):
