@@ -60,7 +60,7 @@ def test_the_wheel_runs_every_command(installed, tmp_path):
     origin = subprocess.run([str(py), "-c", "import servoc, servoc.imports; print(servoc.__file__)"],
                             cwd=tmp_path, capture_output=True, text=True, check=True).stdout
     assert str(ROOT) not in origin and str(installed) in origin, origin
-    for name in ("biped.servo", "serial_arm.servo", "ssc32_arm.servo"):
+    for name in ("biped.servo", "serial_arm.servo", "ssc32_arm.servo", "hexapod.servo"):
         shutil.copy(ROOT / "examples" / name, tmp_path / name)
     for name in ("serial_arm.events", "ssc32_arm.events"):
         shutil.copy(ROOT / "examples" / "events" / name, tmp_path / name)
@@ -78,3 +78,6 @@ def test_the_wheel_runs_every_command(installed, tmp_path):
         said[args[0]] = done.stdout
     assert (tmp_path / "b.hex").read_text().startswith(":") and (tmp_path / "wave.servo").exists()
     assert "serial: /dev/pts/" in said["sim"] and "0.50 s simulated" in said["sim"] and "view:" in said["sim"]
+    # three ports, each rising its fitted span after the one before
+    hexapod = servoc(installed, tmp_path, "plan", "hexapod.servo")
+    assert hexapod.returncode == 0 and "ports: P0 rises at 0 ms (its lines reach N 149)" in hexapod.stdout, hexapod.stdout
