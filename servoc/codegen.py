@@ -404,15 +404,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     ram = layout.RamAllocator(state_base - stack_bytes, layout.work_base(nports))     # what the stack leaves
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
-    framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED"), 0)
+    framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED, and BFULL and TXON where used"), 0)
     ram.next = layout.work_base(nports)
-    host_vars = list(HOST_VARS) if hosting else []
-    if serial is not None:      # first, at a multiple of its size: the serial handler indexes it with ORL
-        assert ram.next % 8 == 0
-        while host_vars and host_vars[0][1] <= -ram.next % rxq:    # the host's variables fill the gap before it
-            ram.alloc(*host_vars.pop(0))
-        ram.next += -ram.next % rxq         # flow.host_ram counts what is left of the gap
-        ram.alloc("RXQ", rxq, "the receive queue")
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
     ram.alloc("FLEFT", 2, "frames left in the current move or hold")
     if uses["eased"]:
@@ -434,7 +427,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     _engine_ram(ram)
     s = None if serial is None else _serial(serial, ram, uses["sends"], rxq)
     if hosting:
-        for var in host_vars:
+        for var in HOST_VARS:
             ram.alloc(*var)
         for name, size, what in HOST_ARRAYS:
             ram.alloc(name, size * len(plan.channels), what, direct=False)
@@ -442,6 +435,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
         ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
+    if s is not None:
+        s.update(_rx_ring(ram.alloc("RXQ", rxq + 1, f"the receive queue: {rxq} bytes in a ring of {rxq + 1} slots",
+                                    direct=False), rxq))
     stack_base = ram.next
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base
@@ -487,7 +483,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
-                  ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit, bfull_bit=framed_bit + 1,
+                  ram=ram.symbols, flag_bits=layout.flag_equates(), framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2,
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,
@@ -553,7 +549,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         except layout.SerialTooFast as exc:
             limits.append(exc)
     try:
-        shortest = None if budget is None else target.us_at_least(costs.frame_cycles(target, budget))
+        shortest = None if budget is None else target.us_at_least(_send_floor(plan, budget, costs.frame_cycles(target, budget)))
         period_holds = budget is None or costs.holds(target, budget, period_cycles)
     except costs.TooSlow as exc:
         if s is None:
@@ -734,9 +730,9 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
         rises = tuple(costs.ENTRY + 2 + code.longest(f"emit_p{p}", exits) + code.longest_exit(exits)
                       for p in ports)
         serial = {}
-        if byte_cycles:     # from the vector: its LCALL (2) and LJMP (2)
-            serial = {"serial_run": 4 + code.longest("uart_isr", set()),
-                      "serial_head": 4 + code.straight("uart_isr", "ui_got") + 1,
+        if byte_cycles:     # from the vector's LCALL (2): the handler is at the vector
+            serial = {"serial_run": 2 + code.longest("uart_isr", set()),
+                      "serial_head": 2 + code.straight("uart_isr", "ui_got") + 1,
                       "byte_cycles": byte_cycles, "serial_sends": sends}
     except wcet.WcetError as exc:
         return None, str(exc)
@@ -757,24 +753,30 @@ def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int) -> dict:
     the other buffers). `sending`: the program sends (else no transmit side); `rxq`: the receive
     queue's size."""
     q = costs.QUEUE
-    ram.alloc("RXW", 1, "bytes received and queued (counts on)")
-    ram.alloc("RXR", 1, "bytes the program took from the receive queue (counts on)")
+    ram.alloc("RXW", 1, "the receive queue's slot for the next byte received")
+    ram.alloc("RXR", 1, "the receive queue's slot of the oldest byte (RXW: none)")
     ram.alloc("RXB", 1, "the byte just received")
     if sending:
         ram.alloc("TXW", 1, "bytes the program queued to send (counts on)")
         ram.alloc("TXR", 1, "bytes the serial handler sent from the queue (counts on)")
-        ram.alloc("TXON", 1, "1 while a byte is on the line")
     return {"baud": serial.baud, "th1": serial.th1, "smod": serial.smod, "rate": f"{float(serial.actual):.1f}",
             "byte_cycles": target_mod.byte_cycles(serial.th1, serial.smod), "queue": q, "mask": q - 1,
-            "full_bit": q.bit_length() - 1, "sends": sending, "rxq": rxq, "rxmask": rxq - 1}
+            "full_bit": q.bit_length() - 1, "sends": sending, "rxq": rxq}
+
+
+def _rx_ring(base: int, rxq: int) -> dict:
+    """The receive queue's ring at `base`: `rxq` bytes in rxq + 1 slots; the address past its last
+    slot (rx_end), and what turns rx_end into base under XRL (rx_wrap)."""
+    end = base + rxq + 1
+    assert end <= layout.RAM_SIZE
+    return {"rx_end": end & 0xFF, "rx_wrap": base ^ (end & 0xFF)}
 
 
 HOST_WORDS = ("P", "PO", "S", "T", "Q", "QP", "V", "VE", "VER", "ST", "STO", "STOP", "PL", "SQ")
 assert HOST_WORDS[:4] == ("P", "PO", "S", "T")      # host_item: the words below T are an entry's options
 
 
-# The variables of host.asm.j2 (flow.HOST_VARS bytes; the first 8 fill the gap before a 16-byte
-# receive queue) and its per-servo arrays (flow.HOST_PER_SERVO bytes a servo).
+# The variables of host.asm.j2 (flow.HOST_VARS bytes) and its per-servo arrays (flow.HOST_PER_SERVO bytes a servo).
 HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: more flags"),
              ("HW", 1, "host parser: the word being read"), ("HNUM", 2, "host parser: the number"),
              ("HCH", 1, "host parser: the servo of the open entry (0xFF: none)"),
@@ -847,15 +849,32 @@ def _check_serial_rate(plan: Plan, budget: costs.Budget) -> None:
                  ", or fewer servo lines on one port, or a faster crystal", span=serial.span)
 
 
+def _send_need(plan: Plan, budget: costs.Budget) -> int:
+    """A run of sends leaves the line free for the next if its bytes are out before it comes: the
+    cycles that takes after the run's first byte is queued (0: the program never sends)."""
+    if plan.program.serial is None or not budget.byte_cycles:
+        return 0
+    return send_run(plan) * budget.byte_cycles + costs.serial_latency(plan.program.target, budget)
+
+
+def _send_floor(plan: Plan, budget: costs.Budget, shortest: int) -> int:
+    """`shortest` (cycles), or the period from which on the runs of sends, `send_gap` frames apart
+    at the fewest, leave the line time for theirs (`_check_sends`) when that is longer."""
+    need = _send_need(plan, budget)
+    if not need:
+        return shortest
+    cap = -(-(need + budget.work) // shortest) + 1       # a gap this long or longer needs no more
+    gap = send_gap(plan, cap)
+    return shortest if gap >= cap else max(shortest, -(-(need + budget.work) // gap))
+
+
 def _check_sends(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
     """The bytes sent never outrun the line (costs.py), at the program's sends."""
     serial = plan.program.serial
-    late = costs.serial_latency(plan.program.target, budget)
     run = send_run(plan)
     if run:
-        # A run of sends leaves the line free for the next if its bytes are out before it comes:
-        # the next run comes `gap` frames later, less the work that can come before it.
-        need = run * budget.byte_cycles + late
+        # the next run comes `gap` frames later, less the work that can come before it
+        need = _send_need(plan, budget)
         cap = -(-(need + budget.work) // period_cycles) + 1
         gap = send_gap(plan, cap)
         if need > gap * period_cycles - budget.work:

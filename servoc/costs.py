@@ -371,7 +371,8 @@ class TooSlow(Exception):
 
 # ---------------------------------------------------------------- the serial line (serial.asm.j2)
 QUEUE = 4                       # bytes each of the receive and the transmit queue holds
-SERIAL_RAM = 2 * QUEUE + 6      # the queues, their four counters, RXB and TXON: taken from the stack
+SERIAL_RAM = 2 * QUEUE + 6      # the queues (the receive ring has a slot more), their four counters and
+                                # RXB: taken from the stack
 SERIAL_STACK = 5                # the serial handler: its LCALL, PSW, ACC, R0 (the edge handler may come on top)
 # Before a pending serial interrupt is taken: the instruction under way (at most 4 cycles,
 # MUL or DIV; or the one that always follows a RETI). Its vector's LCALL is in serial_head.

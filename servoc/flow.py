@@ -94,14 +94,14 @@ def host_passes(plan: Plan) -> int:
 
 
 def host_queue(plan: Plan) -> int:
-    """The receive queue's size while `host` runs: a power of two that holds the bytes of two frames
-    and two more (the parser's runs are a frame apart on average, and at most two apart); the
-    selects' QUEUE without `host`."""
+    """The bytes the receive queue holds while `host` runs: the bytes of two frames and two more
+    (the parser's runs are a frame apart on average, and at most two apart); the selects' QUEUE
+    without `host`."""
     from . import costs
     if plan.program.serial is None or not hosted(plan):
         return costs.QUEUE
     need = -(-2 * plan.program.target.cycles(plan.period_us) // _host_gap(plan)) + 2
-    return max(costs.QUEUE, 1 << (need - 1).bit_length())
+    return max(costs.QUEUE, need)
 
 
 def _host_gap(plan: Plan) -> int:
@@ -116,10 +116,7 @@ def host_ram(plan: Plan) -> int:
     if not hosted(plan):
         return 0
     from . import costs
-    q = host_queue(plan)
-    pad = max(0, q - 16)    # the queue starts at a multiple of its size; the parser's variables fill the gap
-                            # before it (RAM is laid out 8 bytes at a time: the gap is 0 or 8 bytes for 16)
-    return HOST_VARS + HOST_PER_SERVO * len(plan.channels) + q - costs.QUEUE + pad
+    return HOST_VARS + HOST_PER_SERVO * len(plan.channels) + host_queue(plan) - costs.QUEUE
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:

@@ -12,8 +12,9 @@ RAM (AT89C52, 256 bytes):
     0x2D-0x2F  F of the current move
     0x30-      CUR: the current N of pin p at CUR_BASE + p, 8 bytes for each port in use
                (p = 8 x the port's place among the ports in use + bit: `ram_pin`)
-    then       direct variables (those the program uses: the receive queue first, at a
-               multiple of its size) and the handler's items, allocated in order
+    then       direct variables (those the program uses), then the buffers reached only
+               through @R0/@R1 (the handler's items, the transmit queue, the receive ring),
+               allocated in order
     then       the stack, growing up from where they end to STATE: at least
                `costs.stack_room` (46 bytes with three ports, 40 more for each port fewer)
                less the serial line's and the selects' RAM; with three ports, where the

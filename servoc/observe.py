@@ -36,7 +36,7 @@ HOST_BYTE_RAM = 0x02            # bank 0 R2: the byte host_byte is reading (`hb_
 # in 34..38, the source from 40.
 _LABEL = re.compile(r"^([A-Za-z_]\w*)::?\s*(.*)$")
 _EQU = re.compile(r"^(RXQ|RXR|RXW|RXB|HLINE|TXW|TXR|HPLAY)\s*=\s*0x([0-9A-Fa-f]+)", re.M)
-_QUEUE = re.compile(r"RXQ is a multiple of (\d+)")
+_QUEUE = re.compile(r"The receive ring: (\d+) slots at RXQ")
 
 
 class ProbeError(Exception):
@@ -50,7 +50,8 @@ class Probes:
     meaning: dict[int, list[tuple[str, str, int | None]]]  # tag -> what reaching it means, in order:
                                                            # (kind, select label, branch or outcome)
     selects: dict[str, object]                             # label -> its SelectStep
-    queue: int = 0                                         # the receive queue's size (0: no serial line)
+    queue: int = 0                                         # the receive ring's slots (0: no serial line)
+    ring: int = 0                                          # its first slot's address (RXR, RXW name slots)
     code: dict[int, bytes] = field(default_factory=dict)   # address -> the code bytes there, to check a HEX
 
 
@@ -160,7 +161,7 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
         add(labels["ui_drop"], RX_END, "", None, rx_state)
     for tag in meaning:                        # at one address, a branch is entered before a select in it is reached
         meaning[tag].sort(key=lambda m: (m[0] == REACH))
-    return Probes(tuple(points), meaning, by_label, queue,
+    return Probes(tuple(points), meaning, by_label, queue, equ.get("RXQ", 0),
                   {a: code[a] for a, _, _ in points if a in code})
 
 
@@ -245,13 +246,14 @@ class Observation:
 
 
 class _Counter:
-    """Unwraps an 8-bit counter that only counts on (by less than 256 between two reads)."""
+    """Counts the slots a pointer into the receive ring has moved on (by less than a turn of the
+    ring between two reads): the bytes put in (RXW) or taken out (RXR) since the reset."""
 
-    def __init__(self) -> None:
-        self.value = 0
+    def __init__(self, slots: int, base: int) -> None:
+        self.value, self.slots, self.base = 0, max(1, slots), base
 
     def __call__(self, raw: int) -> int:
-        self.value += (raw - self.value) & 0xFF
+        self.value += (raw - self.base - self.value) % self.slots
         return self.value
 
 
@@ -260,7 +262,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
     active: dict[str, Visit] = {}
     received: list[Received] = []
     problems: list[str] = []
-    rxr, rxw = _Counter(), _Counter()
+    rxr, rxw = _Counter(probes.queue, probes.ring), _Counter(probes.queue, probes.ring)
     pending = None
     hosts: list[HostVisit] = []
     host_queued = 0
@@ -303,7 +305,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
                 other.cut = True            # in its meanwhile body, which the branch cut short
                 del active[other.label]
         elif kind == RX_GOT:
-            pending = (p.cycle, p.ram[0], (p.ram[2] - p.ram[1]) & 0xFF, p.ram[2])
+            pending = (p.cycle, p.ram[0], (p.ram[2] - p.ram[1]) % probes.queue, p.ram[2])
         elif kind == RX_END and pending is not None:
             received.append(Received(pending[0], pending[1], pending[2], p.ram[1] != pending[3]))
             rxw(p.ram[1])

@@ -175,7 +175,8 @@ def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:
 
 
 def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
-    """The first `repeat` or `play`, in program order, at level limit + 1; None if there is none."""
+    """The first `repeat` or `play`, in program order, at level limit + 1, or the `select` whose
+    frame, kept while its meanwhile body runs, reaches it; None if there is none."""
     memo: dict = {}
     used = 0
     while True:
@@ -192,6 +193,8 @@ def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
                 under = [(b, used) for b in blocks(st)]
                 if k == "select" and getattr(st, "meanwhile", None) is not None:
                     under[-1] = (under[-1][0], used + (select_frame(st) + 1) // 2)
+                    if under[-1][1] > limit:
+                        return st
                 deep = next(((b, u) for b, u in under if u + nesting(b, body_of, memo) > limit), None)
                 if deep is not None:
                     body, used = deep

@@ -76,7 +76,7 @@ def test_the_frame_limit_follows_the_clock():
 
 
 def test_lint_finds_what_compile_finds_without_the_assembler():
-    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\n" +
+    text = ("target stc89c52rc clock 11.0592MHz\nserial 19200\n" +
             "".join(f"servo a{k} = P1.{k}\n" for k in range(8)) +
             "pose s { " + ", ".join(f"a{k}: {10 + 30 * k}" for k in range(8)) + " }\n"
             'main {\n  move s\n  loop { wait "g"; send "k" }\n}\n')

@@ -41,8 +41,10 @@ def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_
     """At the first repeat or play past the limit."""
     limit = costs.max_nesting(serial, watch, taken, ports, wrapped)
     st = walk.first_too_deep(main, body_of, limit)
-    word = "play" if st is not None and walk.kind(st) == "play" else "repeat"
-    report(f"repeats and plays nest {depth} levels deep, but the firmware's {costs.stack_room(serial, taken, ports)}-byte "
-           f"stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); this `{word}` is level {limit + 1}",
+    word = walk.kind(st) if st is not None else "repeat"
+    subject = ("this `select`'s counters, kept while its meanwhile body runs, reach" if word == "select"
+               else f"this `{word}` is")
+    report(f"repeats, plays and waiting selects nest {depth} level{'s' if depth != 1 else ''} deep, but the firmware's {costs.stack_room(serial, taken, ports)}-byte "
+           f"stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); {subject} level {limit + 1}",
            st.span if st is not None else main_span, label=f"level {limit + 1}",
            help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
