@@ -722,3 +722,23 @@ def test_any_structured_host_program_lint_accepts_builds_and_verifies():
         assert report.ok, problems(report) + "\n" + text
         verified += 1
     assert verified >= 8, verified
+
+
+def test_the_receive_queue_holds_exactly_two_frames_of_bytes_and_two():
+    """The receive queue is a ring of its size and one slot, of any size: at 9600 baud and 11.0592
+    MHz (a byte every 934 cycles from a host 2 % fast) one port of 8 servos with `host` runs at
+    its shortest period, 8.7 ms: two frames bring 18 bytes at most, and the queue holds 20 (not
+    the 32 of a power of two) in 21 slots of RAM."""
+    from servoc import costs
+    from servoc.flow import host_queue, host_ram
+    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\n"
+            + "".join(f"servo s{i} = P1.{i}\n" for i in range(8))
+            + "pose p { " + ", ".join(f"s{i}: 122" for i in range(8)) + " }\nhome p\nmain { host }\n")
+    b = built(text)
+    cycles = b.plan.program.target.cycles(b.plan.period_us)
+    assert b.plan.period_us == b.plan.min_period_us and 8500 < b.plan.period_us < 8900
+    queue = host_queue(b.plan)
+    assert queue == -(-2 * cycles // costs.rx_gap(960)) + 2 == 20
+    assert host_ram(b.plan) == 19 + 5 * 8 + queue - costs.QUEUE
+    equ = {m[1]: m[2] for m in re.finditer(r"^(\w+)\s+=\s+0x([0-9A-F]+)\s+;(.*)$", b.firmware.unit.text, re.M)}
+    assert "RXQ" in equ and "The receive ring: 21 slots at RXQ" in b.firmware.unit.text
