@@ -106,6 +106,37 @@ def flag_equates() -> list[tuple[str, int, str]]:
     return [(f.name, bit_address(ADDR["FLAGS"], f.bit), f"FLAGS.{f.bit}: {f.what}") for f in RECORD_FLAGS]
 
 
+@dataclass(frozen=True)
+class Bit:
+    """A bit of a flags byte the firmware keeps: its name, number and meaning."""
+    name: str
+    bit: int
+    what: str
+
+    @property
+    def mask(self) -> int:
+        return 1 << self.bit
+
+    @property
+    def clear(self) -> int:
+        """The AND mask that clears it."""
+        return 0xFF ^ self.mask
+
+
+# HLINE (host.asm.j2): the lines the host parser has read that host_step (or frame_h) must carry
+# out; verify reads it at the end of each frame's reading.
+HLINE_BITS = (
+    Bit("GROUP", 0, "a group to commit (HT: its T)"),
+    Bit("VERQ", 1, "VER's answer being queued (the reading goes on)"),
+    Bit("OFFS", 2, "offsets to set"),
+    Bit("PLAY", 3, "a sequence to play (PL 0 SQ n)"),
+    Bit("HANS", 4, "an answer waiting in HANS for room in the transmit queue"),
+    Bit("STOP", 5, "STOP read while a sequence `PL` started plays"),
+    Bit("VERW", 6, "a VER waiting for the answer before it"),
+)
+HLINE = {b.name: b for b in HLINE_BITS}
+
+
 # ----------------------------------------------------------------- errors
 
 class LayoutError(Exception):

@@ -17,6 +17,7 @@ import dataclasses
 import itertools
 from dataclasses import dataclass, field
 
+from . import layout
 from .observe import Observation, Visit
 from .flow import host_queue, host_watchers
 from .plan import Choice, HostRun, expand, UNDECIDED
@@ -97,8 +98,8 @@ SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries
 _FIRST_PULSE: dict = {}     # (id(plan), choices) -> (plan, the answer): the search can take seconds
 
 
-HLINE_QUEUING = 0x02    # host.asm.j2's HLINE: VER's answer being queued (the reading goes on)
-HLINE_WAITS = 0x50      # an answer waiting for room (HANS), a VER waiting for the one before
+HLINE_QUEUING = layout.HLINE["VERQ"].mask        # host.asm.j2's HLINE: the reading goes on
+HLINE_WAITS = layout.HLINE["HANS"].mask | layout.HLINE["VERW"].mask     # an answer waiting for room
 
 def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     """0-based index of the first golden frame with a pulse, or None if there is none."""
