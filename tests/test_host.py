@@ -742,3 +742,19 @@ def test_the_receive_queue_holds_exactly_two_frames_of_bytes_and_two():
     assert host_ram(b.plan) == 19 + 5 * 8 + queue - costs.QUEUE
     equ = {m[1]: m[2] for m in re.finditer(r"^(\w+)\s+=\s+0x([0-9A-F]+)\s+;(.*)$", b.firmware.unit.text, re.M)}
     assert "RXQ" in equ and "The receive ring: 21 slots at RXQ" in b.firmware.unit.text
+
+
+def test_a_host_until_whose_select_does_not_fit_names_the_select():
+    """With two ports, `host` leaves the stack room for a plain `host` with 3 servos but not for
+    the counters `host until` keeps while it runs: too-deep points at that select, not at a
+    repeat the program does not have."""
+    from servoc.source import SourceFile
+    head = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
+            "servo a = P1.0\nservo b = P2.0\nservo c = P1.1\npose p { a: 122, b: 122, c: 122 }\nhome p\n")
+    _, diags = front_end_text(head + "main {\n  host\n}\n")
+    assert not [d for d in diags if d.is_error], [d.message for d in diags if d.is_error]
+    text = head + "main {\n  host until press stop\n}\n"
+    _, diags = front_end_text(text)
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "too-deep" and "this `select`'s counters" in d.message and "repeat" not in d.message.split(";")[1]
+    assert SourceFile("x", text).snippet(d.span).startswith("host until press stop")
