@@ -2,13 +2,15 @@
 
     .venv/bin/python benchmarks/host_protocol.py
 
-1. Latency. examples/ssc32_arm.servo (4 servos, 9600 baud, 11.0592 MHz) gets a one-servo group
-   line at 16 phases spread over a frame; for each, the time from its CR's stop bit to the rise
-   of the move's first frame, in frames P (the contract: at most 2 P).
-2. Sustained rate. The same firmware gets group lines with S and T back to back, for the seconds
-   asked (default 10 s of simulated time): lines of its 4 servos, then lines of 24 channels (the
-   20 without a servo are read and ignored); every byte must be read by the parser, none dropped,
-   and `servoc verify` must find every pulse and reply exact.
+1. Latency. examples/ssc32_arm.servo (4 servos, 9600 baud, 11.0592 MHz), and one port of 8
+   servos (the most `host` carries at that rate and clock), get a one-servo group line at 16
+   phases spread over a frame; for each, the time from its CR's stop bit to the rise of the
+   move's first frame, in frames P (the contract: at most 2 P).
+2. Sustained rate. The same firmwares get group lines with S and T back to back, for the seconds
+   asked (default 10 s of simulated time): the arm lines of its 4 servos, then lines of 24
+   channels (those without a servo are read and ignored), and the 8 servos lines of 24 channels;
+   every byte must be read by the parser, none dropped, and `servoc verify` must find every
+   pulse and reply exact.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host` (moved by bytes between their home and N 250, as far as a host
@@ -26,6 +28,11 @@ sys.path.insert(0, str(ROOT))
 from serial_line import build, run as serial_run  # noqa: E402  (benchmarks/serial_line.py)
 
 ARM = ROOT / "examples" / "ssc32_arm.servo"
+# the most servos `host` carries at 9600 baud and 11.0592 MHz: one port of 8 (channels 0-7)
+EIGHT = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
+         + "".join(f"servo s{i} = P1.{i}\n" for i in range(8))
+         + "pose rest { " + ", ".join(f"s{i}: {60 + 15 * i}" for i in range(8)) + " }\nhome rest\n"
+         + "main {\n  host until press stop\n}\n")
 
 
 def run(fe, firmware, scenario: str, frames: int):
@@ -34,8 +41,8 @@ def run(fe, firmware, scenario: str, frames: int):
     return trace, report
 
 
-def latency() -> list[str]:
-    fe, firmware, _ = build(ARM.read_text(encoding="utf-8"))
+def latency(text: str, what: str) -> list[str]:
+    fe, firmware, _ = build(text)
     plan = fe.plan
     target = plan.program.target
     period = target.cycles(plan.period_us)
@@ -53,26 +60,27 @@ def latency() -> list[str]:
         first = next(r for r, w in zip(rises, widths) if w != widths[0])
         delays.append((first - stop) / period)
         assert report.ok, report
-    lines.append(f"latency, CR's stop bit to the move's first rise ({len(delays)} phases, P = {plan.period_us} us): "
+    lines.append(f"latency, {what}, CR's stop bit to the move's first rise ({len(delays)} phases, P = {plan.period_us} us): "
                  f"min {min(delays):.2f} P, max {max(delays):.2f} P (the contract: at most 2 P)")
     return lines
 
 
-def _group(n: int, channels: int) -> str:
-    """Group line n: the arm's 4 servos (channels 0, 1, 2 and 7) with S, and with channels=24 every
-    other channel 0-23 too (no servo there: the parser reads and ignores them), then T."""
-    widths = {0: 1000 + 37 * (n % 20), 1: 1800 - 29 * (n % 20), 2: 1200 + 23 * (n % 20), 7: 1400 + 19 * (n % 20)}
+def _group(n: int, channels: int, servos: tuple[int, ...]) -> str:
+    """Group line n: the servos' channels with S, and with channels=24 every other channel 0-23 too
+    (no servo there: the parser reads and ignores them), then T."""
+    widths = {c: 1000 + (37 + 5 * k) * (n % 20) if k % 2 == 0 else 1800 - (29 + 3 * k) * (n % 20)
+              for k, c in enumerate(servos)}
     chans = range(24) if channels == 24 else sorted(widths)
     return "".join(f"#{c}P{widths.get(c, 1500 + c)}" + (f"S{700 + 13 * (n % 50)}" if c in widths else "")
                    for c in chans) + "T90"
 
 
-def sustained(seconds: float, channels: int) -> list[str]:
-    fe, firmware, _ = build(ARM.read_text(encoding="utf-8"))
+def sustained(seconds: float, channels: int, program: str, servos: tuple[int, ...]) -> list[str]:
+    fe, firmware, _ = build(program)
     plan = fe.plan
     n, size, text = 0, 0, ""
     while size * 10 / 9600 < seconds:      # group lines back to back
-        line = _group(n, channels)
+        line = _group(n, channels, servos)
         text += line + "\\r"
         size += len(line) + 1
         n += 1
@@ -81,7 +89,7 @@ def sustained(seconds: float, channels: int) -> list[str]:
     sent = len(bytes(text, "ascii").decode("unicode_escape"))
     read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
     dropped = sum(1 for r in trace.observation.received if not r.queued)
-    return [f"sustained: {n} group lines of {channels} channels, 4 of them servos, with S and T ({sent} bytes, "
+    return [f"sustained: {n} group lines of {channels} channels, {len(servos)} of them servos, with S and T ({sent} bytes, "
             f"back to back at 9600 baud, {sent * 10 / 9600:.1f} s): {read} bytes read by the parser, {dropped} "
             f"dropped; verify {'OK' if report.ok else 'FAILED'} over {report.frames} frames ({report.pulses} "
             f"pulses, {report.bytes_sent} bytes sent)"]
@@ -109,7 +117,10 @@ def periods() -> list[str]:
 
 def main() -> int:
     seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 10.0
-    for line in latency() + sustained(seconds, 4) + sustained(seconds, 24) + periods():
+    arm = ARM.read_text(encoding="utf-8")
+    for line in (latency(arm, "the arm (4 servos)") + latency(EIGHT, "8 servos on P1")
+                 + sustained(seconds, 4, arm, (0, 1, 2, 7)) + sustained(seconds, 24, arm, (0, 1, 2, 7))
+                 + sustained(seconds, 24, EIGHT, tuple(range(8))) + periods()):
         print(line)
     return 0
 
