@@ -429,6 +429,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if hosting:
         for var in HOST_VARS:
             ram.alloc(*var)
+        if host_playable(plan.program):
+            ram.alloc("HFRZ", nports, "while a sequence `PL` started plays: per port in use, the lines `STOP c` "
+                                      "holds where they are until it ends")
         for name, size, what in HOST_ARRAYS:
             ram.alloc(name, size * len(plan.channels), what, direct=False)
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM

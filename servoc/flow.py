@@ -110,13 +110,19 @@ def _host_gap(plan: Plan) -> int:
     return costs.rx_gap(target_mod.byte_cycles(serial.th1, serial.smod))
 
 
+def host_vars(plan: Plan) -> int:
+    """The host's variables: HOST_VARS, and where `PL` can play a sequence a byte a port in use, the
+    lines `STOP c` holds where they are until it ends (HFRZ)."""
+    return HOST_VARS + (len(plan.ports) if host_playable(plan.program) else 0)
+
+
 def host_ram(plan: Plan) -> int:
     """Bytes of RAM a `host` statement takes from the stack: its variables, its per-servo state and
     the receive queue's growth (0 without `host`)."""
     if not hosted(plan):
         return 0
     from . import costs
-    return HOST_VARS + HOST_PER_SERVO * len(plan.channels) + host_queue(plan) - costs.QUEUE
+    return host_vars(plan) + HOST_PER_SERVO * len(plan.channels) + host_queue(plan) - costs.QUEUE
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:

@@ -658,6 +658,7 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
     last_span = NO_SPAN
     classes = tuple(c.speed_class for c in plan.channels)
     pending: list[int] = []
+    held: set[int] = set()      # channels `STOP c` holds while a sequence `PL` started plays
 
     memo: dict = {}
     send_memo: dict = {}
@@ -731,14 +732,19 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                 played += 1
                 session.sequence_running = True
                 frames_ = run(sequence.body)
-                for fr in frames_:
-                    yield fr
-                    session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
-                    read()
-                    if session.stop_play:       # `STOP` read: the sequence ends in this frame
-                        frames_.close()
-                        session.reading_stopped = False
-                        break
+                try:
+                    for fr in frames_:
+                        yield fr
+                        session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
+                        read()
+                        held.update(i for i, s in enumerate(host_servos) if s.channel in session.held)
+                        if session.stop_play:       # `STOP` read: the sequence ends in this frame
+                            frames_.close()
+                            session.reading_stopped = False
+                            break
+                finally:                            # its end (or a cut of `host`) lets them go
+                    held.clear()
+                    session.held.clear()
                 session.sequence_running = session.stop_play = False
                 session.move = None
                 yield frame(st.span)                # the frame that repeats the sequence's end
@@ -766,6 +772,8 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                     curve = list(state)
                     for ch, n1 in st.targets:
                         n0 = start[ch]
+                        if ch in held and n0 is not None:
+                            continue            # `STOP c` holds it where it is (one with no pulse yet is set)
                         state[ch] = n1 if n0 is None else firmware_value(n0, n1, k, f, st.ease, st.ease_table)
                         curve[ch] = n1 if n0 is None else frame_value(n0, n1, k, f, st.ease)
                     yield frame(st.span, tuple(curve))

@@ -72,7 +72,9 @@ The rules, as the document states them:
   frame their line is read. `PL 0 SQ n` with n among the sequences it may
   play ends the move and records n in `Session.plays` (frame i + 1 repeats
   frame i; the sequence's frames, from frame i + 2, are `plan.expand`'s);
-  other n do nothing.
+  other n do nothing. While a sequence `PL` started plays, `STOP` ends it
+  (`Session.stop_play`) and `STOP c` holds channel c where it is until it
+  ends (`Session.held`: `plan.expand` leaves it out of the sequence's moves).
   ESC and a bad line drop only their own line.
 - A group line that names a servo, an offset line and `PL 0 SQ n` (any n)
   end the frame's reading: the bytes after them are read in the next frame
@@ -564,6 +566,7 @@ class Session:
         self.plays: list[int] = []
         self.sequence_running = False
         self.stop_play = False                # STOP was read while a sequence played: it ends there
+        self.held: set[int] = set()           # channels STOP c holds where they are while a sequence plays
         self.frames = 0                       # frames computed so far
         self.reading_stopped = False          # a line that stops the reading was read in this frame
 
@@ -590,8 +593,11 @@ class Session:
         if isinstance(cmd, Version):
             return VERSION_REPLY
         if isinstance(cmd, Stop):
-            if self.sequence_running:           # STOP ends the sequence in frame i; STOP c does nothing
-                self.stop_play = self.stop_play or cmd.channel is None
+            if self.sequence_running:           # STOP ends the sequence in frame i; STOP c holds its
+                if cmd.channel is None:         # channel where frame i has it until the sequence ends
+                    self.stop_play = True
+                elif cmd.channel in self.by_channel:
+                    self.held.add(cmd.channel)
             elif cmd.channel is None:
                 self.move = None                # every move ends where frame i has it
             elif self.move is not None:

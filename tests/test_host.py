@@ -470,7 +470,8 @@ def test_a_firmware_that_reads_late_fails_verify():
 def test_q_is_answered_while_a_sequence_plays_and_lines_wait_for_its_end():
     # the wave (tuck, then rest) takes over a second: Q at 0.4 s answers '+', and so does QP
     # (the shoulder on its way down from 90deg); a group sent meanwhile moves the base once the
-    # wave has ended; STOP c meanwhile does nothing; Q long after answers '.'
+    # wave has ended; STOP 1 meanwhile holds the shoulder for the rest of the wave; Q long after
+    # answers '.'
     b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n'
                                '0.4s "Q\\r"\n'
                                '0.5s "QP 1\\r"\n'
@@ -705,9 +706,10 @@ def _structured_host_program(seed: int) -> str:
 def test_any_structured_host_program_lint_accepts_builds_and_verifies():
     # selects, meanwhile bodies, sequences and sends around and inside `host`, 16 programs: the
     # front end never fails (a program error is a diagnostic); every program lint accepts builds,
-    # and a session of group lines, Q, QP, PL, STOP while a sequence may play, bytes and input
+    # and a session of group lines, Q, QP, PL, STOP and STOP c while a sequence may play, bytes and input
     # edges verifies (seed 33 once stopped the code generator on its own stack bound)
-    scenario = ('0.1s "#0P1000S800#1P2000T300\\r"\n0.3s "Q\\r"\n0.4s "PL 0 SQ 0\\r"\n0.6s go active\n0.7s "x"\n'
+    scenario = ('0.1s "#0P1000S800#1P2000T300\\r"\n0.3s "Q\\r"\n0.4s "PL 0 SQ 0\\r"\n0.45s "STOP 0\\r"\n'
+                '0.6s go active\n0.7s "x"\n'
                 '0.9s go inactive\n1.1s "PL 0 SQ 1\\r"\n1.2s "STOP\\r"\n1.3s "QP 0\\r"\n1.6s stop active\n'
                 '1.9s stop inactive\n'
                 '2.2s go active\n')
@@ -758,3 +760,35 @@ def test_a_host_until_whose_select_does_not_fit_names_the_select():
     (d,) = [d for d in diags if d.is_error]
     assert d.code == "too-deep" and "this `select`'s counters" in d.message and "repeat" not in d.message.split(";")[1]
     assert SourceFile("x", text).snippet(d.span).startswith("host until press stop")
+
+
+def test_stop_c_while_a_sequence_plays_holds_that_servo_until_the_sequence_ends():
+    # STOP 1 at 0.28 s, in the wave's first move (the shoulder on its way from 90deg to 40deg): the
+    # shoulder stops where that frame has it and stays there for the rest of the wave (its `move
+    # rest` leaves it: a compiled move can then never be too fast for it), while the base goes on
+    # to 60deg and back; Q answers '+' while the wave plays; after it the shoulder goes on with the
+    # host from where it is held
+    text = ARM.replace("pose tuck { base: 90deg, shoulder: 40deg }", "pose tuck { base: 60deg, shoulder: 40deg }")
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.28s "STOP 1\\r"\n0.33s "Q\\r"\n'
+                               '1.5s "Q\\r"\n1.7s "#1P2000\\r"\n', 500, text)
+    assert sent(trace) == b"+."
+    frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
+    shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]
+    base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    assert shoulder[frame(0.25)] < 122
+    still = shoulder[frame(0.33):frame(1.7)]
+    assert len(set(still)) == 1 and 59 < still[0] < 122, sorted(set(still))   # held on its way down
+    assert min(base[frame(0.2):frame(1.5)]) == 81 and base[frame(1.5)] == 122  # the base did the wave
+    assert shoulder[-1] == 188                                                # then the host's line
+
+
+def test_a_servo_stop_c_held_is_let_go_when_an_event_cuts_the_sequence():
+    # STOP 1 holds the shoulder in the wave; the stop button then cuts `host` (and the wave in it):
+    # the program's `move tuck` moves the shoulder again, from where it was held, to 40deg (N 54)
+    text = ARM.replace("pose tuck { base: 90deg, shoulder: 40deg }", "pose tuck { base: 60deg, shoulder: 40deg }")
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.28s "STOP 1\\r"\n0.45s stop active\n', 300, text)
+    frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
+    shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]
+    held = shoulder[frame(0.33)]
+    assert 59 < held < 122 and shoulder[frame(0.43)] == held
+    assert shoulder[-1] == 54

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from ... import costs
 from ...diagnostics import Severity
-from ...flow import HOST_PER_SERVO, HOST_VARS, frame_wrapped, host_queue, host_ram, hosted, select_ram, watches
+from ...flow import HOST_PER_SERVO, frame_wrapped, host_queue, host_ram, host_vars, hosted, select_ram, watches
 from ...steps import HostStep, Plan, steps
 from .. import Report, rule
 
@@ -28,7 +28,7 @@ def host_ram_rule(plan: Plan, report: Report) -> None:
         return
     first = next(st for st in steps(plan) if isinstance(st, HostStep))
     n = len(plan.channels)
-    report(f"`host` needs {host_ram(plan)} bytes of RAM ({HOST_VARS} for its parser, a receive queue of "
+    report(f"`host` needs {host_ram(plan)} bytes of RAM ({host_vars(plan)} for its parser, a receive queue of "
            f"{host_queue(plan)} bytes, {HOST_PER_SERVO} for each of the {n} servos); with "
            f"{len(plan.ports)} port{'s' if len(plan.ports) != 1 else ''} of servos and the serial line the chip "
            f"is {short} byte{'s' if short != 1 else ''} short", first.span, label="needs the RAM",
