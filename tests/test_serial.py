@@ -425,3 +425,44 @@ def test_a_run_counts_in_a_window_only_if_it_can_still_be_going_on():
     slow_rise = dataclasses.replace(budget, rises=(target.width_cycles(0) - run + 1,))
     assert costs.run_reach(target, slow_rise) is None
     assert costs.serial_load(target, slow_rise, window) == 3 * run
+
+
+FLAG_WRITERS = {"ADD", "ADDC", "SUBB", "CJNE", "RLC", "RRC", "DA", "MUL", "DIV"}
+
+
+def _isr_paths(text: str) -> tuple[list[list[str]], list[str]]:
+    """The serial handler's two runs, as their instructions in order: taking a byte (uart_isr to
+    its first RETI) and sending one (ui_send to its RETI), from the generated assembly."""
+    lines = [re.sub(r";.*$", "", raw).strip() for raw in text.splitlines()]
+    start = next(i for i, s in enumerate(lines) if s.startswith("uart_isr:"))
+    run, runs = [], []
+    for s in lines[start:]:
+        s = re.sub(r"^\w+:\s*", "", s)
+        if not s:
+            continue
+        run.append(s)
+        if s.split()[0] == "RETI":
+            runs.append(run)
+            run = []
+            if len(runs) == 3:
+                break
+    return runs
+
+
+@pytest.mark.parametrize("sends", [False, True])
+def test_the_serial_handler_s_run_that_takes_a_byte_changes_no_flag(sends):
+    """The handler saves PSW only in the run that sends: the run that takes a byte must change no
+    flag (no arithmetic, no carry), since the background it interrupts may hold one; it is at its
+    vector (0x0023: no jump to it) and saves ACC and bank 0's R0 around what it uses."""
+    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nservo a = P1.0\npose p { a: 10 }\n"
+            + ('main { move p; loop { wait "x"; send "y" } }\n' if sends else 'main { move p; loop { wait "x" } }\n'))
+    unit = build_text(text).firmware.unit
+    assert re.search(r"\.org\s+0x0023[^\n]*\n(;[^\n]*\n)*uart_isr:", unit.text)
+    take = _isr_paths(unit.text)[0]
+    ops = [s.split()[0] for s in take]
+    assert not FLAG_WRITERS & set(ops), take
+    assert not any(re.search(r"\b(C|PSW|CY)\b", s.split(None, 1)[1]) for s in take if " " in s), take
+    assert ops[:5] == ["JNB", "MOV", "CLR", "PUSH", "PUSH"] and ops[-3:] == ["POP", "POP", "RETI"]
+    if sends:       # the run that sends may use the carry: it saves PSW first
+        send = next(r for r in _isr_paths(unit.text)[1:] if any("SBUF, @R0" in s for s in r))
+        assert send[send.index(next(s for s in send if s.startswith("PUSH"))):][0] == "PUSH    PSW"
