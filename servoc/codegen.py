@@ -439,8 +439,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if uses["sends"]:
         ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
     if s is not None:
-        s.update(_rx_ring(ram.alloc("RXQ", rxq + 1, f"the receive queue: {rxq} bytes in a ring of {rxq + 1} slots",
-                                    direct=False), rxq))
+        slots = rxq + 1         # one slot always free: the ring is full when the slot after RXW is RXR's
+        s.update(_rx_ring(ram.alloc("RXQ", slots, f"the receive queue: {rxq} bytes in a ring of {slots} slots",
+                                    direct=False), slots))
     stack_base = ram.next
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base
@@ -486,7 +487,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
-                  ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2,
+                  ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, hl_drop=layout.HLINE_DROP, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2,
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,
@@ -767,12 +768,12 @@ def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int) -> dict:
             "full_bit": q.bit_length() - 1, "sends": sending, "rxq": rxq}
 
 
-def _rx_ring(base: int, rxq: int) -> dict:
-    """The receive queue's ring at `base`: `rxq` bytes in rxq + 1 slots; the address past its last
-    slot (rx_end), and what turns rx_end into base under XRL (rx_wrap)."""
-    end = base + rxq + 1
+def _rx_ring(base: int, slots: int) -> dict:
+    """The receive queue's ring of `slots` slots at `base`: the address past its last slot (rx_end),
+    and what turns rx_end into base under XRL (rx_wrap)."""
+    end = base + slots
     assert end <= layout.RAM_SIZE
-    return {"rx_end": end & 0xFF, "rx_wrap": base ^ (end & 0xFF)}
+    return {"rx_slots": slots, "rx_end": end & 0xFF, "rx_wrap": base ^ (end & 0xFF)}
 
 
 HOST_WORDS = ("P", "PO", "S", "T", "Q", "QP", "V", "VE", "VER", "ST", "STO", "STOP", "PL", "SQ")
@@ -860,14 +861,21 @@ def _send_need(plan: Plan, budget: costs.Budget) -> int:
     return send_run(plan) * budget.byte_cycles + costs.serial_latency(plan.program.target, budget)
 
 
+def _send_gap_at(plan: Plan, budget: costs.Budget, need: int, period_cycles: int) -> tuple[int, int]:
+    """(gap, cap): the fewest frames between two runs of sends, counted up to `cap`, the frames of
+    `period_cycles` that surely leave the line the `need` cycles (a gap of cap or more needs no
+    more)."""
+    cap = -(-(need + budget.work) // period_cycles) + 1
+    return send_gap(plan, cap), cap
+
+
 def _send_floor(plan: Plan, budget: costs.Budget, shortest: int) -> int:
     """`shortest` (cycles), or the period from which on the runs of sends, `send_gap` frames apart
     at the fewest, leave the line time for theirs (`_check_sends`) when that is longer."""
     need = _send_need(plan, budget)
     if not need:
         return shortest
-    cap = -(-(need + budget.work) // shortest) + 1       # a gap this long or longer needs no more
-    gap = send_gap(plan, cap)
+    gap, cap = _send_gap_at(plan, budget, need, shortest)
     return shortest if gap >= cap else max(shortest, -(-(need + budget.work) // gap))
 
 
@@ -878,8 +886,7 @@ def _check_sends(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
     if run:
         # the next run comes `gap` frames later, less the work that can come before it
         need = _send_need(plan, budget)
-        cap = -(-(need + budget.work) // period_cycles) + 1
-        gap = send_gap(plan, cap)
+        gap, _ = _send_gap_at(plan, budget, need, period_cycles)
         if need > gap * period_cycles - budget.work:
             sends_ = [st for st in steps(plan) if isinstance(st, SendStep)]
             frames = -(-(need + budget.work) // period_cycles)      # frames that leave the line time enough

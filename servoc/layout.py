@@ -135,6 +135,7 @@ HLINE_BITS = (
     Bit("VERW", 6, "a VER waiting for the answer before it"),
 )
 HLINE = {b.name: b for b in HLINE_BITS}
+HLINE_DROP = 0xFF ^ HLINE["GROUP"].mask ^ HLINE["OFFS"].mask    # clears what a dropped line may have set
 
 
 # ----------------------------------------------------------------- errors
