@@ -792,3 +792,19 @@ def test_a_servo_stop_c_held_is_let_go_when_an_event_cuts_the_sequence():
     held = shoulder[frame(0.33)]
     assert 59 < held < 122 and shoulder[frame(0.43)] == held
     assert shoulder[-1] == 54
+
+
+def test_what_host_carries_on_one_two_and_three_ports_is_what_the_docs_say():
+    # docs/host-protocol.md at 9600 baud and 11.0592 MHz: one port carries all 8 servos; two ports
+    # 3 with `main { host }` (2 with `host until`, whose select keeps its counters); three none
+    def errors(pins, main="main { host }"):
+        text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
+                + "".join(f"servo s{p}{b} = P{p}.{b}\n" for p, b in pins)
+                + "pose p { " + ", ".join(f"s{p}{b}: 122" for p, b in pins) + " }\nhome p\n" + main + "\n")
+        _, diags = front_end_text(text)
+        return [d.code for d in diags if d.is_error]
+    assert errors([(1, b) for b in range(8)]) == []
+    assert errors([(1, 0), (2, 0), (1, 1)]) == [] and errors([(1, 0), (2, 0), (1, 1), (2, 1)]) == ["host-ram"]
+    assert errors([(1, 0), (2, 0)], "main { host until press stop }") == []
+    assert errors([(1, 0), (2, 0), (1, 1)], "main { host until press stop }") == ["too-deep"]
+    assert errors([(1, 0), (2, 0), (0, 0)]) == ["host-ram"]
