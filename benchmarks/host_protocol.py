@@ -15,6 +15,9 @@
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host` (moved by bytes between their home and N 250, as far as a host
    can move them); and what `servoc lint` says where a configuration is refused.
+4. Capacity. The most servos `main { host }` carries on one, two and three ports at 9600 baud
+   and 11.0592 MHz, per chip (an STC89 keeps the host's per-servo state in its XRAM), and the
+   shortest period there.
 """
 
 from __future__ import annotations
@@ -115,12 +118,31 @@ def periods() -> list[str]:
     return out
 
 
+def capacity() -> list[str]:
+    """The most servos `main { host }` carries on one, two and three ports at 9600 baud and 11.0592
+    MHz, per chip (the STC89s keep the host's per-servo state in XRAM), and the period at that."""
+    out = ["| chip | ports | most servos | P (us) |", "|---|---|---|---|"]
+    for chip in ("at89c52", "stc89c52rc", "stc89c58rd"):
+        for ports in ((1,), (1, 2), (0, 1, 2)):
+            best = None
+            for count in range(len(ports), 8 * len(ports) + 1):
+                pins = [(ports[i % len(ports)], i // len(ports)) for i in range(count)]
+                text = (f"target {chip} clock 11.0592MHz\nserial 9600\nhost ssc32\n"
+                        + "".join(f"servo s{i} = P{p}.{b}\n" for i, (p, b) in enumerate(pins)) + "main { host }\n")
+                fe, firmware, reporter = build(text)
+                if any(d.is_error for d in reporter.diagnostics):
+                    continue
+                best = (count, fe.plan.min_period_us)
+            out.append(f"| {chip} | {len(ports)} | {best[0] if best else 0} | {best[1] if best else '-'} |")
+    return out
+
+
 def main() -> int:
     seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 10.0
     arm = ARM.read_text(encoding="utf-8")
     for line in (latency(arm, "the arm (4 servos)") + latency(EIGHT, "8 servos on P1")
                  + sustained(seconds, 4, arm, (0, 1, 2, 7)) + sustained(seconds, 24, arm, (0, 1, 2, 7))
-                 + sustained(seconds, 24, EIGHT, tuple(range(8))) + periods()):
+                 + sustained(seconds, 24, EIGHT, tuple(range(8))) + periods() + capacity()):
         print(line)
     return 0
 

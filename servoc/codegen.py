@@ -32,7 +32,7 @@ from . import flow as flow_mod, walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
-                   hosted, move_starts,
+                   host_xram, hosted, move_starts,
                    port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
@@ -378,14 +378,16 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     wrapped = frame_wrapped(plan)                     # and frame_h around frame_w: WRAP_STACK more
     stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, deep_runtime, wrapped)
     nports = len(plan.ports)
-    room_promised = costs.stack_room(serial is not None, taken, nports)
-    if hosted(plan) and costs.stack_bytes(0, serial is not None, deep_runtime, wrapped) > room_promised:
+    split = host_xram(plan)           # the host's arrays and the DDA's error terms in XRAM
+    room_promised = costs.stack_room(serial is not None, taken, nports, split)
+    least_stack = costs.stack_bytes(0, serial is not None, deep_runtime, wrapped)
+    if hosted(plan) and not split and least_stack > room_promised:
         raise layout.HostRam(f"`host` needs {select_ram(plan)} bytes of RAM, which leaves the stack "
                              f"{room_promised} bytes")      # lint's `host-ram` reports this first
-    if stack_bytes > room_promised:     # lint's `too-deep` reports this first
+    if stack_bytes > room_promised and not split:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
                                   f"the firmware has {room_promised}")
-    state_base = layout.state_base(nports)
+    state_base = layout.state_base(nports, split)
     limits: list[layout.LayoutError] = []      # the serial line's limits: all of them are said at once
     if serial is not None and send_run(plan) > costs.QUEUE:
         sends_ = [st for st in steps(plan) if isinstance(st, SendStep)]
@@ -401,7 +403,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     hosting = serial is not None and hosted(plan)
     rxq = host_queue(plan)
 
-    ram = layout.RamAllocator(state_base - stack_bytes, layout.work_base(nports))     # what the stack leaves
+    # what the stack leaves; with the host's state in XRAM, the RAM allocated decides (below)
+    ram = layout.RamAllocator(state_base - (0 if split else stack_bytes), layout.work_base(nports))
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED, and BFULL and TXON where used"), 0)
@@ -432,8 +435,14 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         if host_playable(plan.program):
             ram.alloc("HFRZ", nports, "while a sequence `PL` started plays: per port in use, the lines `STOP c` "
                                       "holds where they are until it ends")
+        xat = 0
         for name, size, what in HOST_ARRAYS:
-            ram.alloc(name, size * len(plan.channels), what, direct=False)
+            if split:       # in XRAM page 0, below the error terms (at the STATE addresses)
+                ram.xsymbols.append((name, xat, f"{what} (XRAM)"))
+                xat += size * len(plan.channels)
+            else:
+                ram.alloc(name, size * len(plan.channels), what, direct=False)
+        assert xat <= state_base, "the host's arrays reach the error terms in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
@@ -443,11 +452,21 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         s.update(_rx_ring(ram.alloc("RXQ", slots, f"the receive queue: {rxq} bytes in a ring of {slots} slots",
                                     direct=False), slots))
     stack_base = ram.next
+    if split and state_base - stack_base < least_stack:     # lint reports it from here
+        message, hint = flow_mod.host_ram_text(plan, least_stack - (state_base - stack_base))
+        raise layout.HostRam(message, hint, next(st for st in steps(plan) if isinstance(st, HostStep)).span)
+    if split and state_base - stack_base < stack_bytes:
+        deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body,
+                                   (state_base - stack_base - least_stack) // 2)
+        raise layout.StackTooDeep(f"repeats, plays and waiting selects nest {plan.nesting} levels deep: they need "
+                                  f"{stack_bytes} bytes of stack, and the RAM the program allocates leaves "
+                                  f"{state_base - stack_base}", span=deep.span if deep is not None else None)
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base
-    bport = plan.ports[-1] if len(plan.ports) == 3 and stack_bytes + costs.BUFB_RAM <= room else None
+    bport = (plan.ports[-1] if len(plan.ports) == 3 and not split and stack_bytes + costs.BUFB_RAM <= room
+             else None)
     tops = port_tops(plan)
-    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top) for top in tops))
+    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top) for top in tops), split)
     e["framed"] = ctx.flagged
     chans = []
     for c in plan.channels:
@@ -455,7 +474,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         bit = {name: layout.bit_address(layout.ADDR[name], pin) for name in ("ACT", "MOVB", "DIRB", "RMASK")}
         at = layout.ram_pin(plan.ports, c.port, c.bit)
         chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + at,
-                      "state": state_base + layout.STATE_BYTES * at, "act_bit": bit["ACT"],
+                      "state": state_base + layout.state_bytes(split) * at, "act_bit": bit["ACT"],
                       "mov_bit": bit["MOVB"], "dir_bit": bit["DIRB"], "rm_bit": bit["RMASK"],
                       "dmax": _dmax(c.speed_class)})
     reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
@@ -491,7 +510,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,
-                  state_base=state_base, state_bytes=layout.STATE_BYTES, stack_base=stack_base, s=s,
+                  state_base=state_base, state_bytes=layout.state_bytes(split), xstate=split,
+                  xram=ram.xsymbols, stack_base=stack_base, s=s,
                   compact=plan.compact, more=more, **{k: uses[k] for k in ("repeats", "eased", "holds")},
                   more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
                   ports=e["ports"], reset_ports=reset_ports, main_ops=main_ops, sequences=sequences,
@@ -510,7 +530,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if deepest > costs.runtime_stack(deep_runtime, wrapped):
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
                            f"{costs.runtime_stack(deep_runtime, wrapped)} the stack bound counts")
-    ram_bytes = ram.total(8 * nports, stack_bytes) + (costs.BUFB_RAM if bport is not None else 0)
+    ram_bytes = ram.total(8 * nports, stack_bytes, split) + (costs.BUFB_RAM if bport is not None else 0)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
         breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])
@@ -626,7 +646,7 @@ def _engine_ram(ram: layout.RamAllocator) -> None:
 
 
 def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None,
-            spans: tuple[int, ...]) -> dict:
+            spans: tuple[int, ...], split: bool = False) -> dict:
     """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2).
     `bport`: the port sorted into buffer B (None: every port goes through buffer A); `spans`: each
     port's rise to the next one's (costs.fit_spans)."""
@@ -637,7 +657,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         nxt = plan.ports[0 if last else k + 1]
         ports.append({"port": port, "pins": _port_pins(plan, port), "win": f"win_p{port}", "last": last,
                       "cur0": layout.CUR_BASE + layout.ram_pin(plan.ports, port, 0),
-                      "state0": layout.state_base(len(plan.ports)) + layout.STATE_BYTES * layout.ram_pin(plan.ports, port, 0),
+                      "state0": layout.state_base(len(plan.ports), split) + layout.state_bytes(split) * layout.ram_pin(plan.ports, port, 0),
                       "next_port": nxt, "next_win": f"win_p{nxt}"})
         ports[-1]["s"] = len(ports[-1]["pins"])
         # built for size, a port whose servos are its pins 0, 1, ... loads its pairs in a loop
@@ -785,10 +805,9 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HW", 1, "host parser: the word being read"), ("HNUM", 2, "host parser: the number"),
              ("HCH", 1, "host parser: the servo of the open entry (0xFF: none)"),
              ("HEP", 2, "host parser: the entry's P (or PO + 100)"),
-             ("HES", 2, "host parser: the entry's S"), ("HARG", 2, "host parser: T, or a command's number"),
+             ("HES", 2, "host parser: the entry's S"), ("HARG", 2, "host parser: T (0 without, once a group line has ended), or a command's number"),
              ("HCMD", 1, "host parser: the line's command word"),
              ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence, 4 HANS, 6 a VER waits"),
-             ("HT", 2, "the T of the group line read in this frame (0: none)"),
              ("HVER", 1, "the next byte of the answer to VER"),
              ("HANS", 1, "an answer waiting to be sent (HLINE bit 4)"),
              ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
@@ -830,7 +849,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "play_list": [{"n": [q.name for q in plan.program.sequences].index(name), "name": name,
                            "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
-            "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan))}
+            "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan)), "xram": host_xram(plan)}
 
 
 def _bytes(n: int) -> str:

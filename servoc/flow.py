@@ -71,16 +71,16 @@ def edge_ports(plan: Plan) -> tuple[int, ...]:
                          for b in st.branches if not isinstance(b, AfterBranch) and b.event.edge}))
 
 
-def select_ram(plan: Plan) -> int:
+def select_ram(plan: Plan, xram: bool | None = None) -> int:
     """Bytes of RAM the selects (and a `host` statement) take from the stack: a look's sample of each
     port in `edge_ports`, per level of `select_slots` with a meanwhile body, the select running it
-    and its stack pointer, and `host_ram`."""
+    and its stack pointer, and `host_ram` (`xram`: as `host_ram`)."""
     slots = select_slots(plan)
     levels = {slots[id(st)] for st in steps(plan) if isinstance(st, SelectStep) and st.meanwhile is not None}
-    return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan)
+    return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan, xram)
 
 
-HOST_VARS = 19          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
+HOST_VARS = 17          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
 HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pending S (2) and its offset
 
 
@@ -116,13 +116,63 @@ def host_vars(plan: Plan) -> int:
     return HOST_VARS + (len(plan.ports) if host_playable(plan.program) else 0)
 
 
-def host_ram(plan: Plan) -> int:
-    """Bytes of RAM a `host` statement takes from the stack: its variables, its per-servo state and
-    the receive queue's growth (0 without `host`)."""
+def host_ram(plan: Plan, xram: bool | None = None) -> int:
+    """Bytes of internal RAM a `host` statement takes from the stack: its variables, its per-servo
+    state (in XRAM where `host_xram`; `xram` given: as if it were so or not) and the receive queue's
+    growth (0 without `host`)."""
     if not hosted(plan):
         return 0
     from . import costs
-    return host_vars(plan) + HOST_PER_SERVO * len(plan.channels) + host_queue(plan) - costs.QUEUE
+    if xram is None:
+        xram = host_xram(plan)
+    return host_vars(plan) + (0 if xram else HOST_PER_SERVO * len(plan.channels)) + host_queue(plan) - costs.QUEUE
+
+
+def host_short(plan: Plan, xram: bool | None = None) -> int:
+    """Bytes of internal RAM the firmware lacks for `host` (0: it fits) by the stack room promised
+    (`costs.stack_room`): with no repeat or play nested, it must still hold the runtime's, the
+    edge handler's and the serial handler's (`xram`: as `host_ram`). Where `host_xram`, the
+    firmware's own allocation decides instead (code generation: `host-ram` or `too-deep`), and
+    this is 0."""
+    if not hosted(plan):
+        return 0
+    from . import costs
+    if xram is None and host_xram(plan):
+        return 0
+    serial = plan.program.serial is not None
+    room = costs.stack_room(serial, select_ram(plan, xram), len(plan.ports), bool(xram))
+    return max(0, costs.stack_bytes(0, serial, True, frame_wrapped(plan)) - room)
+
+
+def host_xram(plan: Plan) -> bool:
+    """Whether the firmware keeps `host`'s per-servo state (HPW, HPS, HOF) and the DDA's error terms
+    in the chip's XRAM (the STC89's, MOVX @DPTR in page 0): only where the chip has it and internal
+    RAM alone is short (`host_short`). Its STATE then keeps 2 bytes a pin (layout.state_bytes)."""
+    return (hosted(plan) and plan.program.target.chip.xram_bytes >= XRAM_NEED
+            and host_short(plan, False) > 0)
+
+
+def host_ram_text(plan: Plan, short: int) -> tuple[str, str]:
+    """`host-ram`'s message and help: `host` is `short` bytes of internal RAM short."""
+    n = len(plan.channels)
+    chip = plan.program.target.chip
+    xram = host_xram(plan)
+    if xram:
+        kept = f"its {HOST_PER_SERVO * n} bytes of per-servo state are in the {chip.display}'s XRAM"
+    else:
+        kept = f"{HOST_PER_SERVO} for each of the {n} servos"
+    hint = ("use fewer servos, or put them on fewer ports (each port in use takes 40 bytes of RAM), "
+            "or a shorter frame (a smaller receive queue)")
+    if not chip.xram_bytes and not host_short(plan, True):
+        hint += "; or an STC89 chip (`target stc89c58rd`), whose XRAM holds the per-servo state"
+    ports = len(plan.ports)
+    return (f"`host` needs {host_ram(plan)} bytes of internal RAM ({host_vars(plan)} for its parser, a receive "
+            f"queue of {host_queue(plan)} bytes, {kept}); with {ports} port{'s' if ports != 1 else ''} of "
+            f"servos and the serial line the chip is {short} byte{'s' if short != 1 else ''} short", hint)
+
+
+XRAM_NEED = 256         # host_xram's XRAM: the host's arrays from 0 (5 bytes a servo, at most 120) and
+                        # the DDA's error terms at their pins' STATE addresses (up to 0xFF)
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:

@@ -47,9 +47,15 @@ DIRECT_LIMIT = 0x80             # above it, RAM is reached only through @R0/@R1 
 WORK_BASE = CUR_BASE + 24       # variables after CUR, with three ports
 
 
-def state_base(ports: int) -> int:
+def state_bytes(split: bool = False) -> int:
+    """Bytes of motion state a pin keeps in internal RAM: 4, or 2 where its DDA error term is kept
+    in XRAM (`split`, flow.host_xram) at the address of the pin's STATE."""
+    return STATE_BYTES // 2 if split else STATE_BYTES
+
+
+def state_base(ports: int, split: bool = False) -> int:
     """Where the motion state starts with `ports` ports in use (8 pins each)."""
-    return RAM_SIZE - 8 * ports * STATE_BYTES
+    return RAM_SIZE - 8 * ports * state_bytes(split)
 
 
 def work_base(ports: int) -> int:
@@ -126,7 +132,7 @@ class Bit:
 # HLINE (host.asm.j2): the lines the host parser has read that host_step (or frame_h) must carry
 # out; verify reads it at the end of each frame's reading.
 HLINE_BITS = (
-    Bit("GROUP", 0, "a group to commit (HT: its T)"),
+    Bit("GROUP", 0, "a group to commit (HARG: its T)"),
     Bit("VERQ", 1, "VER's answer being queued (the reading goes on)"),
     Bit("OFFS", 2, "offsets to set"),
     Bit("PLAY", 3, "a sequence to play (PL 0 SQ n)"),
@@ -243,6 +249,7 @@ class RamAllocator:
         self.next = start
         self.end = end
         self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)
+        self.xsymbols: list[tuple[str, int, str]] = []     # in XRAM (flow.host_xram)
 
     def alloc(self, name: str, size: int, what: str, direct: bool = True) -> int:
         addr = self.next
@@ -254,9 +261,9 @@ class RamAllocator:
         self.symbols.append((name, addr, what))
         return addr
 
-    def total(self, pins: int, stack: int) -> int:
+    def total(self, pins: int, stack: int, split: bool = False) -> int:
         """Bytes of RAM in use: direct RAM, the motion state of every pin and the stack."""
-        return self.next + STATE_BYTES * pins + stack
+        return self.next + state_bytes(split) * pins + stack
 
 
 # ----------------------------------------------------------------- records

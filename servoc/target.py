@@ -34,6 +34,7 @@ class Chip:
     six_t: bool          # has the 6-clock (6T) mode
     flash: str           # the usual way to write a HEX file to it
     ram_bytes: int = 256
+    xram_bytes: int = 0  # on-chip XRAM (MOVX @DPTR, page 0 up), on at reset
 
 
 CHIPS: dict[str, Chip] = {c.name: c for c in (
@@ -45,9 +46,11 @@ CHIPS: dict[str, Chip] = {c.name: c for c in (
     Chip("at89c55wd", "AT89C55WD", 20 * 1024, 33 * MHZ, False,
          "a parallel programmer, e.g. a TL866 with minipro: `minipro -p AT89C55WD -w prog.hex`"),
     Chip("stc89c52rc", "STC89C52RC", 8 * 1024, 40 * MHZ, True,
-         "its serial bootloader, with stcgal: `stcgal -P stc89 -p /dev/ttyUSB0 prog.hex`, then power-cycle the board"),
+         "its serial bootloader, with stcgal: `stcgal -P stc89 -p /dev/ttyUSB0 prog.hex`, then power-cycle the board",
+         xram_bytes=256),
     Chip("stc89c58rd", "STC89C58RD+", 32 * 1024, 40 * MHZ, True,
-         "its serial bootloader, with stcgal: `stcgal -P stc89 -p /dev/ttyUSB0 prog.hex`, then power-cycle the board"),
+         "its serial bootloader, with stcgal: `stcgal -P stc89 -p /dev/ttyUSB0 prog.hex`, then power-cycle the board",
+         xram_bytes=1024),
 )}
 ALIASES = {"stc89c52": "stc89c52rc", "stc89c58": "stc89c58rd"}   # names boards use
 DEFAULT_CHIP = "at89c52"

@@ -591,7 +591,7 @@ def test_the_shortest_period_holds_under_the_heaviest_lines_and_a_microsecond_le
 
 HOST_BOARDS = (("target at89c52 clock 12MHz", 4800), ("target stc89c52rc clock 11.0592MHz", 9600),
                ("target stc89c52rc clock 11.0592MHz mode 6T", 9600), ("target stc89c52rc clock 22.1184MHz", 9600))
-REFUSALS = {"host-ram", "serial-too-fast", "period-too-short", "too-deep", "program-too-big"}
+REFUSALS = {"host-ram", "serial-too-fast", "period-too-short", "too-deep", "program-too-big", "rom-overflow"}
 
 
 def _host_program(draw) -> tuple[str, list[int]]:
@@ -795,16 +795,20 @@ def test_a_servo_stop_c_held_is_let_go_when_an_event_cuts_the_sequence():
 
 
 def test_what_host_carries_on_one_two_and_three_ports_is_what_the_docs_say():
-    # docs/host-protocol.md at 9600 baud and 11.0592 MHz: one port carries all 8 servos; two ports
-    # 3 with `main { host }` (2 with `host until`, whose select keeps its counters); three none
-    def errors(pins, main="main { host }"):
-        text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
+    # docs/host-protocol.md at 9600 baud and 11.0592 MHz: without XRAM one port carries all 8
+    # servos, two ports 4 with `main { host }` (3 with `host until`, whose select keeps its
+    # counters), three none; an STC89 keeps the host's per-servo state in XRAM: two ports 16
+    def errors(pins, main="main { host }", chip="at89c52"):
+        text = (f"target {chip} clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
                 + "".join(f"servo s{p}{b} = P{p}.{b}\n" for p, b in pins)
                 + "pose p { " + ", ".join(f"s{p}{b}: 122" for p, b in pins) + " }\nhome p\n" + main + "\n")
         _, diags = front_end_text(text)
         return [d.code for d in diags if d.is_error]
+    two = [(1 + i % 2, i // 2) for i in range(16)]
     assert errors([(1, b) for b in range(8)]) == []
-    assert errors([(1, 0), (2, 0), (1, 1)]) == [] and errors([(1, 0), (2, 0), (1, 1), (2, 1)]) == ["host-ram"]
-    assert errors([(1, 0), (2, 0)], "main { host until press stop }") == []
-    assert errors([(1, 0), (2, 0), (1, 1)], "main { host until press stop }") == ["too-deep"]
+    assert errors(two[:4]) == [] and errors(two[:5]) == ["host-ram"]
+    assert errors(two[:3], "main { host until press stop }") == []
+    assert errors(two[:4], "main { host until press stop }") == ["host-ram"]
     assert errors([(1, 0), (2, 0), (0, 0)]) == ["host-ram"]
+    assert errors(two, "main { host until press stop }", "stc89c52rc") == []
+    assert errors(two + [(0, 0)], chip="stc89c58rd") == []

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ... import costs, walk
 from ...diagnostics import Reporter, Severity
-from ...flow import frame_wrapped, hosted, select_ram, watches
+from ...flow import frame_wrapped, host_short, host_xram, hosted, select_ram, watches
 from ...steps import Plan
 from ...source import Span
 from .. import RULES, Report, rule
@@ -21,9 +21,8 @@ def too_deep(plan: Plan, report: Report) -> None:
     serial = plan.program.serial is not None
     watch, taken, ports = watches(plan) or hosted(plan), select_ram(plan), len(plan.ports)
     wrapped = frame_wrapped(plan)
-    from .host_ram import host_short
-    if host_short(plan):
-        return              # host-ram says it
+    if host_short(plan) or host_xram(plan):
+        return              # host-ram says it; or code generation, from the RAM it allocates
     if plan.nesting > costs.max_nesting(serial, watch, taken, ports, wrapped):
         _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken, ports,
                 wrapped)
