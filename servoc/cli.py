@@ -433,7 +433,8 @@ def _compile(args, run: _Run, source, plan: Plan, firmware) -> int:
               f"{'built for size ' if plan.compact else ''}(start-up {firmware.startup_bytes}, runtime {firmware.runtime_bytes}, program "
               f"{firmware.program_bytes}, data {firmware.data_bytes}), "
               f"RAM {firmware.unit.ram_bytes}/{chip.ram_bytes} bytes (stack {firmware.unit.stack_bytes}); "
-              f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, "
+              + (f"XRAM {firmware.unit.xram_bytes}/{chip.xram_bytes} bytes; " if firmware.unit.xram_bytes else "")
+              + f"{target.describe()}, machine cycle {fmt_us(target.cycle_us)}, "
               + ("every width exactly 500 + 8 N µs" if not target.width_error_us()
                  else f"widths within {fmt_us(target.width_error_us())} of 500 + 8 N µs"))
     return 0
@@ -874,6 +875,7 @@ def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> di
             "startup_bytes": firmware.startup_bytes,
             "runtime_bytes": firmware.runtime_bytes, "program_bytes": firmware.program_bytes,
             "data_bytes": firmware.data_bytes, "ram_bytes": firmware.unit.ram_bytes, "ram_size": chip.ram_bytes,
+            "xram_bytes": firmware.unit.xram_bytes,
             "stack_bytes": firmware.unit.stack_bytes, "built_for_size": plan.compact}
 
 

@@ -59,6 +59,7 @@ class AsmUnit:
     for_size: bool = False          # built for size (Plan.compact)
     selects: tuple = ()             # (label, SelectStep) of each select laid out, for verify's probes
     period_holds: bool = True       # the code holds the plan's own period (the model evaluated there)
+    xram_bytes: int = 0             # XRAM in use (flow.host_xram: the host's arrays, the DDA's error terms)
 
 
 _hex8 = layout.hex8
@@ -593,7 +594,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    tuple(sorted(breakdown.items(), key=lambda kv: (-kv[1], kv[0]))),
                    budget, work_from,
                    shortest,
-                   target, plan.compact, tuple(ctx.selects), period_holds)
+                   target, plan.compact, tuple(ctx.selects), period_holds,
+                   (flow_mod.HOST_PER_SERVO * len(plan.channels) + (256 - state_base)) if split else 0)
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:

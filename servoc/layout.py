@@ -22,6 +22,11 @@ RAM (AT89C52, 256 bytes):
     STATE-0xFF STATE: 4 bytes of motion state per pin at STATE + 4 p, 32 for each port in use
                (0xA0 with three ports; indirect only)
 
+XRAM (page 0, MOVX @DPTR; only where flow.host_xram: `host` on an STC89 short of internal RAM):
+    0x00-      the host's per-servo arrays HPW, HPS, HOF (5 bytes a servo)
+    STATE-0xFF each pin's DDA error term at the address of its STATE, which then keeps 2 bytes a
+               pin (Q|N0, REM|DMAG): `state_bytes`
+
 A record list is a run of move and hold records in code memory; each record
 starts with a flags byte (RECORD_FLAGS) and a flags byte with ENDF ends the list.
 """

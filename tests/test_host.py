@@ -732,7 +732,7 @@ def test_the_receive_queue_holds_exactly_two_frames_of_bytes_and_two():
     its shortest period, some 8.5 ms: two frames bring 17 or 18 bytes at most, and the queue holds
     two more (not the 32 of a power of two) in a slot more of RAM."""
     from servoc import costs
-    from servoc.flow import host_queue, host_ram
+    from servoc.flow import HOST_VARS, host_queue, host_ram
     text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\n"
             + "".join(f"servo s{i} = P1.{i}\n" for i in range(8))
             + "pose p { " + ", ".join(f"s{i}: 122" for i in range(8)) + " }\nhome p\nmain { host }\n")
@@ -741,18 +741,19 @@ def test_the_receive_queue_holds_exactly_two_frames_of_bytes_and_two():
     assert b.plan.period_us == b.plan.min_period_us and 8000 < b.plan.period_us < 9000
     queue = host_queue(b.plan)
     assert queue == -(-2 * cycles // costs.rx_gap(960)) + 2 and 16 < queue < 32
-    assert host_ram(b.plan) == 19 + 5 * 8 + queue - costs.QUEUE
+    assert host_ram(b.plan) == HOST_VARS + 5 * 8 + queue - costs.QUEUE
     equ = {m[1]: m[2] for m in re.finditer(r"^(\w+)\s+=\s+0x([0-9A-F]+)\s+;(.*)$", b.firmware.unit.text, re.M)}
     assert "RXQ" in equ and f"The receive ring: {queue + 1} slots at RXQ" in b.firmware.unit.text
 
 
 def test_a_host_until_whose_select_does_not_fit_names_the_select():
-    """With two ports, `host` leaves the stack room for a plain `host` with 3 servos but not for
-    the counters `host until` keeps while it runs: too-deep points at that select, not at a
-    repeat the program does not have."""
+    """With two ports at 2400 baud, `host` leaves the stack room for a plain `host` with 5 servos
+    but not for the counters `host until` keeps while it runs: too-deep points at that select,
+    not at a repeat the program does not have."""
     from servoc.source import SourceFile
-    head = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
-            "servo a = P1.0\nservo b = P2.0\nservo c = P1.1\npose p { a: 122, b: 122, c: 122 }\nhome p\n")
+    head = ("target at89c52 clock 11.0592MHz\nserial 2400\nhost ssc32\ninput stop = P3.2\n"
+            "servo a = P1.0\nservo b = P2.0\nservo c = P1.1\nservo d = P2.1\nservo e = P1.2\n"
+            "pose p { a: 122, b: 122, c: 122, d: 122, e: 122 }\nhome p\n")
     _, diags = front_end_text(head + "main {\n  host\n}\n")
     assert not [d for d in diags if d.is_error], [d.message for d in diags if d.is_error]
     text = head + "main {\n  host until press stop\n}\n"
