@@ -144,7 +144,8 @@ def _overflow(p: Plan) -> tuple[str, str] | None:
 def rom_overflow(unit: codegen.AsmUnit, image, room: layout.Fit) -> tuple[str, str]:
     """The rom-overflow diagnostic's message and help for an image that does not fit."""
     chip = unit.target.chip
-    bigger = [c.display for c in CHIPS.values() if c.code_bytes >= room.needed]
+    bigger = [c.display for c in CHIPS.values()       # one that also has the XRAM the firmware uses
+              if c.code_bytes >= room.needed and c.xram_bytes >= unit.xram_bytes]
     message = (f"the firmware needs {room.needed} bytes of code memory"
                + (" even built for size" if unit.for_size else "")
                + f", the {chip.display} has {chip.code_bytes}: "

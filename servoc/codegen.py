@@ -379,16 +379,16 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     wrapped = frame_wrapped(plan)                     # and frame_h around frame_w: WRAP_STACK more
     stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, deep_runtime, wrapped)
     nports = len(plan.ports)
-    split = host_xram(plan)           # the host's arrays and the DDA's error terms in XRAM
-    room_promised = costs.stack_room(serial is not None, taken, nports, split)
+    in_xram = host_xram(plan)           # the host's arrays and the motion state in XRAM
+    room_promised = costs.stack_room(serial is not None, taken, nports, in_xram)
     least_stack = costs.stack_bytes(0, serial is not None, deep_runtime, wrapped)
-    if hosted(plan) and not split and least_stack > room_promised:
+    if hosted(plan) and not in_xram and least_stack > room_promised:
         raise layout.HostRam(f"`host` needs {select_ram(plan)} bytes of RAM, which leaves the stack "
                              f"{room_promised} bytes")      # lint's `host-ram` reports this first
-    if stack_bytes > room_promised and not split:     # lint's `too-deep` reports this first
+    if stack_bytes > room_promised and not in_xram:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
                                   f"the firmware has {room_promised}")
-    state_base = layout.state_base(nports, split)
+    state_base = layout.state_base(nports, in_xram)
     limits: list[layout.LayoutError] = []      # the serial line's limits: all of them are said at once
     if serial is not None and send_run(plan) > costs.QUEUE:
         sends_ = [st for st in steps(plan) if isinstance(st, SendStep)]
@@ -405,7 +405,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     rxq = host_queue(plan)
 
     # what the stack leaves; with the host's state in XRAM, the RAM allocated decides (below)
-    ram = layout.RamAllocator(state_base - (0 if split else stack_bytes), layout.work_base(nports))
+    ram = layout.RamAllocator(state_base - (0 if in_xram else stack_bytes), layout.work_base(nports))
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED, and BFULL and TXON where used"), 0)
@@ -438,12 +438,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                                       "holds where they are until it ends")
         xat = 0
         for name, size, what in HOST_ARRAYS:
-            if split:       # in XRAM page 0, below the error terms (at the STATE addresses)
+            if in_xram:       # in XRAM page 0, below the motion state
                 ram.xsymbols.append((name, xat, f"{what} (XRAM)"))
                 xat += size * len(plan.channels)
             else:
                 ram.alloc(name, size * len(plan.channels), what, direct=False)
-        assert xat <= state_base, "the host's arrays reach the error terms in XRAM"
+        assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
@@ -453,10 +453,10 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         s.update(_rx_ring(ram.alloc("RXQ", slots, f"the receive queue: {rxq} bytes in a ring of {slots} slots",
                                     direct=False), slots))
     stack_base = ram.next
-    if split and state_base - stack_base < least_stack:     # lint reports it from here
+    if in_xram and state_base - stack_base < least_stack:     # lint reports it from here
         message, hint = flow_mod.host_ram_text(plan, least_stack - (state_base - stack_base))
         raise layout.HostRam(message, hint, next(st for st in steps(plan) if isinstance(st, HostStep)).span)
-    if split and state_base - stack_base < stack_bytes:
+    if in_xram and state_base - stack_base < stack_bytes:
         deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body,
                                    (state_base - stack_base - least_stack) // 2)
         raise layout.StackTooDeep(f"repeats, plays and waiting selects nest {plan.nesting} levels deep: they need "
@@ -464,10 +464,10 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                                   f"{state_base - stack_base}", span=deep.span if deep is not None else None)
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base
-    bport = (plan.ports[-1] if len(plan.ports) == 3 and not split and stack_bytes + costs.BUFB_RAM <= room
+    bport = (plan.ports[-1] if len(plan.ports) == 3 and not in_xram and stack_bytes + costs.BUFB_RAM <= room
              else None)
     tops = port_tops(plan)
-    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top) for top in tops), split)
+    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top) for top in tops))
     e["framed"] = ctx.flagged
     chans = []
     for c in plan.channels:
@@ -475,7 +475,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         bit = {name: layout.bit_address(layout.ADDR[name], pin) for name in ("ACT", "MOVB", "DIRB", "RMASK")}
         at = layout.ram_pin(plan.ports, c.port, c.bit)
         chans.append({"name": c.name, "pin": pin, "pin_name": c.servo.pin, "cur": layout.CUR_BASE + at,
-                      "state": state_base + layout.state_bytes(split) * at, "act_bit": bit["ACT"],
+                      "state": layout.state_at(nports) + layout.STATE_BYTES * at, "act_bit": bit["ACT"],
                       "mov_bit": bit["MOVB"], "dir_bit": bit["DIRB"], "rm_bit": bit["RMASK"],
                       "dmax": _dmax(c.speed_class)})
     reset_ports = [{"sfr": f"P{port}", "mask": 0xFF ^ sum(1 << s.bit for s in plan.program.servos if s.port == port),
@@ -511,7 +511,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,
-                  state_base=state_base, state_bytes=layout.state_bytes(split), xstate=split,
+                  state_base=state_base, state_at=layout.state_at(nports), state_bytes=layout.STATE_BYTES, xstate=in_xram,
                   xram=ram.xsymbols, stack_base=stack_base, s=s,
                   compact=plan.compact, more=more, **{k: uses[k] for k in ("repeats", "eased", "holds")},
                   more_bit=layout.bit_address(layout.ADDR["FLAGS"], layout.MORE_BIT),
@@ -531,7 +531,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if deepest > costs.runtime_stack(deep_runtime, wrapped):
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
                            f"{costs.runtime_stack(deep_runtime, wrapped)} the stack bound counts")
-    ram_bytes = ram.total(8 * nports, stack_bytes, split) + (costs.BUFB_RAM if bport is not None else 0)
+    ram_bytes = ram.total(8 * nports, stack_bytes, in_xram) + (costs.BUFB_RAM if bport is not None else 0)
     breakdown: dict[str, int] = {}
     for r in ctx.records:
         breakdown[f"moves of {r['owner']}"] = breakdown.get(f"moves of {r['owner']}", 0) + len(r["data"])
@@ -544,7 +544,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if fneed:
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
     if hosting:
-        breakdown["host: the S table T(|delta|)"] = 3 * 256
+        breakdown["host: the S table E(|delta|)"] = N_MAX + 1
     motions, starts = port_motions(plan), move_starts(plan)
     def measure(text: str):
         return frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
@@ -595,7 +595,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    budget, work_from,
                    shortest,
                    target, plan.compact, tuple(ctx.selects), period_holds,
-                   (flow_mod.HOST_PER_SERVO * len(plan.channels) + (256 - state_base)) if split else 0)
+                   (flow_mod.HOST_PER_SERVO * len(plan.channels) + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0)
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
@@ -648,7 +648,7 @@ def _engine_ram(ram: layout.RamAllocator) -> None:
 
 
 def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None,
-            spans: tuple[int, ...], split: bool = False) -> dict:
+            spans: tuple[int, ...]) -> dict:
     """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2).
     `bport`: the port sorted into buffer B (None: every port goes through buffer A); `spans`: each
     port's rise to the next one's (costs.fit_spans)."""
@@ -659,7 +659,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         nxt = plan.ports[0 if last else k + 1]
         ports.append({"port": port, "pins": _port_pins(plan, port), "win": f"win_p{port}", "last": last,
                       "cur0": layout.CUR_BASE + layout.ram_pin(plan.ports, port, 0),
-                      "state0": layout.state_base(len(plan.ports), split) + layout.state_bytes(split) * layout.ram_pin(plan.ports, port, 0),
+                      "state0": layout.state_at(len(plan.ports)) + layout.STATE_BYTES * layout.ram_pin(plan.ports, port, 0),
                       "next_port": nxt, "next_win": f"win_p{nxt}"})
         ports[-1]["s"] = len(ports[-1]["pins"])
         # built for size, a port whose servos are its pins 0, 1, ... loads its pairs in a loop
@@ -824,6 +824,8 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
     from . import ssc32
     from .model import host_channel
     period = plan.period_us
+    st_q, st_e = ssc32.speed_t_parts(period)        # T(d) = d x Q + E(d): one page, not three
+    assert st_q < 0x10000 and all(d * st_q + st_e[d] == ssc32.speed_t(d, period) for d in range(N_MAX + 1))
     words = {w: i + 1 for i, w in enumerate(HOST_WORDS)}
     playable = host_playable(plan.program)
     table = [0xFF] * (32 * (len(HOST_WORDS) + 1))
@@ -845,7 +847,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "chan_act": chan_act, "chan_mask": chan_mask, "chan_cur": chan_cur, "queue": rxq, "passes": host_passes(plan), "words": words, "words_table": table,
             "chan_map": chan_map, "ports": plan.ports, "rt": ssc32.time_factor(period),
             "qp": [(500 + 8 * n) // 10 for n in range(N_MAX + 1)],
-            "st": [ssc32.speed_t(d, period) for d in range(N_MAX + 1)],
+            "st_q": st_q, "st_e": st_e,
             "version": ssc32.VERSION_REPLY.decode().rstrip("\r"),
             "plays": [_seq_label(plan, name) for name in playable], "fbase": fbase,
             "play_list": [{"n": [q.name for q in plan.program.sequences].index(name), "name": name,

@@ -481,8 +481,8 @@ def default_period_us(min_period: int) -> int:
 # allocates ends (no eased moves, no `send`: fewer variables), so most programs have more.
 STACK_BYTES = 46
 PORT_RAM = 40               # CUR (8) and STATE (32) of one port: RAM a port not in use leaves to the stack
-SPLIT_RAM = 16              # the DDA's error terms of one port's pins (2 bytes a pin): internal RAM they
-                            # leave to the stack where they are kept in XRAM (flow.host_xram)
+XSTATE_RAM = 32             # STATE of one port: internal RAM it leaves to the stack where it is kept in
+                            # XRAM (flow.host_xram)
 BUFB_RAM = 17               # sort buffer B (8 pairs of N and lines) and its rise mask: the top of the
                             # stack's bytes, taken only where the program's stack leaves that much room
 RUNTIME_STACK = 8
@@ -497,12 +497,12 @@ def runtime_stack(watch: bool = False, wrapped: bool = False) -> int:
     return RUNTIME_STACK + (WATCH_STACK if watch else 0) + (WRAP_STACK if wrapped else 0)
 
 
-def stack_room(serial: bool = False, taken: int = 0, ports: int = 3, split: bool = False) -> int:
+def stack_room(serial: bool = False, taken: int = 0, ports: int = 3, xram: bool = False) -> int:
     """Bytes of stack with `ports` ports of servos in use: 46 with three, PORT_RAM more for each
     port fewer; the serial line's queues and counters take SERIAL_RAM of them, the selects
-    `taken` more (plan.select_ram). `split`: the motion state's error terms are in XRAM
-    (flow.host_xram), SPLIT_RAM more for each port in use."""
-    return (STACK_BYTES + PORT_RAM * (3 - ports) + (SPLIT_RAM * ports if split else 0)
+    `taken` more (plan.select_ram). `xram`: the motion state is in XRAM (flow.host_xram),
+    XSTATE_RAM more for each port in use."""
+    return (STACK_BYTES + PORT_RAM * (3 - ports) + (XSTATE_RAM * ports if xram else 0)
             - (SERIAL_RAM if serial else 0) - taken)
 
 
@@ -511,7 +511,6 @@ def stack_bytes(nesting: int, serial: bool = False, watch: bool = False, wrapped
     return 2 * nesting + runtime_stack(watch, wrapped) + HANDLER_STACK + (SERIAL_STACK if serial else 0)
 
 
-def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3, wrapped: bool = False,
-                split: bool = False) -> int:
-    return (stack_room(serial, taken, ports, split) - runtime_stack(watch, wrapped) - HANDLER_STACK
+def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3, wrapped: bool = False) -> int:
+    return (stack_room(serial, taken, ports) - runtime_stack(watch, wrapped) - HANDLER_STACK
             - (SERIAL_STACK if serial else 0)) // 2

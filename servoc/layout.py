@@ -24,8 +24,8 @@ RAM (AT89C52, 256 bytes):
 
 XRAM (page 0, MOVX @DPTR; only where flow.host_xram: `host` on an STC89 short of internal RAM):
     0x00-      the host's per-servo arrays HPW, HPS, HOF (5 bytes a servo)
-    STATE-0xFF each pin's DDA error term at the address of its STATE, which then keeps 2 bytes a
-               pin (Q|N0, REM|DMAG): `state_bytes`
+    STATE-0xFF the motion state, at the addresses it has in internal RAM otherwise (`state_at`),
+               which then keeps none: the stack reaches 0xFF
 
 A record list is a run of move and hold records in code memory; each record
 starts with a flags byte (RECORD_FLAGS) and a flags byte with ENDF ends the list.
@@ -52,15 +52,16 @@ DIRECT_LIMIT = 0x80             # above it, RAM is reached only through @R0/@R1 
 WORK_BASE = CUR_BASE + 24       # variables after CUR, with three ports
 
 
-def state_bytes(split: bool = False) -> int:
-    """Bytes of motion state a pin keeps in internal RAM: 4, or 2 where its DDA error term is kept
-    in XRAM (`split`, flow.host_xram) at the address of the pin's STATE."""
-    return STATE_BYTES // 2 if split else STATE_BYTES
+def state_at(ports: int) -> int:
+    """Where the motion state starts with `ports` ports in use (8 pins each): in internal RAM, or
+    at the same address of XRAM page 0 where `host` keeps its state there (flow.host_xram)."""
+    return RAM_SIZE - 8 * ports * STATE_BYTES
 
 
-def state_base(ports: int, split: bool = False) -> int:
-    """Where the motion state starts with `ports` ports in use (8 pins each)."""
-    return RAM_SIZE - 8 * ports * state_bytes(split)
+def state_base(ports: int, xram: bool = False) -> int:
+    """Where the motion state starts in internal RAM (the stack ends there): RAM_SIZE, none,
+    where it is kept in XRAM (`xram`)."""
+    return RAM_SIZE if xram else state_at(ports)
 
 
 def work_base(ports: int) -> int:
@@ -266,9 +267,10 @@ class RamAllocator:
         self.symbols.append((name, addr, what))
         return addr
 
-    def total(self, pins: int, stack: int, split: bool = False) -> int:
-        """Bytes of RAM in use: direct RAM, the motion state of every pin and the stack."""
-        return self.next + state_bytes(split) * pins + stack
+    def total(self, pins: int, stack: int, xram: bool = False) -> int:
+        """Bytes of internal RAM in use: direct RAM, the motion state of every pin (none where it
+        is in XRAM) and the stack."""
+        return self.next + (0 if xram else STATE_BYTES * pins) + stack
 
 
 # ----------------------------------------------------------------- records

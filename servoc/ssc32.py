@@ -431,6 +431,15 @@ def speed_t(delta: int, period_us: int | Fraction) -> int:
     return -(-8_000_000 * abs(delta) // p)
 
 
+def speed_t_parts(period_us: int | Fraction) -> tuple[int, list[int]]:
+    """T(|delta|) as the firmware computes it: |delta| x Q + E(|delta|), Q = 8,000,000 div P and
+    E(d) = ceil(d x (8,000,000 mod P) / P) (at most 250: a byte), which is T exactly, since
+    d x Q is whole."""
+    p = _period(period_us)
+    q, r = divmod(8_000_000, p)
+    return q, [-(-d * r // p) for d in range(251)]
+
+
 def frames_s(delta: int, speed: int, period_us: int | Fraction) -> int:
     """F_S = min(65535, ceil(T(|delta|) / v)) = min(65535, ceil(8 |delta| us / (v us/s) / P))
     for `S v` (0 for v = 0: no speed)."""

@@ -813,3 +813,14 @@ def test_what_host_carries_on_one_two_and_three_ports_is_what_the_docs_say():
     assert errors([(1, 0), (2, 0), (0, 0)]) == ["host-ram"]
     assert errors(two, "main { host until press stop }", "stc89c52rc") == []
     assert errors(two + [(0, 0)], chip="stc89c58rd") == []
+
+def test_pl_reaches_any_of_many_sequences():
+    # 40 sequences `PL` can play: the dispatch grows with them past a short jump's reach (it used
+    # to end in an assembler error at 13); the last one plays from the host
+    seqs = "".join(f"sequence seq{k} {{\n  move q in {700 + 10 * k}ms\n  move p in 700ms\n}}\n" for k in range(40))
+    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\nservo a = P1.0\n"
+            "pose p { a: 100 }\npose q { a: 130 }\nhome p\n" + seqs + "main { host }\n")
+    b, trace, report = session('0.1s "PL 0 SQ 39\\rQ\\r"\n', int(2.2e6 / built(text).plan.period_us), text)
+    assert sent(trace) == b"+"                       # the sequence plays
+    w = [n_of(b, c) for c in widths(b, trace, 1, 0)]
+    assert max(w) == 130 and w[-1] == 100            # to q and back

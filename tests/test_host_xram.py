@@ -17,12 +17,17 @@ from test_verify_observes import problems, watch
 pytestmark = pytest.mark.toolchain
 
 
-def _program(chip: str, pins: list[tuple[int, int]], main: str = "main { host }") -> str:
+def _program(chip: str, pins: list[tuple[int, int]], main: str = "main {\n  move q in 800ms\n  host\n}") -> str:
     servos = "".join(f"servo s{i} = P{p}.{b}{' reverse' if i % 3 == 1 else ''} trim {i % 5 - 2}\n"
                      for i, (p, b) in enumerate(pins))
     pose = ", ".join(f"s{i}: {40 + (13 * i) % 100}" for i in range(len(pins)))
+    far = ", ".join(f"s{i}: {200 - (29 * i) % 90}" for i in range(len(pins)))
+    # the home pose sets every servo at once; the moves after it start from where the servos are
+    # (a compiled move's setup, linear and eased steps, all with the state in XRAM), and `PL 0 SQ 0`
+    # plays the sequence from the host
     return (f"target {chip} clock 11.0592MHz\nserial 9600\nhost ssc32\n{servos}"
-            f"pose p {{ {pose} }}\nhome p\n{main}\n")
+            f"pose p {{ {pose} }}\npose q {{ {far} }}\nhome p\n"
+            f"sequence wave {{\n  move p in 1200ms ease in-out\n  move q in 1000ms\n}}\n{main}\n")
 
 
 def _at_shortest(text: str):
@@ -38,22 +43,24 @@ def _at_shortest(text: str):
 
 @pytest.mark.parametrize("chip, pins", [
     ("stc89c52rc", [(p, b) for b in range(8) for p in (1, 2)]),            # 16 servos on two ports
-    ("stc89c58rd", [(p, b) for b in range(7) for p in (0, 1, 2)]),         # 21 on three
+    ("stc89c52rc", [(p, b) for b in range(8) for p in (0, 1, 2)]),         # 24 on three, built for size
+    ("stc89c58rd", [(p, b) for b in range(8) for p in (0, 1, 2)]),         # 24 on three, built for speed
 ])
 def test_host_state_in_xram_holds_the_heaviest_lines_at_the_shortest_period(chip, pins):
     text = _program(chip, pins)
     b, text = _at_shortest(text)
-    assert flow.host_xram(b.plan)
+    assert flow.host_xram(b.plan) and b.plan.compact == (chip == "stc89c52rc")     # 8 KB: built for size
     assert "MOVX    @DPTR, A" in b.firmware.unit.text and "HPW     = 0x00" in b.firmware.unit.text
     count = len(pins)
     body = ""
     for k in range(4):
         body += "".join(f"#{i}P{600 + (k * 370 + i * 190) % 1900}S{300 + 97 * k + i}" for i in range(count))
         body += f"T30\\rQ\\rQP{k % count}\\r" + (f"#{k % count}PO{40 - 19 * k}\\r" if k % 2 == 0 else "")
-    body += "#1P1500#2P1500\\x1b#3P900\\r#4P2000X\\r"      # an ESC and a bad line drop only their own
-    trace, report = watch(b, f'0.1s "{body}"\n', int(2.0e6 / b.plan.period_us))
+    body += "#1P1500#2P1500\\x1b#3P900\\r#4P2000X\\r"   # an ESC and a bad line drop only their own
+    body += "PL 0 SQ 0\\rQ\\r"
+    trace, report = watch(b, f'1.0s "{body}"\n', int(6.5e6 / b.plan.period_us))
     assert report.ok, problems(report)
-    assert len(trace.sent) == 8                                         # every Q and QP answered
+    assert len(trace.sent) == 9                                         # every Q and QP answered
     shorter = re.sub(r"host ssc32\n(frame \d+us\n)?", f"host ssc32\nframe {b.plan.min_period_us - 1}us\n", text)
     _, diags = front_end_text(shorter)
     assert any(d.code == "period-too-short" for d in diags), [d.code for d in diags]
@@ -67,9 +74,30 @@ def test_without_xram_the_same_program_is_refused_with_the_chip_that_holds_it():
     assert "stc89c58rd" in errors[0].help and "5 for each of the 16 servos" in errors[0].message
 
 
-def test_twenty_four_servos_with_host_are_refused_by_what_the_firmware_allocates():
+def test_the_state_in_xram_is_what_the_firmware_reads_and_lint_reports_its_room():
+    # 24 servos: the motion state (96 bytes) and the host's arrays (120) are in XRAM page 0, the
+    # internal RAM keeps none of them, and the stack reaches 0xFF
     pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
-    _, diags = front_end_text(_program("stc89c58rd", pins))
+    b = build_text(_program("stc89c58rd", pins))
+    text = b.firmware.unit.text
+    assert flow.host_xram(b.plan) and b.firmware.unit.xram_bytes == 24 * 5 + 96
+    assert re.search(r"^XSTATE\s+= 0xA0", text, re.M) and not re.search(r"^STATE\s+=", text, re.M)
+    assert "MOVX    @R" not in text and "MOVX    A, @R" not in text      # never paged by P2
+    # the same 24 servos with a select nested in the program: the allocation says too-deep or
+    # host-ram, never an assembler error
+    deep = _program("stc89c58rd", pins, "main {\n" + "  repeat 2 {\n" * 20 + "  host\n" + "  }\n" * 20 + "}")
+    _, diags = front_end_text(deep)
+    assert {d.code for d in diags if d.is_error} <= {"too-deep", "host-ram"} and any(d.is_error for d in diags)
+
+
+def test_a_program_past_the_stc89c52rcs_code_memory_is_told_the_chip_with_xram_and_more():
+    # 24 servos with `host` and many sequences: rom-overflow names the STC89C58RD+, not the
+    # AT89C55WD (more code memory, but no XRAM for the host's state)
+    pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
+    seqs = "".join(f"sequence seq{k} {{\n  move p in {900 + 10 * k}ms ease in\n  move q in 1200ms ease out\n}}\n"
+                   for k in range(12))
+    text = _program("stc89c52rc", pins).replace("sequence wave", seqs + "sequence wave")
+    _, diags = front_end_text(text)
     errors = [d for d in diags if d.is_error]
-    assert [d.code for d in errors] == ["host-ram"], [d.code for d in errors]
-    assert "XRAM" in errors[0].message and "bytes short" in errors[0].message
+    assert [d.code for d in errors] == ["rom-overflow"], [d.code for d in errors]
+    assert "`target stc89c58rd`" in errors[0].help and "at89c55wd" not in errors[0].help
