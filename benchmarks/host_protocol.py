@@ -2,13 +2,14 @@
 
     .venv/bin/python benchmarks/host_protocol.py
 
-1. Latency. examples/ssc32_arm.servo (4 servos, 9600 baud, 11.0592 MHz), and one port of 8
-   servos (the most `host` carries at that rate and clock), get a one-servo group line at 16
+1. Latency. examples/ssc32_arm.servo (4 servos, 9600 baud, 11.0592 MHz), one port of 8 servos,
+   and 24 servos on three ports of an STC89C58RD+ get a one-servo group line at 16
    phases spread over a frame; for each, the time from its CR's stop bit to the rise of the
    move's first frame, in frames P (the contract: at most 2 P).
 2. Sustained rate. The same firmwares get group lines with S and T back to back, for the seconds
    asked (default 10 s of simulated time): the arm lines of its 4 servos, then lines of 24
-   channels (those without a servo are read and ignored), and the 8 servos lines of 24 channels;
+   channels (those without a servo are read and ignored), the 8 servos lines of 24 channels, and
+   24 servos on three ports (an STC89C58RD+) lines naming all 24;
    every byte must be read by the parser, none dropped, and `servoc verify` must find every
    pulse and reply exact.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
@@ -36,6 +37,13 @@ EIGHT = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nhost ssc32\ninput sto
          + "".join(f"servo s{i} = P1.{i}\n" for i in range(8))
          + "pose rest { " + ", ".join(f"s{i}: {60 + 15 * i}" for i in range(8)) + " }\nhome rest\n"
          + "main {\n  host until press stop\n}\n")
+
+# the spec's 24 servos at 9600 baud and 11.0592 MHz: an STC89C58RD+, whose XRAM holds the host's
+# per-servo state and the motion state (channels 0-23: P1, P2, P0)
+TWENTY_FOUR = ("target stc89c58rd clock 11.0592MHz\nserial 9600\nhost ssc32\n"
+               + "".join(f"servo s{p}{b} = P{p}.{b}\n" for p in (1, 2, 0) for b in range(8))
+               + "pose rest { " + ", ".join(f"s{p}{b}: {60 + 5 * b + 20 * p}" for p in (1, 2, 0) for b in range(8))
+               + " }\nhome rest\nmain {\n  host\n}\n")
 
 
 def run(fe, firmware, scenario: str, frames: int):
@@ -141,8 +149,10 @@ def main() -> int:
     seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 10.0
     arm = ARM.read_text(encoding="utf-8")
     for line in (latency(arm, "the arm (4 servos)") + latency(EIGHT, "8 servos on P1")
+                 + latency(TWENTY_FOUR, "24 servos on P1, P2, P0 (STC89C58RD+)")
                  + sustained(seconds, 4, arm, (0, 1, 2, 7)) + sustained(seconds, 24, arm, (0, 1, 2, 7))
-                 + sustained(seconds, 24, EIGHT, tuple(range(8))) + periods() + capacity()):
+                 + sustained(seconds, 24, EIGHT, tuple(range(8)))
+                 + sustained(seconds, 24, TWENTY_FOUR, tuple(range(24))) + periods() + capacity()):
         print(line)
     return 0
 

@@ -437,7 +437,10 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             ram.alloc("HFRZ", nports, "while a sequence `PL` started plays: per port in use, the lines `STOP c` "
                                       "holds where they are until it ends")
         xat = 0
-        for name, size, what in HOST_ARRAYS:
+        if in_xram:
+            ram.alloc("HGEN", 1, "the generation of the line being read: a pending entry is this line's "
+                                 "when its HTAG is HGEN (host_drop only counts it up)")
+        for name, size, what in HOST_ARRAYS + ((HOST_TAGS,) if in_xram else ()):
             if in_xram:       # in XRAM page 0, below the motion state
                 ram.xsymbols.append((name, xat, f"{what} (XRAM)"))
                 xat += size * len(plan.channels)
@@ -595,7 +598,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                    budget, work_from,
                    shortest,
                    target, plan.compact, tuple(ctx.selects), period_holds,
-                   (flow_mod.HOST_PER_SERVO * len(plan.channels) + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0)
+                   (flow_mod.HOST_XRAM_PER_SERVO * len(plan.channels) + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0)
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
@@ -815,7 +818,9 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
 HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none), or offset + 100 (0xFC)"),
                ("HPS", 2, "per servo: the pending S (0: none)"), ("HOF", 1, "per servo: its offset in us"))
+HOST_TAGS = ("HTAG", 1, "per servo: the generation (HGEN) of the line that wrote its pending entry")
 assert sum(v[1] for v in HOST_VARS) == flow_mod.HOST_VARS and sum(a[1] for a in HOST_ARRAYS) == flow_mod.HOST_PER_SERVO
+assert sum(a[1] for a in HOST_ARRAYS + (HOST_TAGS,)) == flow_mod.HOST_XRAM_PER_SERVO
 
 
 def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: str) -> dict:

@@ -82,6 +82,7 @@ def select_ram(plan: Plan, xram: bool | None = None) -> int:
 
 HOST_VARS = 17          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
 HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pending S (2) and its offset
+HOST_XRAM_PER_SERVO = HOST_PER_SERVO + 1    # in XRAM (host_xram) also its pending entry's generation
 
 
 PLAY_PASSES = 1         # bytes a frame's reading reads while a sequence `PL` started plays (a `Q` line in two frames)
@@ -125,7 +126,8 @@ def host_ram(plan: Plan, xram: bool | None = None) -> int:
     from . import costs
     if xram is None:
         xram = host_xram(plan)
-    return host_vars(plan) + (0 if xram else HOST_PER_SERVO * len(plan.channels)) + host_queue(plan) - costs.QUEUE
+    return (host_vars(plan) + (1 if xram else HOST_PER_SERVO * len(plan.channels))     # in XRAM: HGEN stays
+            + host_queue(plan) - costs.QUEUE)
 
 
 def host_short(plan: Plan, xram: bool | None = None) -> int:
@@ -158,7 +160,7 @@ def host_ram_text(plan: Plan, short: int) -> tuple[str, str]:
     chip = plan.program.target.chip
     xram = host_xram(plan)
     if xram:
-        kept = f"its {HOST_PER_SERVO * n} bytes of per-servo state are in the {chip.display}'s XRAM"
+        kept = f"its {HOST_XRAM_PER_SERVO * n} bytes of per-servo state are in the {chip.display}'s XRAM"
     else:
         kept = f"{HOST_PER_SERVO} for each of the {n} servos"
     hint = ("use fewer servos, or put them on fewer ports (each port in use takes 40 bytes of RAM), "

@@ -56,7 +56,8 @@ def test_host_state_in_xram_holds_the_heaviest_lines_at_the_shortest_period(chip
     for k in range(4):
         body += "".join(f"#{i}P{600 + (k * 370 + i * 190) % 1900}S{300 + 97 * k + i}" for i in range(count))
         body += f"T30\\rQ\\rQP{k % count}\\r" + (f"#{k % count}PO{40 - 19 * k}\\r" if k % 2 == 0 else "")
-    body += "#1P1500#2P1500\\x1b#3P900\\r#4P2000X\\r"   # an ESC and a bad line drop only their own
+    body += "#1P1500#2P1500\\x1b#3P900\\r#4P2000X\\r#5P1000\\r"   # an ESC and a bad line drop only their own
+    body += "#6PO50#5PO10\\x1b#7PO-20\\r#6P1500#7P1500#5P1500\\r"      # an offset line too
     body += "PL 0 SQ 0\\rQ\\r"
     trace, report = watch(b, f'1.0s "{body}"\n', int(6.5e6 / b.plan.period_us))
     assert report.ok, problems(report)
@@ -80,7 +81,7 @@ def test_the_state_in_xram_is_what_the_firmware_reads_and_lint_reports_its_room(
     pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
     b = build_text(_program("stc89c58rd", pins))
     text = b.firmware.unit.text
-    assert flow.host_xram(b.plan) and b.firmware.unit.xram_bytes == 24 * 5 + 96
+    assert flow.host_xram(b.plan) and b.firmware.unit.xram_bytes == 24 * 6 + 96
     assert re.search(r"^XSTATE\s+= 0xA0", text, re.M) and not re.search(r"^STATE\s+=", text, re.M)
     assert "MOVX    @R" not in text and "MOVX    A, @R" not in text      # never paged by P2
     # the same 24 servos with a select nested in the program: the allocation says too-deep or
@@ -101,3 +102,24 @@ def test_a_program_past_the_stc89c52rcs_code_memory_is_told_the_chip_with_xram_a
     errors = [d for d in diags if d.is_error]
     assert [d.code for d in errors] == ["rom-overflow"], [d.code for d in errors]
     assert "`target stc89c58rd`" in errors[0].help and "at89c55wd" not in errors[0].help
+
+
+def test_the_generations_of_dropped_lines_come_round_again_and_drop_nothing_else():
+    # host_drop only counts HGEN up; host_gen, once a frame, starts it again from 0 once it has
+    # reached 0x80. Lines dropped by ESC, each after an entry for channel 0 (then 2), carry HGEN
+    # there; then a group for channel 1 alone: channel 0 must stay where the home pose has it, and
+    # verify's model of the protocol agrees frame by frame
+    pins = [(p, b) for b in range(8) for p in (1, 2)]
+    b = build_text(_program("stc89c52rc", pins, "main { host }"))
+    # (127 drops after host_run's own make HGEN 0x80: the frame that reads the last of them, or the
+    # next, starts it again, and no line is dropped between that and the group's commit)
+    body = "#0P1000\\x1b" * 127 + "#1P2000\\r" + "#2P900\\x1b" * 140 + "#0P1100#1P700\\x1b#3P1300\\r"
+    trace, report = watch(b, f'0.1s "{body}"\n', int(4.5e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    def widths(port: int, bit: int) -> list[int]:
+        edges = trace.pin_edges(port, bit)
+        return [fall - rise for (rise, up), (fall, _) in zip(edges, edges[1:]) if up == 1]
+    # channel c is P1.c (model.host_channel)
+    c0, c1, c3 = widths(1, 0), widths(1, 1), widths(1, 3)
+    assert len(set(c0)) == 1                      # channel 0 never moved
+    assert c1[-1] > c1[0] and c3[-1] != c3[0]     # channels 1 and 3 did
