@@ -11,7 +11,9 @@ looked at once.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Iterator
 
 from . import walk
@@ -89,9 +91,25 @@ PLAY_PASSES = 1         # bytes a frame's reading reads while a sequence `PL` st
 
 
 def host_passes(plan: Plan) -> int:
-    """The bytes the host parser reads in one frame at the most: one more than can come in a frame
-    (from a host 2 % fast), so that bytes left queued by a late frame are read in the frames after."""
-    return -(-plan.program.target.cycles(plan.period_us) // _host_gap(plan)) + 1
+    """The bytes the host parser reads in one frame at the most, p. With b the bytes a frame brings
+    (from a host 2 % fast): at least one more than b, so that bytes left queued by a late frame are
+    read in the frames after. And a line that host_step must carry out (a group) stops the frame's
+    reading: a frame's reading may be lost once a line, so for lines of L bytes back to back the
+    frames a line takes must read it and that frame too, p (L / b - 1) >= L: p >= b L / (L - b),
+    for L the longer of a line that sets every servo (`full_line`) and two frames' bytes (so p is
+    at most 2 b). Shorter lines back to back may fill the receive queue (docs/host-protocol.md)."""
+    gap = _host_gap(plan)
+    frame = plan.program.target.cycles(plan.period_us)
+    b = Fraction(frame, gap)
+    line = max(Fraction(full_line(plan)), 2 * b)
+    return max(math.ceil(b) + 1, math.ceil(b * line / (line - b)))
+
+
+def full_line(plan: Plan) -> int:
+    """Bytes of a group line that sets every servo of `host` to a width of 4 digits (`#c P1500`, no
+    spaces) and its CR: the lines `host_passes` keeps up with back to back."""
+    from .model import host_channel
+    return sum(len(f"#{host_channel(c.servo)}P1500") for c in plan.channels) + 1
 
 
 def host_queue(plan: Plan) -> int:

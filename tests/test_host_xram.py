@@ -7,6 +7,7 @@ by verify's model of the protocol; 1 µs less is refused.
 from __future__ import annotations
 
 import re
+from fractions import Fraction
 
 import pytest
 
@@ -123,3 +124,23 @@ def test_the_generations_of_dropped_lines_come_round_again_and_drop_nothing_else
     c0, c1, c3 = widths(1, 0), widths(1, 1), widths(1, 3)
     assert len(set(c0)) == 1                      # channel 0 never moved
     assert c1[-1] > c1[0] and c3[-1] != c3[0]     # channels 1 and 3 did
+
+
+def test_lines_that_set_all_24_servos_back_to_back_lose_no_byte():
+    # a group line stops the frame's reading, so each frame reads enough more than a frame brings
+    # to catch up within the next line (flow.host_passes): 24-servo lines of the shortest kind
+    # host_passes keeps up with (`#c P1500` each, 183 bytes), back to back for 8 s: every byte read.
+    # With one byte more than a frame brings (the rule before), the queue overflowed within 4 s.
+    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
+    b = build_text(_program("stc89c58rd", pins, "main { host }"))
+    p = flow.host_passes(b.plan)
+    frame = b.plan.program.target.cycles(b.plan.period_us)
+    from servoc import costs, target as target_mod
+    per = Fraction(frame, costs.rx_gap(target_mod.byte_cycles(b.plan.program.serial.th1, b.plan.program.serial.smod)))
+    line = flow.full_line(b.plan)
+    assert line == 183 and p * (line / per - 1) >= line > p                # catches up within a line
+    body = "".join("".join(f"#{c}P{1000 + (n * 37 + c * 11) % 900}" for c in range(24)) + "\\r"
+                   for n in range(45))
+    trace, report = watch(b, f'0.2s "{body}"\n', int(9.0e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == 45 * 183
