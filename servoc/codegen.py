@@ -59,7 +59,7 @@ class AsmUnit:
     for_size: bool = False          # built for size (Plan.compact)
     selects: tuple = ()             # (label, SelectStep) of each select laid out, for verify's probes
     period_holds: bool = True       # the code holds the plan's own period (the model evaluated there)
-    xram_bytes: int = 0             # XRAM in use (flow.host_xram: the host's arrays, the DDA's error terms)
+    xram_bytes: int = 0             # XRAM in use (flow.host_xram: the host's arrays, the motion state)
 
 
 _hex8 = layout.hex8
