@@ -829,6 +829,8 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
     from . import ssc32
     from .model import host_channel
     period = plan.period_us
+    # a reading of host_passes bytes is counted in R7 and may count HGEN up once a byte (host_gen)
+    assert host_passes(plan) <= 0xFE, "the host's reading is counted in one byte"
     st_q, st_e = ssc32.speed_t_parts(period)        # T(d) = d x Q + E(d): one page, not three
     assert st_q < 0x10000 and all(d * st_q + st_e[d] == ssc32.speed_t(d, period) for d in range(N_MAX + 1))
     words = {w: i + 1 for i, w in enumerate(HOST_WORDS)}
@@ -858,7 +860,8 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "play_list": [{"n": [q.name for q in plan.program.sequences].index(name), "name": name,
                            "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
-            "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan)), "xram": host_xram(plan)}
+            "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan)), "xram": host_xram(plan),
+            "gen_limit": 0xFF - host_passes(plan)}
 
 
 def _bytes(n: int) -> str:

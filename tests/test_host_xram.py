@@ -106,16 +106,18 @@ def test_a_program_past_the_stc89c52rcs_code_memory_is_told_the_chip_with_xram_a
 
 
 def test_the_generations_of_dropped_lines_come_round_again_and_drop_nothing_else():
-    # host_drop only counts HGEN up; host_gen, once a frame, starts it again from 0 once it has
-    # reached 0x80. Lines dropped by ESC, each after an entry for channel 0 (then 2), carry HGEN
+    # host_drop only counts HGEN up; host_gen, after each reading, starts it again from 0 once it
+    # has reached its limit. Lines dropped by ESC, each after an entry for channel 0 (then 2), carry HGEN
     # there; then a group for channel 1 alone: channel 0 must stay where the home pose has it, and
     # verify's model of the protocol agrees frame by frame
     pins = [(p, b) for b in range(8) for p in (1, 2)]
     b = build_text(_program("stc89c52rc", pins, "main { host }"))
-    # (127 drops after host_run's own make HGEN 0x80: the frame that reads the last of them, or the
-    # next, starts it again, and no line is dropped between that and the group's commit)
-    body = "#0P1000\\x1b" * 127 + "#1P2000\\r" + "#2P900\\x1b" * 140 + "#0P1100#1P700\\x1b#3P1300\\r"
-    trace, report = watch(b, f'0.1s "{body}"\n', int(4.5e6 / b.plan.period_us))
+    # (host_run's own drop makes HGEN 1; limit - 1 drops more bring it to host_gen's limit, 255 less
+    # a reading's bytes: the reading of the last of them, or the next, starts it again, and no line is
+    # dropped between that and the group's commit)
+    limit = 255 - flow.host_passes(b.plan)
+    body = "#0P1000\\x1b" * (limit - 1) + "#1P2000\\r" + "#2P900\\x1b" * 140 + "#0P1100#1P700\\x1b#3P1300\\r"
+    trace, report = watch(b, f'0.1s "{body}"\n', int(6.5e6 / b.plan.period_us))
     assert report.ok, problems(report)
     def widths(port: int, bit: int) -> list[int]:
         edges = trace.pin_edges(port, bit)
