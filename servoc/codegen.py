@@ -404,8 +404,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     hosting = serial is not None and hosted(plan)
     rxq = host_queue(plan)
 
-    # what the stack leaves; with the host's state in XRAM, the RAM allocated decides (below)
-    ram = layout.RamAllocator(state_base - (0 if in_xram else stack_bytes), layout.work_base(nports))
+    # what the stack leaves; with the host's state in XRAM, the RAM allocated decides (host-ram)
+    def host_ram_short(past: int) -> layout.HostRam:
+        message, hint = flow_mod.host_ram_text(plan, past)
+        return layout.HostRam(message, hint, next(st for st in steps(plan) if isinstance(st, HostStep)).span)
+    ram = layout.RamAllocator(state_base - (least_stack if in_xram else stack_bytes), layout.work_base(nports),
+                              host_ram_short if in_xram else None)
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED, and BFULL and TXON where used"), 0)
@@ -456,9 +460,6 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         s.update(_rx_ring(ram.alloc("RXQ", slots, f"the receive queue: {rxq} bytes in a ring of {slots} slots",
                                     direct=False), slots))
     stack_base = ram.next
-    if in_xram and state_base - stack_base < least_stack:     # lint reports it from here
-        message, hint = flow_mod.host_ram_text(plan, least_stack - (state_base - stack_base))
-        raise layout.HostRam(message, hint, next(st for st in steps(plan) if isinstance(st, HostStep)).span)
     if in_xram and state_base - stack_base < stack_bytes:
         deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body,
                                    (state_base - stack_base - least_stack) // 2)

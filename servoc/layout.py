@@ -251,16 +251,19 @@ class RamAllocator:
     starts). A variable the code names directly must end by DIRECT_LIMIT; buffers reached only
     through @R0/@R1 (direct=False) may go past it."""
 
-    def __init__(self, end: int, start: int = WORK_BASE) -> None:
+    def __init__(self, end: int, start: int = WORK_BASE, full=None) -> None:
         self.next = start
         self.end = end
         self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)
         self.xsymbols: list[tuple[str, int, str]] = []     # in XRAM (flow.host_xram)
+        self.full = full            # the error when RAM past `end` is asked for (its bytes past it), or RamFull
 
     def alloc(self, name: str, size: int, what: str, direct: bool = True) -> int:
         addr = self.next
         self.next += size
         if self.next > self.end:
+            if self.full is not None:
+                raise self.full(self.next - self.end)
             raise RamFull(f"RAM is full: {name} does not fit below the stack at 0x{self.end:02X}")
         if direct and self.next > DIRECT_LIMIT:
             raise RamFull(f"direct RAM is full: {name} does not fit below 0x{DIRECT_LIMIT:02X}")

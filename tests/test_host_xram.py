@@ -146,3 +146,17 @@ def test_lines_that_set_all_24_servos_back_to_back_lose_no_byte():
     trace, report = watch(b, f'0.2s "{body}"\n', int(9.0e6 / b.plan.period_us))
     assert report.ok, problems(report)
     assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == 45 * 183
+
+
+def test_a_receive_queue_past_internal_ram_is_host_ram_with_the_frame_to_shorten():
+    # with the host's state in XRAM, a long frame at a fast rate makes a receive queue internal RAM
+    # cannot hold: host-ram counts it and points at the frame, where it used to be a ram-overflow
+    # about "the stack at 0x100"
+    text = ("target stc89c58rd clock 11.0592MHz\nserial 9600\nframe 60ms\nhost ssc32\n"
+            + "".join(f"servo s{p}{b} = P{p}.{b}\n" for p in (1, 2, 0) for b in range(2)) + "main { host }\n")
+    _, diags = front_end_text(text)
+    errors = [d for d in diags if d.is_error]
+    assert [d.code for d in errors] == ["host-ram"], [(d.code, d.message) for d in errors]
+    assert "a receive queue of" in errors[0].message and "XRAM" in errors[0].message
+    assert "shorter frame" in errors[0].help
+    assert flow.host_xram(build_text(text.replace("frame 60ms\n", "")).plan)     # at its own period it builds
