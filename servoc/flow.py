@@ -165,9 +165,9 @@ def host_short(plan: Plan, xram: bool | None = None) -> int:
 
 
 def host_xram(plan: Plan) -> bool:
-    """Whether the firmware keeps `host`'s per-servo state (HPW, HPS, HOF) and the DDA's error terms
+    """Whether the firmware keeps `host`'s per-servo state (HPW, HPS, HOF, HTAG) and the motion state
     in the chip's XRAM (the STC89's, MOVX @DPTR in page 0): only where the chip has it and internal
-    RAM alone is short (`host_short`). Its STATE then keeps 2 bytes a pin (layout.state_bytes)."""
+    RAM alone is short (`host_short`). Internal RAM then keeps no STATE (layout.state_base)."""
     return (hosted(plan) and plan.program.target.chip.xram_bytes >= XRAM_NEED
             and host_short(plan, False) > 0)
 
@@ -181,8 +181,9 @@ def host_ram_text(plan: Plan, short: int) -> tuple[str, str]:
         kept = f"its {HOST_XRAM_PER_SERVO * n} bytes of per-servo state are in the {chip.display}'s XRAM"
     else:
         kept = f"{HOST_PER_SERVO} for each of the {n} servos"
-    hint = ("use fewer servos, or put them on fewer ports (each port in use takes 40 bytes of RAM), "
-            "or a shorter frame (a smaller receive queue)")
+    port_ram = 8 if xram else 40        # CUR, and STATE where it is not in XRAM (costs.PORT_RAM)
+    hint = (f"use fewer servos, or put them on fewer ports (each port in use takes {port_ram} bytes of internal "
+            "RAM), or a shorter frame (a smaller receive queue)")
     if not chip.xram_bytes and not host_short(plan, True):
         hint += "; or an STC89 chip (`target stc89c58rd`), whose XRAM holds the per-servo state"
     ports = len(plan.ports)
@@ -191,8 +192,8 @@ def host_ram_text(plan: Plan, short: int) -> tuple[str, str]:
             f"servos and the serial line the chip is {short} byte{'s' if short != 1 else ''} short", hint)
 
 
-XRAM_NEED = 256         # host_xram's XRAM: the host's arrays from 0 (5 bytes a servo, at most 120) and
-                        # the DDA's error terms at their pins' STATE addresses (up to 0xFF)
+XRAM_NEED = 256         # host_xram's XRAM: the host's arrays from 0 (HOST_XRAM_PER_SERVO bytes a servo, at
+                        # most 144) and the motion state at its STATE addresses (layout.state_at, up to 0xFF)
 
 
 def takes_frames(body: tuple[Step, ...], plan: Plan, memo: dict | None = None) -> bool:

@@ -18,7 +18,8 @@ from test_verify_observes import problems, watch
 pytestmark = pytest.mark.toolchain
 
 
-def _program(chip: str, pins: list[tuple[int, int]], main: str = "main {\n  move q in 800ms\n  host\n}") -> str:
+def _program(chip: str, pins: list[tuple[int, int]], main: str = "main {\n  move q in 800ms\n  host\n}",
+             clock: str = "11.0592MHz") -> str:
     servos = "".join(f"servo s{i} = P{p}.{b}{' reverse' if i % 3 == 1 else ''} trim {i % 5 - 2}\n"
                      for i, (p, b) in enumerate(pins))
     pose = ", ".join(f"s{i}: {40 + (13 * i) % 100}" for i in range(len(pins)))
@@ -26,7 +27,7 @@ def _program(chip: str, pins: list[tuple[int, int]], main: str = "main {\n  move
     # the home pose sets every servo at once; the moves after it start from where the servos are
     # (a compiled move's setup, linear and eased steps, all with the state in XRAM), and `PL 0 SQ 0`
     # plays the sequence from the host
-    return (f"target {chip} clock 11.0592MHz\nserial 9600\nhost ssc32\n{servos}"
+    return (f"target {chip} clock {clock}\nserial 9600\nhost ssc32\n{servos}"
             f"pose p {{ {pose} }}\npose q {{ {far} }}\nhome p\n"
             f"sequence wave {{\n  move p in 1200ms ease in-out\n  move q in 1000ms\n}}\n{main}\n")
 
@@ -42,15 +43,18 @@ def _at_shortest(text: str):
     return b, text
 
 
-@pytest.mark.parametrize("chip, pins", [
-    ("stc89c52rc", [(p, b) for b in range(8) for p in (1, 2)]),            # 16 servos on two ports
-    ("stc89c52rc", [(p, b) for b in range(8) for p in (0, 1, 2)]),         # 24 on three, built for size
-    ("stc89c58rd", [(p, b) for b in range(8) for p in (0, 1, 2)]),         # 24 on three, built for speed
+@pytest.mark.parametrize("chip, pins, clock", [
+    ("stc89c52rc", [(p, b) for b in range(8) for p in (1, 2)], "11.0592MHz"),            # 16 servos on two ports
+    ("stc89c52rc", [(p, b) for b in range(8) for p in (0, 1, 2)], "11.0592MHz"),         # 24 on three, built for size
+    ("stc89c58rd", [(p, b) for b in range(8) for p in (0, 1, 2)], "11.0592MHz"),         # 24 on three, built for speed
+    ("stc89c58rd", [(p, b) for b in range(8) for p in (0, 1, 2)], "11.0592MHz mode 6T"),
+    ("stc89c58rd", [(p, b) for b in range(6) for p in (1, 2)], "22.1184MHz"),
 ])
-def test_host_state_in_xram_holds_the_heaviest_lines_at_the_shortest_period(chip, pins):
-    text = _program(chip, pins)
+def test_host_state_in_xram_holds_the_heaviest_lines_at_the_shortest_period(chip, pins, clock):
+    text = _program(chip, pins, clock=clock)
     b, text = _at_shortest(text)
     assert flow.host_xram(b.plan) and b.plan.compact == (chip == "stc89c52rc")     # 8 KB: built for size
+    assert b.plan.program.target.six_t == ("6T" in clock)
     assert "MOVX    @DPTR, A" in b.firmware.unit.text and "HPW     = 0x00" in b.firmware.unit.text
     count = len(pins)
     body = ""
