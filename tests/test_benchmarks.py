@@ -239,3 +239,17 @@ def test_import_benchmark_files_are_read_as_their_format_and_import_clean(tmp_pa
         assert row["format"] == fmt and row["errors"] == 0 and row["deviation"] <= 1
         # a Maestro frame is a move and the hold until the next frame starts; the others a move at most
         assert row["moves_out"] <= (2 if fmt == "maestro" else 1) * row["frames_in"] and row["frames_in"] >= 300
+
+
+def test_engine_terms_goal_program_and_its_terms():
+    """The 24-servo program of engine_terms.py puts N 0 and 250 on every port in one frame, and its
+    CPU's term is the model's frame term (costs: sorts + W + each port's rise entry and falls)."""
+    from servoc import costs
+    terms_mod = _load("engine_terms", "engine_terms.py")
+    _, plan = budget.plan_text(terms_mod.goal_source(""), "goal")
+    ports = [[t.n for t in pose.targets[8 * k:8 * k + 8]] for pose in plan.program.poses for k in range(3)]
+    assert len(ports) == 6 and all(0 in ns and 250 in ns for ns in ports) and len(plan.ports) == 3
+    t = terms_mod.terms("")
+    b = api.codegen.generate(plan).budget
+    assert t["cpu_cycles"] == sum(b.sorts) + b.work + sum(costs.handler_load(r, f) for r, f in zip(b.rises, b.falls))
+    assert t["reported_us"] >= max(t["pulses_us"], t["cpu_us"])

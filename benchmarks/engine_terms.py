@@ -1,0 +1,85 @@
+"""24 moving servos: which term of the frame budget bounds the shortest period, at three clocks.
+
+    .venv/bin/python benchmarks/engine_terms.py           # to 1 us (about three minutes)
+    .venv/bin/python benchmarks/engine_terms.py --quick   # to 8 us
+
+The program (`goal_source`): 24 servos on P0, P1 and P2, every other one slower (two speed
+classes), moving between two poses that put every port's lines over the full range (N 0 and 250
+in the same frame, the others 36 apart), an eased move and a linear one, in a loop. For each
+clock, from one budget read from its generated code (`costs.Budget`), side by side:
+
+- the shortest period servoc reports (`Plan.min_period_us`) and the shortest at which the
+  firmware, built with `frame` at each P (the budget bypassed), verifies exactly in ucsim;
+- the pulses' term: the sum of the ports' spans, each port's longest pulse and an entry, the
+  ports pulsed one after another;
+- the CPU's term: everything the frame's cycles must hold whatever the order of the ports'
+  pulses: the work between two frames (W), the ports' sorts, the edge handler's rise entries
+  (with the writing of each port's items) and its falls in the worst frame, each fall an entry
+  of its own when it is SPLIT cycles or more from the one before.
+
+The pulses' term is what overlapping the ports' pulses removes; the CPU's term stays. Where it
+is above a goal, no order of the pulses reaches that goal with this handler and this work.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from budget import QUICK_STEP, build_unchecked, exact, plan_text, shortest_period
+from servoc import api, costs
+
+CLOCKS = (("12 MHz", ""), ("22.1184 MHz", "target at89c52 clock 22.1184MHz"),
+          ("11.0592 MHz 6T", "target stc89c52rc clock 11.0592MHz mode 6T"))
+LOW = (0, 250, 36, 72, 108, 144, 180, 216)      # each port's lines: N 0 and N 250 in one frame
+
+
+def goal_source(target: str, period_us: int | None = None) -> str:
+    lines = [target] if target else []
+    lines.append(f"frame {period_us}us" if period_us else "frame 20ms")
+    for i in range(24):
+        slow = " speed 0.3s/60deg" if i % 2 else ""
+        lines.append(f"servo s{i} = P{i // 8}.{i % 8}{slow}")
+    a = ", ".join(f"s{i}: {LOW[i % 8]}" for i in range(24))
+    b = ", ".join(f"s{i}: {250 - LOW[i % 8]}" for i in range(24))
+    lines += [f"pose a {{ {a} }}", f"pose b {{ {b} }}", "main {", "  loop {",
+              "    move a in 1200ms ease in-out", "    move b in 1200ms", "  }", "}"]
+    return "\n".join(lines) + "\n"
+
+
+def terms(target_line: str) -> dict:
+    _, plan = plan_text(goal_source(target_line), "goal")
+    target, budget = plan.program.target, api.codegen.generate(plan).budget
+    us = lambda cycles: round(cycles * target.cycle_us)     # noqa: E731
+    rises = sum(budget.rises)
+    cpu = budget.work + sum(budget.sorts) + rises + sum(budget.falls)
+    return {"reported_us": plan.min_period_us, "pulses_us": us(sum(budget.spans or (costs.port_span(target),) * 3)),
+            "cpu_us": us(cpu), "cpu_cycles": cpu, "work": budget.work, "sorts": sum(budget.sorts),
+            "rises": rises, "falls": sum(budget.falls), "split": costs.SPLIT, "cycle_us": target.cycle_us}
+
+
+def exact_period(target_line: str, reported: int, step: int, frames: int) -> int:
+    def ok(p: int) -> bool:
+        plan, fw = build_unchecked(goal_source(target_line, p), "goal")
+        return exact(plan, fw, frames)
+    return shortest_period(ok, reported * 2 // 3, reported, step)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help=f"search to {QUICK_STEP} us over 60 frames")
+    args = ap.parse_args(argv)
+    step, frames = (QUICK_STEP, 60) if args.quick else (1, 150)
+    print("| clock | reported P (us) | exact P in ucsim (us) | pulses' term (us) | CPU's term (us) "
+          "| W | sorts | rise entries | falls (cycles) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, line in CLOCKS:
+        t = terms(line)
+        p = exact_period(line, t["reported_us"], step, frames)
+        print(f"| {name} | {t['reported_us']} | {p} | {t['pulses_us']} | {t['cpu_us']} ({t['cpu_cycles']} cycles) "
+              f"| {t['work']} | {t['sorts']} | {t['rises']} | {t['falls']} |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
