@@ -222,6 +222,10 @@ class _Statements:
                                       "(`10` for a newline, `34` for `\"`)")
                 return None
             return ord(ev.text)
+        if isinstance(ev, (nodes.EdgeEvent, nodes.OtherEvent)):
+            r.error("bad-byte", f"`{word}` transmits one byte, not `{format_event(ev)}`", ev.span,
+                    help=f"write the byte as one character in quotes or as a number 0..255: `{word} \"k\"`")
+            return None
         if ev.unit != "" or ev.value.denominator != 1 or not 0 <= ev.value <= 255:
             r.error("bad-byte", f"`{format_quantity(ev)}` is not a byte: a byte is a whole number 0..255",
                     ev.span, help="write a number 0..255 without a unit, or one character in quotes, `\"w\"`")
