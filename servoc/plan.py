@@ -28,7 +28,7 @@ At a select it follows `choices` (see `expand`); without one it waits forever.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Iterable, Iterator, Union
 
@@ -339,6 +339,8 @@ def verify_frames(plan: Plan) -> int:
 # entered in, made where that was), in the order found.
 Exits = dict
 
+MAX_STATES = 64     # states kept apart at one point of a body (`_Walker._widen`)
+
 
 class _Walker:
     """Runs the steps over states, not frames: each body is walked once per distinct entry state.
@@ -394,7 +396,8 @@ class _Walker:
             if isinstance(st, MoveStep):
                 for s, where in cur.items():
                     f = move_frames_at(st, s, self.tables, self.classes)
-                    motions = tuple(ServoMotion(ch, far(s[ch], n1), n1, far_from(s[ch], n1)) for ch, n1 in st.targets)
+                    motions = tuple(ServoMotion(ch, far(s[ch], n1), n1, far_from(s[ch], n1),
+                                                isinstance(s[ch], Reach) and s[ch].merged) for ch, n1 in st.targets)
                     cut = any(isinstance(s[ch], Reach) for ch, _ in st.targets)
                     if (id(st), s) not in self.instances:
                         self.instances[(id(st), s)] = MoveInstance(st, f, motions, made(where), branch, cut, s,
@@ -457,7 +460,7 @@ class _Walker:
                     for s2 in exits:
                         new.setdefault(s2, ("play", st.sequence, st.span))
                     total = None if total is None or frames is None else total + frames
-            cur = new
+            cur = self._widen(new, st.span)
             for s in cur:
                 more(s)
             if not cur:
@@ -465,6 +468,30 @@ class _Walker:
         self.memo[key] = (cur, total, hull)
         self.alive[id(body)] = body     # a body made for one call, `(st,)`, must not lend its id to another
         return self.memo[key]
+
+    def _widen(self, states: Exits, span: Span) -> Exits:
+        """`states` where they are at most MAX_STATES; else one state, each servo anywhere between the
+        positions it has in them (a Reach credited to the statement at `span`, after which they are
+        merged). Independent choices (selects one after another, each setting other
+        servos) multiply the states a program can be in; past the bound the walk keeps their hull, as
+        it does for an interruption, so that it stays linear in the program. Each move from there is
+        checked from the farthest position of each servo it names, the same verdict as from every
+        state apart; a move without a duration gets its F at run time."""
+        if len(states) <= MAX_STATES:
+            return states
+        credited = [tuple(at_statement(v, span) for v in s) for s in states]
+        hull = []
+        for ch, values in enumerate(zip(*states)):
+            if len(set(values)) == 1:
+                hull.append(values[0])
+                continue
+            known = [c[ch] for c in credited if c[ch] is not None]
+            lo = min(known, key=lambda r: r.lo)
+            hi = max(known, key=lambda r: r.hi)
+            hull.append(Reach(lo.lo, hi.hi, len(known) < len(credited) or any(r.unset for r in known),
+                              lo.lo_at, hi.hi_at, merged=True))
+        hull = tuple(hull)
+        return {hull: ("merged", span, len(states))}
 
     def _meanwhile(self, st: SelectStep, state: State, origin: Origin, branch: Branch | None) -> State:
         """Where the servos can be when an event cuts `st`'s meanwhile body (entered in `state`): at
@@ -480,7 +507,7 @@ class _Walker:
                 hull = tuple(join(a, at_statement(b, part.span)) for a, b in zip(hull, h))
                 for s2, w2 in exits.items():
                     new.setdefault(s2, where if w2 is None else w2)
-            cur = new
+            cur = self._widen(new, part.span)
             if not cur:
                 break
         before = self.cuts.get(id(st))
@@ -505,6 +532,7 @@ class _Walker:
                     nxt.setdefault(s2, where if w2 is None else w2)
                 frames = None if frames is None or f is None or len(layers[-1]) > 1 else f
             totals.append(frames)
+            nxt = self._widen(nxt, st.span)
             if not nxt:             # the first pass never ends: the frames until it stops
                 return {}, totals[0] if len(totals) == 1 else None, hull
             k = len(layers)

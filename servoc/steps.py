@@ -182,6 +182,8 @@ class Reach:
     unset: bool = False
     lo_at: Span = field(default=NO_SPAN, compare=False)
     hi_at: Span = field(default=NO_SPAN, compare=False)
+    merged: bool = field(default=False, compare=False)  # the hull of states too many to keep apart
+                                                        # (plan._Walker._widen), not an interruption
 
 
 def join(a, b):
@@ -197,7 +199,7 @@ def join(a, b):
     rb = b if isinstance(b, Reach) else Reach(b, b)
     lo = ra if ra.lo <= rb.lo else rb
     hi = ra if ra.hi >= rb.hi else rb
-    out = Reach(lo.lo, hi.hi, ra.unset or rb.unset, lo.lo_at, hi.hi_at)
+    out = Reach(lo.lo, hi.hi, ra.unset or rb.unset, lo.lo_at, hi.hi_at, ra.merged or rb.merged)
     return out.lo if out.lo == out.hi and not out.unset else out
 
 
@@ -230,6 +232,7 @@ class ServoMotion:
     n1: int               # the position farthest from n1 it can start from
     cut: Span = field(default=NO_SPAN, compare=False)   # after an interruption: the statement whose frames
                                                         # hold n0 (NO_SPAN: not after one)
+    merged: bool = field(default=False, compare=False)  # n0 is the farthest of a hull of states (Reach.merged)
 
     @property
     def delta(self) -> int:

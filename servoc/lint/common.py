@@ -64,6 +64,9 @@ def origin_text(origin: tuple, source) -> str:
         if origin[2] is not None:
             return f"where `until {origin[2]}` (line {line}) cuts the statement short"
         return f"where an event cuts the meanwhile body of the select at line {line}"
+    if origin[0] == "merged":
+        return (f"any of the {origin[2]} states the servos can be in after line "
+                f"{source.line_col(origin[1].start)[0]} (each servo between the positions it has in them)")
     if origin[0] == "home":
         return "the `home` pose"
     if origin[0] == "host":

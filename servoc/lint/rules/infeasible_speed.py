@@ -50,7 +50,9 @@ def infeasible_speed(plan: Plan, report: Report) -> None:
             src = report.reporter.source
             line = src.line_col(m.cut.start)[0]
             stmt = src.text[m.cut.start:m.cut.end].split("\n")[0].strip()
-            if inst.origin[0] == "cut":
+            if m.merged:
+                context += f"; `{ch_.name}` can be at N {m.n0} in them"
+            elif inst.origin[0] == "cut":
                 sel = f"line {src.line_col(inst.origin[1].start)[0]}"
                 who = f"`until {inst.origin[2]}`" if inst.origin[2] is not None else f"an event of the select at {sel}"
                 context = ("" if inst.branch is None else f", after `{branch_text(inst.branch)}`") + \

@@ -1,0 +1,67 @@
+"""Selects one after another, each setting other servos: the states a program can be in multiply
+(3 branches x 6 selects: 3^6 combinations). The plan keeps at most `plan.MAX_STATES` apart at one
+point of a body and their hull past that, so that linting stays linear in the program, with the
+same speed verdicts as from every state apart, and firmware that verifies at the period it reports."""
+
+from __future__ import annotations
+
+import pytest
+
+from conftest import front_end_text
+from servoc import plan as plan_mod
+from test_select import run
+
+SERVOS = 6
+
+
+def program(selects: int, slow: str = "", fast_last: bool = False) -> str:
+    lines = ["serial 4800"] + [f"servo s{i} = P1.{i} speed 0.05s/60deg{slow if i == 0 else ''}" for i in range(SERVOS)]
+    for i in range(SERVOS):
+        lines += [f"pose p{i}_{v} {{ s{i}: {40 + 60 * v} }}" for v in range(3)]
+    lines.append("pose all { " + ", ".join(f"s{i}: 100" for i in range(SERVOS)) + " }")
+    lines += ["main {", "  move all in 1s", "  loop {"]
+    for j in range(selects):
+        i = j % SERVOS
+        lines.append(f'    select {{ on "a" {{ move p{i}_0 in 300ms }} on "b" {{ move p{i}_1 in 300ms }} '
+                     f'on "c" {{ move p{i}_2 in 300ms }} }}')
+    lines.append(f"    move all in {'20ms' if fast_last else '1s'}")
+    lines += ["  }", "}"]
+    return "\n".join(lines) + "\n"
+
+
+def errors(diags) -> list[tuple[str, int, str]]:
+    return sorted((d.code, d.span.start, d.message.split(":")[0]) for d in diags if d.is_error)
+
+
+def test_the_states_kept_apart_are_bounded_and_the_moves_instances_few():
+    fe, diags = front_end_text(program(8))
+    assert fe.plan is not None and not errors(diags), errors(diags)
+    # each move is walked from at most MAX_STATES states (without the bound, from up to 3^5 = 243)
+    per_move: dict[int, int] = {}
+    for inst in fe.plan.moves:
+        per_move[id(inst.step)] = per_move.get(id(inst.step), 0) + 1
+    assert max(per_move.values()) <= 64, max(per_move.values())
+
+
+@pytest.mark.parametrize("fast_last", [False, True])
+def test_the_verdicts_are_those_of_every_state_apart(monkeypatch, fast_last):
+    """`move all in 20ms` after the selects is too fast from some of the 3^4 combinations: the
+    error, its servo and move, as with every combination kept apart."""
+    text = program(4, fast_last=fast_last)
+    monkeypatch.setattr(plan_mod, "MAX_STATES", 10 ** 6)
+    _, apart = front_end_text(text)
+    monkeypatch.setattr(plan_mod, "MAX_STATES", 8)
+    fe, merged = front_end_text(text)
+    assert [(c, s) for c, s, _ in errors(merged)] == [(c, s) for c, s, _ in errors(apart)]
+    assert bool(errors(merged)) == fast_last
+    if fast_last:
+        msgs = [d.message for d in merged if d.code == "infeasible-speed"]
+        assert any("any of the 9 states" in m and "`s0` can be at N 40 in them" in m for m in msgs), msgs
+
+
+def test_past_the_bound_the_firmware_verifies_at_the_period_it_reports():
+    text = program(8)
+    fe, _ = front_end_text(text)
+    scenario = "".join(f"{40 + 70 * k}ms \"{'abc'[k * 7 % 3]}\"\n" for k in range(40))
+    plan, trace, evs, report = run(f"frame {fe.plan.min_period_us}us\n" + text, scenario, 700)
+    assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:4]])
