@@ -368,6 +368,7 @@ class _Walker:
         self.memo: dict[tuple, tuple[Exits, int | None, State]] = {}
         self.alive: dict[int, tuple] = {}     # the bodies `memo` has seen, by id: kept, so that no id is reused
         self.cuts: dict[int, State] = {}      # id(select) -> the join of its cut states (for `servoc plan`)
+        self.hosting: set[tuple] = set()      # (sequence, state) the host's plays are being walked from
 
     def start(self, main: tuple[Step, ...], channels: int, home: State | None = None) -> tuple[Exits, int | None]:
         exits, frames, _ = self.walk(main, home or (None,) * channels, ("start",), None)
@@ -425,7 +426,11 @@ class _Walker:
                 more(held)
                 for name in self.order:
                     self.played.add(name)
+                    if (name, held) in self.hosting:    # a sequence with `host` in it, played by the host:
+                        continue                        # it is being walked from there already
+                    self.hosting.add((name, held))
                     _, _, h = self.walk(self.sequences[name].body, held, ("host", st.span), branch)
+                    self.hosting.discard((name, held))
                     more(h)
                 total = None
             elif isinstance(st, RepeatStep):

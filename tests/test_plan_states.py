@@ -65,3 +65,43 @@ def test_past_the_bound_the_firmware_verifies_at_the_period_it_reports():
     scenario = "".join(f"{40 + 70 * k}ms \"{'abc'[k * 7 % 3]}\"\n" for k in range(40))
     plan, trace, evs, report = run(f"frame {fe.plan.min_period_us}us\n" + text, scenario, 700)
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:4]])
+
+
+HOSTED_HOST = """\
+target stc89c52rc clock 11.0592MHz
+serial 9600
+host ssc32
+input go = P3.3
+input stop = P3.2
+servo s0 = P1.0
+servo s1 = P1.1
+pose mid { s0: 90deg, s1: 90deg }
+pose high { s0: 120deg, s1: 120deg }
+home mid
+sequence q0 {
+  select {
+    on "x" { move high in 300ms }
+    on press stop { hold 200ms; host until release go }
+    after 500ms { move mid }
+  }
+}
+main {
+  play q0
+  host until press stop
+}
+"""
+
+
+def test_a_sequence_with_host_that_the_host_plays_verifies(tmp_path):
+    """`PL 0 SQ 0` plays q0, which has a `host` of its own: the walk of the host's plays does not
+    walk q0 again from inside itself (it recursed without end: an internal error in `verify`)."""
+    from servoc import cli, plan as plan_mod
+    src = tmp_path / "p.servo"
+    src.write_text(HOSTED_HOST, encoding="utf-8")
+    events = tmp_path / "e.events"
+    events.write_text('0.1s "#0P1000S800#1P2000T300\\r"\n0.4s "PL 0 SQ 0\\r"\n0.7s "x"\n1.1s "PL 0 SQ 0\\r"\n'
+                      '1.3s "QP 0\\r"\n1.6s stop active\n1.9s stop inactive\n', encoding="utf-8")
+    fe, diags = front_end_text(HOSTED_HOST)
+    assert fe.plan is not None and not errors(diags)
+    assert plan_mod.verify_frames(fe.plan) >= 400
+    assert cli.main(["verify", str(src), "--events", str(events)]) == 0
