@@ -5,28 +5,25 @@ same speed verdicts as from every state apart, and firmware that verifies at the
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import pytest
 
 from conftest import front_end_text
 from servoc import plan as plan_mod
 from test_select import run
 
-SERVOS = 6
+
+def _generator():
+    spec = importlib.util.spec_from_file_location(
+        "select_states", Path(__file__).resolve().parent.parent / "benchmarks" / "select_states.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def program(selects: int, slow: str = "", fast_last: bool = False) -> str:
-    lines = ["serial 4800"] + [f"servo s{i} = P1.{i} speed 0.05s/60deg{slow if i == 0 else ''}" for i in range(SERVOS)]
-    for i in range(SERVOS):
-        lines += [f"pose p{i}_{v} {{ s{i}: {40 + 60 * v} }}" for v in range(3)]
-    lines.append("pose all { " + ", ".join(f"s{i}: 100" for i in range(SERVOS)) + " }")
-    lines += ["main {", "  move all in 1s", "  loop {"]
-    for j in range(selects):
-        i = j % SERVOS
-        lines.append(f'    select {{ on "a" {{ move p{i}_0 in 300ms }} on "b" {{ move p{i}_1 in 300ms }} '
-                     f'on "c" {{ move p{i}_2 in 300ms }} }}')
-    lines.append(f"    move all in {'20ms' if fast_last else '1s'}")
-    lines += ["  }", "}"]
-    return "\n".join(lines) + "\n"
+program = _generator().program      # the benchmark's programs: benchmarks/select_states.py
 
 
 def errors(diags) -> list[tuple[str, int, str]]:
