@@ -27,6 +27,7 @@ At a select it follows `choices` (see `expand`); without one it waits forever.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, replace
 from fractions import Fraction
@@ -484,18 +485,9 @@ class _Walker:
         state apart; a move without a duration gets its F at run time."""
         if len(states) <= MAX_STATES:
             return states
-        credited = [tuple(at_statement(v, span) for v in s) for s in states]
-        hull = []
-        for ch, values in enumerate(zip(*states)):
-            if len(set(values)) == 1:
-                hull.append(values[0])
-                continue
-            known = [c[ch] for c in credited if c[ch] is not None]
-            lo = min(known, key=lambda r: r.lo)
-            hi = max(known, key=lambda r: r.hi)
-            hull.append(Reach(lo.lo, hi.hi, len(known) < len(credited) or any(r.unset for r in known),
-                              lo.lo_at, hi.hi_at, merged=True))
-        hull = tuple(hull)
+        hull = tuple(values[0] if len(set(values)) == 1
+                     else replace(at_statement(functools.reduce(join, values), span), merged=True)
+                     for values in zip(*states))
         return {hull: ("merged", span, len(states))}
 
     def _meanwhile(self, st: SelectStep, state: State, origin: Origin, branch: Branch | None) -> State:

@@ -190,8 +190,8 @@ def join(a, b):
     """The positions of one servo in either of two states (an N, None: no target, or a Reach)."""
     if a is b:
         return a
-    if type(a) is Reach:            # the most common case, a hull that already holds b: a itself
-        if b is None:
+    if type(a) is Reach and (a.lo < a.hi or a.unset):     # the most common case, a hull that
+        if b is None:                                       # already holds b: a itself
             if a.unset:
                 return a
         elif type(b) is int:
@@ -199,7 +199,7 @@ def join(a, b):
                 return a
         elif a.lo <= b.lo and b.hi <= a.hi and (a.unset or not b.unset) and (a.merged or not b.merged):
             return a
-    elif a == b:
+    elif a == b and type(a) is not Reach:
         return a
     if a is None or b is None:
         other = b if a is None else a
@@ -232,8 +232,7 @@ def at_statement(value, span: Span):
     """`value` with the extremes not credited yet credited to the statement at `span` (for messages)."""
     if value is None:
         return None
-    if type(value) is Reach and value.lo_at is not NO_SPAN and value.lo_at != NO_SPAN \
-            and value.hi_at is not NO_SPAN and value.hi_at != NO_SPAN:
+    if type(value) is Reach and value.lo_at != NO_SPAN and value.hi_at != NO_SPAN:
         return value                # credited already
     r = value if isinstance(value, Reach) else Reach(value, value)
     return replace(r, lo_at=r.lo_at if r.lo_at != NO_SPAN else span, hi_at=r.hi_at if r.hi_at != NO_SPAN else span)
