@@ -9,9 +9,12 @@ import importlib.util
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from conftest import front_end_text
 from servoc import plan as plan_mod
+from servoc.source import Span
+from servoc.steps import Reach, join
 from test_select import run
 
 
@@ -56,11 +59,18 @@ def test_the_verdicts_are_those_of_every_state_apart(monkeypatch, fast_last):
         assert any("any of the 9 states" in m and "`s0` can be at N 40 in them" in m for m in msgs), msgs
 
 
-def test_past_the_bound_the_firmware_verifies_at_the_period_it_reports():
-    text = program(8)
+@pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n",
+                                   "target stc89c52rc clock 11.0592MHz mode 6T\n"])
+def test_past_the_bound_the_firmware_verifies_at_the_period_it_reports(clock):
+    """At the shortest period reported past the bound, every pulse is exact while bytes pick the
+    branches; 1 us less is refused."""
+    text = clock + program(8)
     fe, _ = front_end_text(text)
+    p = fe.plan.min_period_us
+    _, short = front_end_text(f"frame {p - 1}us\n" + text)
+    assert [d.code for d in short if d.is_error] == ["period-too-short"]
     scenario = "".join(f"{40 + 70 * k}ms \"{'abc'[k * 7 % 3]}\"\n" for k in range(40))
-    plan, trace, evs, report = run(f"frame {fe.plan.min_period_us}us\n" + text, scenario, 700)
+    plan, trace, evs, report = run(f"frame {p}us\n" + text, scenario, 700)
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:4]])
 
 
@@ -92,7 +102,7 @@ main {
 def test_a_sequence_with_host_that_the_host_plays_verifies(tmp_path):
     """`PL 0 SQ 0` plays q0, which has a `host` of its own: the walk of the host's plays does not
     walk q0 again from inside itself (it recursed without end: an internal error in `verify`)."""
-    from servoc import cli, plan as plan_mod
+    from servoc import cli
     src = tmp_path / "p.servo"
     src.write_text(HOSTED_HOST, encoding="utf-8")
     events = tmp_path / "e.events"
@@ -102,3 +112,39 @@ def test_a_sequence_with_host_that_the_host_plays_verifies(tmp_path):
     assert fe.plan is not None and not errors(diags)
     assert plan_mod.verify_frames(fe.plan) >= 400
     assert cli.main(["verify", str(src), "--events", str(events)]) == 0
+
+
+def _position(draw, st):
+    kind = draw(st.integers(0, 2))
+    if kind == 0:
+        return None
+    if kind == 1:
+        return draw(st.integers(0, 6))
+    lo = draw(st.integers(0, 6))
+    return Reach(lo, draw(st.integers(lo, 6)), draw(st.booleans()), Span(draw(st.integers(0, 2)), 9),
+                 Span(draw(st.integers(0, 2)), 9), draw(st.booleans()))
+
+
+@settings(max_examples=3000, deadline=None, derandomize=True)
+@given(st.data())
+def test_join_is_the_hull_of_both_positions(data):
+    """`steps.join`, with its shortcuts for a hull that already holds the other position: the
+    least range holding both (unset if either may be), its ends credited as the side it comes from
+    (the first on a tie), merged if either is, and a single N where that is all it can be."""
+    a, b = _position(data.draw, st), _position(data.draw, st)
+    got = join(a, b)
+    if a == b and not isinstance(a, Reach):
+        assert got == a
+        return
+    ra = None if a is None else a if isinstance(a, Reach) else Reach(a, a)
+    rb = None if b is None else b if isinstance(b, Reach) else Reach(b, b)
+    known = [r for r in (ra, rb) if r is not None]
+    lo = min(known, key=lambda r: r.lo)         # min/max keep the first of equals: a
+    hi = max(known, key=lambda r: r.hi)
+    unset = a is None or b is None or any(r.unset for r in known)
+    if lo.lo == hi.hi and not unset:
+        assert got == lo.lo and type(got) is int
+        return
+    assert isinstance(got, Reach) and (got.lo, got.hi, got.unset) == (lo.lo, hi.hi, unset)
+    assert (got.lo_at, got.hi_at) == (lo.lo_at, hi.hi_at)
+    assert got.merged == any(r.merged for r in known)
