@@ -27,7 +27,7 @@ import argparse
 import sys
 
 from budget import QUICK_STEP, build_unchecked, exact, plan_text, shortest_period
-from servoc import api, costs
+from servoc import api
 
 CLOCKS = (("12 MHz", ""), ("22.1184 MHz", "target at89c52 clock 22.1184MHz"),
           ("11.0592 MHz 6T", "target stc89c52rc clock 11.0592MHz mode 6T"))
@@ -53,9 +53,9 @@ def terms(target_line: str) -> dict:
     us = lambda cycles: round(cycles * target.cycle_us)     # noqa: E731
     rises = sum(budget.rises)
     cpu = budget.work + sum(budget.sorts) + rises + sum(budget.falls)
-    return {"reported_us": plan.min_period_us, "pulses_us": us(sum(budget.spans or (costs.port_span(target),) * 3)),
+    return {"reported_us": plan.min_period_us, "pulses_us": us(sum(budget.spans)),
             "cpu_us": us(cpu), "cpu_cycles": cpu, "work": budget.work, "sorts": sum(budget.sorts),
-            "rises": rises, "falls": sum(budget.falls), "split": costs.SPLIT, "cycle_us": target.cycle_us}
+            "rises": rises, "falls": sum(budget.falls)}
 
 
 def exact_period(target_line: str, reported: int, step: int, frames: int) -> int:
