@@ -382,10 +382,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     in_xram = host_xram(plan)           # the host's arrays and the motion state in XRAM
     room_promised = costs.stack_room(serial is not None, taken, nports, in_xram)
     least_stack = costs.stack_bytes(0, serial is not None, deep_runtime, wrapped)
-    if hosted(plan) and not in_xram and least_stack > room_promised:
-        raise layout.HostRam(f"`host` needs {select_ram(plan)} bytes of RAM, which leaves the stack "
-                             f"{room_promised} bytes")      # lint's `host-ram` reports this first
-    if stack_bytes > room_promised and not in_xram:     # lint's `too-deep` reports this first
+    decides = hosted(plan)              # with `host`, the RAM allocated decides (host-ram, too-deep)
+    if stack_bytes > room_promised and not decides:     # lint's `too-deep` reports this first
         raise layout.StackTooDeep(f"the program nests too deeply: it needs {stack_bytes} bytes of stack, "
                                   f"the firmware has {room_promised}")
     state_base = layout.state_base(nports, in_xram)
@@ -404,12 +402,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     hosting = serial is not None and hosted(plan)
     rxq = host_queue(plan)
 
-    # what the stack leaves; with the host's state in XRAM, the RAM allocated decides (host-ram)
+    # what the stack leaves; with `host`, the RAM allocated decides (host-ram)
     def host_ram_short(past: int) -> layout.HostRam:
         message, hint = flow_mod.host_ram_text(plan, past)
         return layout.HostRam(message, hint, next(st for st in steps(plan) if isinstance(st, HostStep)).span)
-    ram = layout.RamAllocator(state_base - (least_stack if in_xram else stack_bytes), layout.work_base(nports),
-                              host_ram_short if in_xram else None)
+    ram = layout.RamAllocator(state_base - (least_stack if decides else stack_bytes), layout.work_base(nports),
+                              host_ram_short if decides else None)
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
     framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED, and BFULL and TXON where used"), 0)
@@ -459,13 +457,14 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
         slots = rxq + 1         # one slot always free: the ring is full when the slot after RXW is RXR's
         s.update(_rx_ring(ram.alloc("RXQ", slots, f"the receive queue: {rxq} bytes in a ring of {slots} slots",
                                     direct=False), slots))
+    ram.check()
     stack_base = ram.next
-    if in_xram and state_base - stack_base < stack_bytes:
-        deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body,
-                                   (state_base - stack_base - least_stack) // 2)
-        raise layout.StackTooDeep(f"repeats, plays and waiting selects nest {plan.nesting} levels deep: they need "
-                                  f"{stack_bytes} bytes of stack, and the RAM the program allocates leaves "
-                                  f"{state_base - stack_base}", span=deep.span if deep is not None else None)
+    if decides and state_base - stack_base < stack_bytes:
+        room = state_base - stack_base
+        limit = (room - least_stack) // 2
+        deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body, limit)
+        message, _ = walk.too_deep_text(plan.nesting, room, limit, deep)
+        raise layout.StackTooDeep(message, layout.FLATTEN, span=deep.span if deep is not None else None)
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base
     bport = (plan.ports[-1] if len(plan.ports) == 3 and not in_xram and stack_bytes + costs.BUFB_RAM <= room
@@ -797,8 +796,7 @@ def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int) -> dict:
 def _rx_ring(base: int, slots: int) -> dict:
     """The receive queue's ring of `slots` slots at `base`: the address past its last slot (rx_end),
     and what turns rx_end into base under XRL (rx_wrap)."""
-    end = base + slots
-    assert end <= layout.RAM_SIZE
+    end = base + slots          # past RAM_SIZE only where RamAllocator.check refuses the layout
     return {"rx_slots": slots, "rx_end": end & 0xFF, "rx_wrap": base ^ (end & 0xFF)}
 
 

@@ -477,7 +477,7 @@ def default_period_us(min_period: int) -> int:
 # RAM (plan.select_ram) and the serial line's are taken from the stack's 46 bytes. Code
 # generation reads the runtime's depth from the code (codegen.runtime_stack) and
 # holds it to these figures. `stack_room` is what `too-deep` promises for the program's
-# ports, whatever else it uses; the firmware itself starts the stack where the RAM it
+# ports, whatever else it uses (with `host`, the RAM allocated decides instead: flow.host_short); the firmware itself starts the stack where the RAM it
 # allocates ends (no eased moves, no `send`: fewer variables), so most programs have more.
 STACK_BYTES = 46
 PORT_RAM = 40               # CUR (8) and STATE (32) of one port: RAM a port not in use leaves to the stack

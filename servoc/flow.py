@@ -149,11 +149,11 @@ def host_ram(plan: Plan, xram: bool | None = None) -> int:
 
 
 def host_short(plan: Plan, xram: bool | None = None) -> int:
-    """Bytes of internal RAM the firmware lacks for `host` (0: it fits) by the stack room promised
+    """Bytes of internal RAM `host` lacks (0: it fits) by the stack room other programs are promised
     (`costs.stack_room`): with no repeat or play nested, it must still hold the runtime's, the
-    edge handler's and the serial handler's (`xram`: as `host_ram`). Where `host_xram`, the
-    firmware's own allocation decides instead (code generation: `host-ram` or `too-deep`), and
-    this is 0."""
+    edge handler's and the serial handler's (`xram`: as `host_ram`); 0 where `host_xram`. It
+    chooses XRAM (`host_xram`) and `host-ram`'s hint; whether a `host` program fits is decided by
+    the RAM the firmware allocates (code generation: `host-ram` or `too-deep`)."""
     if not hosted(plan):
         return 0
     from . import costs

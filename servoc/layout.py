@@ -188,13 +188,17 @@ class RamFull(LayoutError):
     help = "use fewer ports or servos"
 
 
+FLATTEN = "flatten the program: play a sequence once with a larger repeat count instead of nesting"
+
+
 class StackTooDeep(LayoutError):
     code = "too-deep"
     help = f"nest `repeat` and `play` at most {costs.max_nesting()} levels deep"
 
 
 class HostRam(LayoutError):
-    """`host` leaves the stack less room than a program without nesting needs."""
+    """The RAM the firmware allocates for `host`, and the stack a program without nesting needs, go
+    past internal RAM (flow.host_ram_text says by how much)."""
     code = "host-ram"
     help = "use fewer servos, or put them on fewer ports (each port in use takes 40 bytes of RAM)"
 
@@ -256,19 +260,25 @@ class RamAllocator:
         self.end = end
         self.symbols: list[tuple[str, int, str]] = list(MASK_BYTES)
         self.xsymbols: list[tuple[str, int, str]] = []     # in XRAM (flow.host_xram)
-        self.full = full            # the error when RAM past `end` is asked for (its bytes past it), or RamFull
+        self.full = full            # the error for the bytes past `end` all the allocations ask for
+                                    # (raised by `check`), or None: RamFull at the first one past it
 
     def alloc(self, name: str, size: int, what: str, direct: bool = True) -> int:
         addr = self.next
         self.next += size
         if self.next > self.end:
-            if self.full is not None:
-                raise self.full(self.next - self.end)
-            raise RamFull(f"RAM is full: {name} does not fit below the stack at 0x{self.end:02X}")
-        if direct and self.next > DIRECT_LIMIT:
+            if self.full is None:
+                raise RamFull(f"RAM is full: {name} does not fit below the stack at 0x{self.end:02X}")
+        elif direct and self.next > DIRECT_LIMIT:
             raise RamFull(f"direct RAM is full: {name} does not fit below 0x{DIRECT_LIMIT:02X}")
         self.symbols.append((name, addr, what))
         return addr
+
+    def check(self) -> None:
+        """After the last allocation: `full`'s error when the allocations went past `end`, counting
+        every byte past it."""
+        if self.full is not None and self.next > self.end:
+            raise self.full(self.next - self.end)
 
     def total(self, pins: int, stack: int, xram: bool = False) -> int:
         """Bytes of internal RAM in use: direct RAM, the motion state of every pin (none where it

@@ -203,6 +203,17 @@ def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
             return None
 
 
+def too_deep_text(depth: int, stack: int, limit: int, st: Any) -> tuple[str, str]:
+    """`too-deep`'s message and label: the program nests `depth` levels, a `stack` of that many bytes
+    has room for `limit`, and `st` (first_too_deep's statement, or None) is the one past it."""
+    word = kind(st) if st is not None else "repeat"
+    subject = ("this `select`'s counters, kept while its meanwhile body runs, reach" if word == "select"
+               else f"this `{word}` is")
+    return (f"repeats, plays and waiting selects nest {depth} level{'s' if depth != 1 else ''} deep, but the "
+            f"firmware's {stack}-byte stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); "
+            f"{subject} level {limit + 1}", f"level {limit + 1}")
+
+
 def rebuild(body: tuple, change: Callable[[Any], Any]) -> tuple:
     """A copy of `body` with `change(st)` in place of each statement, applied inside out
     (a repeat, loop or select is given to `change` with its bodies already rebuilt)."""

@@ -747,13 +747,14 @@ def test_the_receive_queue_holds_exactly_two_frames_of_bytes_and_two():
 
 
 def test_a_host_until_whose_select_does_not_fit_names_the_select():
-    """With two ports at 2400 baud, `host` leaves the stack room for a plain `host` with 5 servos
-    but not for the counters `host until` keeps while it runs: too-deep points at that select,
-    not at a repeat the program does not have."""
+    """With two ports of 4 servos at 4800 baud, the RAM the firmware allocates leaves the stack room
+    for a plain `host` but not for the counters `host until` keeps while it runs: too-deep points at
+    that select, not at a repeat the program does not have."""
     from servoc.source import SourceFile
-    head = ("target at89c52 clock 11.0592MHz\nserial 2400\nhost ssc32\ninput stop = P3.2\n"
-            "servo a = P1.0\nservo b = P2.0\nservo c = P1.1\nservo d = P2.1\nservo e = P1.2\n"
-            "pose p { a: 122, b: 122, c: 122, d: 122, e: 122 }\nhome p\n")
+    pins = [(p, b) for b in range(4) for p in (1, 2)]
+    head = ("target at89c52 clock 11.0592MHz\nserial 4800\nhost ssc32\ninput stop = P3.2\n"
+            + "".join(f"servo s{p}{b} = P{p}.{b}\n" for p, b in pins)
+            + "pose p { " + ", ".join(f"s{p}{b}: 122" for p, b in pins) + " }\nhome p\n")
     _, diags = front_end_text(head + "main {\n  host\n}\n")
     assert not [d for d in diags if d.is_error], [d.message for d in diags if d.is_error]
     text = head + "main {\n  host until press stop\n}\n"
@@ -797,7 +798,7 @@ def test_a_servo_stop_c_held_is_let_go_when_an_event_cuts_the_sequence():
 
 def test_what_host_carries_on_one_two_and_three_ports_is_what_the_docs_say():
     # docs/host-protocol.md at 9600 baud and 11.0592 MHz: without XRAM one port carries all 8
-    # servos, two ports 4 with `main { host }` (3 with `host until`, whose select keeps its
+    # servos, two ports 7 with `main { host }` (6 with `host until`, whose select keeps its
     # counters), three none; an STC89 keeps the host's per-servo state in XRAM: two ports 16
     def errors(pins, main="main { host }", chip="at89c52"):
         text = (f"target {chip} clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
@@ -807,9 +808,9 @@ def test_what_host_carries_on_one_two_and_three_ports_is_what_the_docs_say():
         return [d.code for d in diags if d.is_error]
     two = [(1 + i % 2, i // 2) for i in range(16)]
     assert errors([(1, b) for b in range(8)]) == []
-    assert errors(two[:4]) == [] and errors(two[:5]) == ["host-ram"]
-    assert errors(two[:3], "main { host until press stop }") == []
-    assert errors(two[:4], "main { host until press stop }") == ["host-ram"]
+    assert errors(two[:7]) == [] and errors(two[:8]) == ["host-ram"]
+    assert errors(two[:6], "main { host until press stop }") == []
+    assert errors(two[:7], "main { host until press stop }") == ["host-ram"]
     assert errors([(1, 0), (2, 0), (0, 0)]) == ["host-ram"]
     assert errors(two, "main { host until press stop }", "stc89c52rc") == []
     assert errors(two + [(0, 0)], chip="stc89c58rd") == []

@@ -49,14 +49,21 @@ def _at_shortest(text: str):
     ("stc89c58rd", [(p, b) for b in range(8) for p in (0, 1, 2)], "11.0592MHz"),         # 24 on three, built for speed
     ("stc89c58rd", [(p, b) for b in range(8) for p in (0, 1, 2)], "11.0592MHz mode 6T"),
     ("stc89c58rd", [(p, b) for b in range(6) for p in (1, 2)], "22.1184MHz"),
+    ("at89c52", [(p, b) for b in range(3) for p in (1, 2)][:5], "11.0592MHz"),        # no XRAM: RAM allocated decides
 ])
 def test_host_state_in_xram_holds_the_heaviest_lines_at_the_shortest_period(chip, pins, clock):
     text = _program(chip, pins, clock=clock)
     b, text = _at_shortest(text)
-    assert flow.host_xram(b.plan) and b.plan.compact == (chip == "stc89c52rc")     # 8 KB: built for size
+    xram = chip != "at89c52"
+    assert flow.host_xram(b.plan) == xram and b.plan.compact == (chip == "stc89c52rc")     # 8 KB: built for size
     assert b.plan.program.target.six_t == ("6T" in clock)
-    assert "MOVX    @DPTR, A" in b.firmware.unit.text and "HPW     = 0x00" in b.firmware.unit.text
-    count = len(pins)
+    assert ("MOVX    @DPTR, A" in b.firmware.unit.text) == xram and ("HPW     = 0x00" in b.firmware.unit.text) == xram
+    _heavy_session(b, text, len(pins))
+
+
+def _heavy_session(b, text: str, count: int) -> None:
+    """Group lines naming every servo with S and T, Q, QP and PO lines, an ESC and a bad line, then
+    `PL 0 SQ 0`: verify's protocol model passes, every answer comes, and 1 us less is refused."""
     body = ""
     for k in range(4):
         body += "".join(f"#{i}P{600 + (k * 370 + i * 190) % 1900}S{300 + 97 * k + i}" for i in range(count))
@@ -70,6 +77,25 @@ def test_host_state_in_xram_holds_the_heaviest_lines_at_the_shortest_period(chip
     shorter = re.sub(r"host ssc32\n(frame \d+us\n)?", f"host ssc32\nframe {b.plan.min_period_us - 1}us\n", text)
     _, diags = front_end_text(shorter)
     assert any(d.code == "period-too-short" for d in diags), [d.code for d in diags]
+
+
+def test_without_xram_the_ram_allocated_decides_and_the_deepest_nesting_it_allows_runs():
+    # an AT89C52 with two ports: `host`'s RAM comes first and the stack gets what is left, not a
+    # fixed share; the deepest nesting lint accepts around `host` (7 repeats and `PL`'s play) runs
+    # the heaviest lines at the shortest period, the stack at its deepest while the host commits;
+    # one level more is too-deep at the repeat past it, from lint as from compile
+    pins = [(p, b) for b in range(2) for p in (1, 2)]
+    def program(levels: int) -> str:
+        return _program("at89c52", pins, "main {\n" + "  repeat 2 {\n" * levels + "  move q in 800ms\n  host\n"
+                        + "  }\n" * levels + "}")
+    deepest = max(k for k in range(12) if not [d for d in front_end_text(program(k))[1] if d.is_error])
+    assert deepest >= 4
+    _, diags = front_end_text(program(deepest + 1))
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "too-deep" and f"level {deepest + 2}" in d.message
+    b, text = _at_shortest(program(deepest))
+    assert not flow.host_xram(b.plan)
+    _heavy_session(b, text, len(pins))
 
 
 def test_without_xram_the_same_program_is_refused_with_the_chip_that_holds_it():

@@ -6,9 +6,9 @@ later passes cannot walk them; lint reports the rest."""
 
 from __future__ import annotations
 
-from ... import costs, walk
+from ... import costs, layout, walk
 from ...diagnostics import Reporter, Severity
-from ...flow import frame_wrapped, host_short, host_xram, hosted, select_ram, watches
+from ...flow import frame_wrapped, hosted, select_ram, watches
 from ...steps import Plan
 from ...source import Span
 from .. import RULES, Report, rule
@@ -21,8 +21,8 @@ def too_deep(plan: Plan, report: Report) -> None:
     serial = plan.program.serial is not None
     watch, taken, ports = watches(plan) or hosted(plan), select_ram(plan), len(plan.ports)
     wrapped = frame_wrapped(plan)
-    if host_short(plan) or host_xram(plan):
-        return              # host-ram says it; or code generation, from the RAM it allocates
+    if hosted(plan):
+        return              # code generation says it (host-ram or too-deep), from the RAM it allocates
     if plan.nesting > costs.max_nesting(serial, watch, taken, ports, wrapped):
         _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken, ports,
                 wrapped)
@@ -40,10 +40,6 @@ def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_
     """At the first repeat or play past the limit."""
     limit = costs.max_nesting(serial, watch, taken, ports, wrapped)
     st = walk.first_too_deep(main, body_of, limit)
-    word = walk.kind(st) if st is not None else "repeat"
-    subject = ("this `select`'s counters, kept while its meanwhile body runs, reach" if word == "select"
-               else f"this `{word}` is")
-    report(f"repeats, plays and waiting selects nest {depth} level{'s' if depth != 1 else ''} deep, but the firmware's {costs.stack_room(serial, taken, ports)}-byte "
-           f"stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); {subject} level {limit + 1}",
-           st.span if st is not None else main_span, label=f"level {limit + 1}",
-           help="flatten the program: play a sequence once with a larger repeat count instead of nesting")
+    message, label = walk.too_deep_text(depth, costs.stack_room(serial, taken, ports), limit, st)
+    report(message, st.span if st is not None else main_span, label=label,
+           help=layout.FLATTEN)
