@@ -64,9 +64,10 @@ The rules, as the document states them:
 - P, the frame period, is a whole number of us (an int, or a Fraction equal
   to one; anything else is a ValueError).
 - `Q` answers `+` while the move has frames still to come after the frame
-  computed last (k < F), even when every servo of it was stopped with
-  `STOP c` or none of them moves (set at once, `P0`, already there), or
-  while `Session.sequence_running` is set; else `.`.
+  computed last (k < F) and a servo of it still has its path (one not
+  stopped with `STOP c`, not set at once, not `P0`, not already there; it
+  may have reached N1 before frame F by the rounding), or while
+  `Session.sequence_running` is set; else `.`.
 - `STOP` ends the move (Q answers `.`); `STOP c` ends channel c's part of
   the move (its frame count goes on); both take effect at once, in the
   frame their line is read. `PL 0 SQ n` with n among the sequences it may
@@ -580,8 +581,10 @@ class Session:
         self.reading_stopped = False          # a line that stops the reading was read in this frame
 
     def moving(self) -> bool:
-        """A move has a frame still to come after frame i (k < F), or a sequence runs."""
-        return self.sequence_running or (self.move is not None and self.move.k < self.move.frames)
+        """A move has a frame still to come after frame i (k < F) and a servo still on its path, or
+        a sequence runs."""
+        m = self.move
+        return self.sequence_running or (m is not None and m.k < m.frames and bool(m.paths))
 
     def stops_reading(self, cmd: Command | None) -> bool:
         """The line ends this frame's reading (the module's `stops_reading`, with this session's

@@ -336,6 +336,17 @@ def test_stop_and_escape_and_bad_lines():
     assert sent(trace) == b"."
 
 
+def test_q_answers_plus_only_while_a_servo_is_on_its_way():
+    # a move of the base alone: '+'; STOP 0 ends the base's part, the only servo on its way: '.'
+    # although the move's 2 s have frames to come; a move of base and shoulder, the shoulder
+    # stopped: the base still goes, '+'; a group whose servo is already there, and one that
+    # switches the base off: no servo on its way, '.'
+    b, trace, report = session('0.2s "#0P2500T2000\\r"\n0.3s "Q\\r"\n0.4s "STOP 0\\r"\n0.5s "Q\\r"\n'
+                               '0.7s "#0P900#1P900T1500\\r"\n0.8s "STOP 1\\r"\n0.9s "Q\\r"\n'
+                               '2.5s "#0P900T1000\\r"\n2.6s "Q\\r"\n2.8s "#0P0T1000\\r"\n2.9s "Q\\r"\n', 580)
+    assert sent(trace) == b"+.+.."
+
+
 def test_a_sequence_plays_and_an_input_ends_host():
     b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n'
                                '2s stop active\n', 500)

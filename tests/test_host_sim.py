@@ -70,7 +70,7 @@ def test_a_pyserial_client_runs_a_whole_session(tmp_path):
         time.sleep(0.1)
         stopped = client.width(7)
         assert 988 < stopped < 2000
-        assert client.moving()                  # STOP 7 ends the grip's part; the move's frames still count
+        assert not client.moving()              # STOP 7 ends the grip's part: no servo is on its way
         client.until_still()
         assert client.width(7) == stopped
         # a single servo move: the elbow, reversed: P600 is N 13, reversed N 237 = 2396 us
