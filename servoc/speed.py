@@ -21,6 +21,7 @@ call only the functions here.
 from __future__ import annotations
 
 from fractions import Fraction
+from functools import lru_cache
 
 from .plan import frame_value
 
@@ -60,8 +61,10 @@ def curve_steps(n0: int, n1: int, frames: int, ease: str) -> list[int]:
     return steps
 
 
+@lru_cache(maxsize=1 << 16)
 def peak_step(n0: int, n1: int, frames: int, ease: str) -> int:
-    """The largest |step| in DAV between two frames of a move (frame 0 is n0)."""
+    """The largest |step| in DAV between two frames of a move (frame 0 is n0); the same curves
+    come back in many move instances (a move in every state it can start from)."""
     if n0 == n1:
         return 0
     if 2 * abs(n1 - n0) < frames:
