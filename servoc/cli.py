@@ -449,12 +449,7 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
     events = None
     if getattr(args, "events", None):
         try:
-            with open(args.events, encoding="utf-8-sig") as fh:
-                events = _events.parse(fh.read(), plan.program.inputs, plan.program.serial is not None)
-        except OSError as exc:
-            raise _Stop(f"cannot read {args.events}: {exc.strerror or exc}") from None
-        except UnicodeDecodeError:
-            raise _Stop(f"{args.events} is not UTF-8 text") from None
+            events = _events.parse(_events_text(args.events), plan.program.inputs, plan.program.serial is not None)
         except _events.EventsError as exc:
             raise _Stop(f"{args.events}: {exc}") from None
     try:
@@ -574,13 +569,24 @@ def _check_sim_options(args) -> None:
             raise _Stop(f"cannot make the link {link}: no permission to write in {folder} (--link)")
     args.events_text = None
     if args.events:
-        try:
-            with open(args.events, encoding="utf-8-sig") as fh:
-                args.events_text = fh.read()
-        except OSError as exc:
-            raise _Stop(f"cannot read {args.events}: {exc.strerror or exc}") from None
-        except UnicodeDecodeError:
-            raise _Stop(f"{args.events} is not UTF-8 text") from None
+        args.events_text = _events_text(args.events)
+
+
+def _events_text(path: str) -> str:
+    """An events file's text: UTF-8 (a BOM is skipped), or UTF-16 with its BOM; a byte that is
+    neither is a usage error at its line."""
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read()
+    except OSError as exc:
+        raise _Stop(f"cannot read {path}: {exc.strerror or exc}") from None
+    codec = "utf-16" if data[:2] in (b"\xff\xfe", b"\xfe\xff") else "utf-8-sig"
+    try:
+        return data.decode(codec)
+    except UnicodeDecodeError as exc:
+        text = data[:exc.start].decode(codec, errors="replace")
+        raise _Stop(f"{path}: line {text.count(chr(10)) + 1}: not {'UTF-16' if codec == 'utf-16' else 'UTF-8'} "
+                    f"text (byte 0x{data[exc.start]:02X}); write bytes past 127 as \\xHH") from None
 
 
 def _sim(args, run: _Run, source, plan: Plan, firmware) -> int:

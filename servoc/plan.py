@@ -450,7 +450,8 @@ class _Walker:
                     if st.meanwhile is not None:
                         cut = self._meanwhile(st, s, made(where), branch)
                         more(cut)
-                        starts[cut] = ("cut", st.span, st.branches[0].event.text if st.until else None)
+                        starts[cut] = ("cut", st.span, st.branches[0].event.text if st.until else None,
+                                       st.meanwhile[0].span if st.until and st.meanwhile else None)
                     for b in st.branches:
                         for s1, w1 in starts.items():
                             exits, _, h = self.walk(b.body, s1, made(w1), b)
@@ -814,8 +815,8 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                     for fr in run(st.body):
                         before = fr
                         yield fr
-                    if before is None:      # a pass that took no frame waits for the next frame
-                        yield frame(last_span)
+                    if before is None:      # a pass that took no frame waits for the next frame, in the loop
+                        yield frame(st.span)
                     if seen is not None:
                         seen[id(st)] += 1
             else:

@@ -7,7 +7,7 @@ import itertools
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from conftest import build_text, simulate_events
+from conftest import build_text, front_end_text, simulate_events
 from servoc import api, costs, flow, plan as plan_mod, printer, syntax
 from servoc.diagnostics import Reporter
 from servoc.plan import Choice, expand
@@ -181,6 +181,21 @@ def test_until_cuts_each_kind_of_statement(stmt):
     assert any(r.branch == "on button" for r in report.reactions)
 
 
+@pytest.mark.parametrize("stmt, named", [("hold 1s", "`hold 1s`"), ("play sweep", "`play sweep`"),
+                                         ("loop { hold 1s }", "`loop { hold 1s }`")])
+def test_a_speed_error_after_until_names_the_statement_it_cuts(stmt, named):
+    # the servo is where `move left` left it, whatever the cut: the message still names the
+    # statement `until` cuts short and its line, as for a cut move
+    text = PAN + ("sequence sweep {\n  hold 500ms\n}\nhome rest\nmain {\n  move left in 1s\n"
+                  f"  {stmt} until button\n  move right in 100ms\n}}\n")
+    _, diags = front_end_text(text)
+    errors = [d for d in diags if d.is_error]
+    line = text.splitlines().index(f"  {stmt} until button") + 1
+    assert errors and all(d.code == "infeasible-speed" for d in errors)
+    assert any(f"from where `until button` (line {line}) cuts {named} short" in d.message for d in errors), \
+        [d.message for d in errors]
+
+
 @pytest.mark.toolchain
 def test_after_counts_meanwhile_frames():
     text = PAN + "home rest\nmain {\n  select {\n    on button { }\n    after 500ms { move rest in 300ms }\n    meanwhile {\n      move left in 2s\n    }\n  }\n}\n"
@@ -318,6 +333,17 @@ def test_stagger_without_home_switches_on_the_first_move_servos():
     report = api.verify(p, built.firmware, 60)
     assert report.ok, report.summary()
     assert build_text(PAN + "stagger 50ms\nmain {\n  hold 100ms\n  move rest in 300ms\n}\n").plan.startup == ()
+
+
+def test_a_home_pose_that_leaves_servos_out_is_noted_at_the_move_that_sets_them():
+    # `home` names pan only: tilt has no position at power-up, and the first move sets it at once
+    text = "frame 10ms\nservo pan = P2.0\nservo tilt = P2.1\npose p { pan: 122 }\npose q { pan: 100, tilt: 90 }\n"
+    _, diags = front_end_text(text + "home p\nmain {\n  move q in 1s\n}\n")
+    (d,) = [d for d in diags if d.code == "no-home"]
+    assert "`tilt` has no position yet (the `home` pose `p` leaves it out)" in d.message
+    assert "`pan`" not in d.message and "add it to the pose `p`" in d.help
+    _, diags = front_end_text(text.replace("{ pan: 122 }", "{ pan: 122, tilt: 60 }") + "home p\nmain {\n  move q in 1s\n}\n")
+    assert not [d for d in diags if d.code == "no-home"]
 
 
 @pytest.mark.parametrize("holds", [1, 2, 3, 5])

@@ -233,6 +233,16 @@ def test_a_program_waiting_before_its_first_move_is_not_a_bare_ok(tmp_path, caps
     assert 0 < data["selects"][0]["time_us"] - 1_000_000 <= 2 * 5300
 
 
+def test_a_run_that_ends_in_a_loop_without_frames_says_the_loop(tmp_path, capsys):
+    # each pass of the loop takes no frame (it sends a byte and waits for the next frame): the run
+    # ends in the loop at line 6, not at the move before it nor at the `home` declaration
+    for head, body in (("", "  move p\n"), ("home p\n", "")):
+        text = f"serial 4800\nservo a = P1.0\npose p {{ a: 100 }}\n{head}main {{\n{body}  loop {{ send \"a\" }}\n}}\n"
+        rc, out = cli_verify(tmp_path, capsys, text, None, "--text")
+        line = text.splitlines().index('  loop { send "a" }') + 1
+        assert rc == 0 and f"when the run ended: at line {line} (`loop {{ send \"a\" }}`)" in out, out
+
+
 def test_a_loop_longer_than_the_span_and_a_short_frames_are_said(tmp_path, capsys, monkeypatch):
     from servoc import verify
     monkeypatch.setattr(verify, "MAX_SPAN_CYCLES", 3_000_000)
@@ -253,6 +263,21 @@ def test_every_events_file_fault_is_a_usage_error_with_its_line(tmp_path, capsys
                            ("1s nobody active\n", 1), ("2s \"a\"\n1s \"b\"\n", 2), ("1s ~\n", 1)):
         rc, err = cli_verify(tmp_path, capsys, NOTHING_CHANGES, scenario, "--text")
         assert rc == 2 and f"line {line}:" in err and "Traceback" not in err and "internal" not in err, err
+
+
+def test_an_events_file_that_is_not_text_is_a_usage_error_at_its_line_and_utf16_is_read(tmp_path, capsys):
+    from servoc.cli import main as cli_main
+    prog = tmp_path / "p.servo"
+    prog.write_text(NOTHING_CHANGES)
+    ev = tmp_path / "p.events"
+    for data, line in ((b'0.5s "a"\n1s "\xff"\n', 2), (b"\xef\xbb\xbf\n\n0.2s \"\xc3\"\n", 3)):
+        ev.write_bytes(data)
+        rc = cli_main(["verify", str(prog), "--events", str(ev)])
+        err = capsys.readouterr().err
+        assert rc == 2 and f"line {line}: not UTF-8 text" in err and "Traceback" not in err, err
+    ev.write_bytes('0.5s "a"\n'.encode("utf-16"))       # with its BOM: read like UTF-8
+    rc, data = cli_verify(tmp_path, capsys, NOTHING_CHANGES, None, "--events", str(ev))
+    assert rc == 0 and data["ok"], data
 
 
 PRESSES = """\

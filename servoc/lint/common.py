@@ -62,7 +62,10 @@ def origin_text(origin: tuple, source) -> str:
     if origin[0] == "cut":
         line = source.line_col(origin[1].start)[0]
         if origin[2] is not None:
-            return f"where `until {origin[2]}` (line {line}) cuts the statement short"
+            cut = origin[3]
+            what = ("the statement" if cut is None
+                    else f"`{source.text[cut.start:cut.end].split(chr(10))[0].strip()}`")
+            return f"where `until {origin[2]}` (line {line}) cuts {what} short"
         return f"where an event cuts the meanwhile body of the select at line {line}"
     if origin[0] == "merged":
         return (f"any of the {origin[2]} states the servos can be in after line "
