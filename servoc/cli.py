@@ -32,7 +32,7 @@ from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import has_selects
 from .steps import AfterBranch, branch_text, HostStep, Plan, SelectStep, SendStep, host_playable, steps
 from .starter import starter
-from .verify import SETTLE_MARGIN, coverage, verify_settle, verify_span
+from .verify import SETTLE_MARGIN, coverage, max_frames, verify_settle, verify_span
 from .target import fmt_us
 from .units import DAV_DEG, fmt_ms
 
@@ -143,7 +143,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=int, metavar="N",
                    help="frames to check from the first pulse (default: the whole program and 20 more; for a "
                         "program that loops forever, up to its loop and two passes of it, at least 400; with "
-                        "--events, on until the last event's branch has ended; at most 60 s of simulated time)")
+                        "--events, on until the last event's branch has ended; at most 60 s of simulated time unless asked, and "
+                        "never more than ucsim's clock counter holds, about 358 s at 12 MHz)")
     help_ = ("run the firmware in ucsim with its serial line on a pseudo-terminal, which any host program "
              "opens as it would /dev/ttyUSB0 (the program needs `serial`)")
     p = sub.add_parser("sim", help=help_, epilog=SIM_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -452,6 +453,12 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
             events = _events.parse(_events_text(args.events), plan.program.inputs, plan.program.serial is not None)
         except _events.EventsError as exc:
             raise _Stop(f"{args.events}: {exc}") from None
+    if args.frames:
+        most = max_frames(plan)
+        if args.frames > most:
+            seconds = most * plan.period_us / 1e6
+            raise _Stop(f"--frames {args.frames} is more than verify can run: ucsim's clock counter holds at most "
+                        f"{most} frames of this program ({seconds:.1f} s at P = {plan.period_us / 1000:g} ms)")
     try:
         span = verify_span(plan, args.frames, events)
         stim = api.stimulus(plan, span.events)

@@ -776,6 +776,18 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                 yield frame(st.span)                # the frame that repeats the sequence's end
                 session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
 
+    def passed(st: Step) -> None:
+        """`st`, which takes no frame and sends nothing, has run: so has each statement in it."""
+        todo, done = [st], set()
+        while todo:
+            inner = todo.pop()
+            seen.setdefault(id(inner), 0)
+            if isinstance(inner, RepeatStep):
+                todo.extend(inner.body)
+            elif isinstance(inner, PlayStep) and inner.sequence not in done:
+                done.add(inner.sequence)
+                todo.extend(plan.sequence(inner.sequence).body)
+
     def run(body: tuple[Step, ...]) -> Iterator[GoldenFrame]:
         for st in body:
             if seen is not None:
@@ -790,7 +802,9 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                 yield from select(st)
                 continue
             if not isinstance(st, LoopStep) and not takes_frames((st,), plan, memo) and not sends((st,), plan, send_memo):
-                continue        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through
+                if seen is not None:        # e.g. `repeat 65535 { hold 1ms }`: nothing to run through, but run
+                    passed(st)
+                continue
             if isinstance(st, MoveStep):
                 f = move_frames_at(st, tuple(state), plan.speed_tables, classes)
                 start = list(state)

@@ -367,6 +367,7 @@ def run(
                 stdout=subprocess.PIPE,
                 stderr=subprocess.PIPE,
                 start_new_session=True,
+                preexec_fn=die_with_parent,
             )
         except OSError as exc:
             raise SimError(f"cannot start {s51}: {exc.strerror}") from None
@@ -499,6 +500,16 @@ def _stop_reason(lines: list[str], markers: dict[str, int], end_marker: str) -> 
             continue
         found.append(" ".join(text.split()))
     return "; ".join(found[:8]) if found else "no message from s51"
+
+
+def die_with_parent() -> None:
+    """In the child before exec: ucsim gets SIGKILL when servoc dies, even by SIGTERM or SIGKILL."""
+    try:
+        import ctypes
+        import signal
+        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)      # PR_SET_PDEATHSIG
+    except Exception:
+        pass
 
 
 def _to_cycles(ticks: int) -> int:

@@ -75,7 +75,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import TextIO
 
-from .sim import CLOCKS_PER_CYCLE, CPU_TYPE, PORT_SFR, port_watch
+from .sim import CLOCKS_PER_CYCLE, CPU_TYPE, PORT_SFR, die_with_parent, port_watch
 from .toolchain import find_tool
 
 __all__ = ["LinkError", "Setup", "Summary", "run", "request_stop"]
@@ -169,15 +169,6 @@ def _restore_handlers(saved: dict) -> None:
             signal.signal(sig, handler)
         except (ValueError, OSError, TypeError):
             pass
-
-
-def _die_with_parent() -> None:
-    """In the child before exec: ucsim gets SIGKILL when servoc dies, even by SIGKILL."""
-    try:
-        import ctypes
-        ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGKILL)      # PR_SET_PDEATHSIG
-    except Exception:
-        pass
 
 
 def _raw(fd: int, baud: int | None = None) -> None:
@@ -299,7 +290,7 @@ class _Link:
                 "-C", "setup.cmd"]
         try:
             self.proc = subprocess.Popen(argv, cwd=self.tmp, stdin=con_slave, stdout=con_slave, stderr=con_slave,
-                                         start_new_session=True, preexec_fn=_die_with_parent)
+                                         start_new_session=True, preexec_fn=die_with_parent)
         except OSError as exc:
             raise LinkError(f"cannot start {s51}: {exc.strerror or exc}") from None
         finally:

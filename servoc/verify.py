@@ -809,6 +809,17 @@ MAX_SPAN_CYCLES = 60_000_000    # the longest run verify makes unless asked: 60 
 SETTLE_MARGIN = 3               # frames after the last branch ends: its last bytes are out within 2 P
 
 
+TICKS_LIMIT = 1 << 32            # ucsim's clock tick counter: a run stays below it
+
+
+def max_frames(plan: Plan) -> int:
+    """The most frames from the first pulse a run can check: its clock ticks stay below
+    TICKS_LIMIT (about 358 s at 12 MHz), the frames before the first pulse and two more included."""
+    target = plan.program.target
+    period = target.cycles(plan.period_us)
+    return max(1, (TICKS_LIMIT - 1) // target.clocks_per_cycle // period - (first_pulse_frame(plan) or 0) - 2)
+
+
 @dataclass(frozen=True)
 class RunSpan:
     """What one `servoc verify` run checks: `frames` from the first pulse (at most `limit`), the

@@ -265,6 +265,29 @@ def test_every_events_file_fault_is_a_usage_error_with_its_line(tmp_path, capsys
         assert rc == 2 and f"line {line}:" in err and "Traceback" not in err and "internal" not in err, err
 
 
+def test_statements_that_take_no_frame_are_reached_when_the_run_passes_them(tmp_path, capsys):
+    # a repeat of a hold shorter than half a frame, and a play of an empty sequence: the run goes
+    # through them (the move after them is checked), so they are not "never reached"
+    text = ("servo a = P1.0\npose p { a: 10 }\npose q { a: 30 }\nsequence e { }\nsequence h { hold 1ms }\n"
+            "main {\n  move p in 1ms\n  repeat 3 { hold 1ms; play h }\n  play e\n  move q in 53ms\n}\n")
+    rc, data = cli_verify(tmp_path, capsys, text, None)
+    assert rc == 0 and data["ok"] and not data["partial"] and data["not_checked"] == [], data
+    rc, data = cli_verify(tmp_path, capsys, text.replace("  play e\n", "  loop { move p in 1s }\n  play e\n"), None)
+    assert rc == 0 and any("never reached" in n and "play e" in n for n in data["not_checked"]), data["not_checked"]
+
+
+def test_more_frames_than_the_simulators_clock_counter_holds_is_a_usage_error(tmp_path, capsys):
+    from servoc import verify
+    for frames in (10 ** 9, 10 ** 5):       # 5.3 ms frames at 12 MHz: 358 s at most, 67,500 frames
+        rc, err = cli_verify(tmp_path, capsys, "servo a = P1.0\npose p { a: 10 }\nmain { move p }\n",
+                             None, "--text", "--frames", str(frames))
+        assert rc == 2 and "is more than verify can run" in err and "internal" not in err, err
+    b = build_text(NOTHING_CHANGES)
+    most = verify.max_frames(b.plan)
+    ticks = b.plan.program.target.cycles(b.plan.period_us) * 12           # a frame's clock ticks
+    assert (most + 2) * ticks < 1 << 32 < (most + 6) * ticks
+
+
 def test_an_events_file_that_is_not_text_is_a_usage_error_at_its_line_and_utf16_is_read(tmp_path, capsys):
     from servoc.cli import main as cli_main
     prog = tmp_path / "p.servo"
