@@ -691,13 +691,22 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                      and taker.select.branches[lk.outcome].event.input is None for lk in taker.looks):
             found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped by the "
                                   f"select at line {line(taker.select.span)}: none of its `on`s names it")
+    def waited(v) -> int | None:
+        """Until when a select waited: the branch taken, its last look where a select around it cut
+        it short, or None: it waited on when the run ended."""
+        if v.taken is not None:
+            return v.taken
+        if v.cut:
+            return (v.looks[-1].exit or v.looks[-1].entry) if v.looks else v.reached
+        return None
+
     for name in sorted(levels.changes):
         changes = levels.changes[name]
         for k, (at, active) in enumerate(changes):
             if not active or at >= end:
                 continue
             off = changes[k + 1][0] if k + 1 < len(changes) else end
-            waiting = [v for v in obs.visits if v.reached <= off and (v.taken is None or v.taken >= at)
+            waiting = [v for v in obs.visits if v.reached <= off and (waited(v) is None or waited(v) >= at)
                        and any(isinstance(b, OnBranch) and b.event.input == name for b in v.select.branches)]
             saw = any(lk.entry <= off and (lk.exit or lk.entry) >= at for v in waiting for lk in v.looks)
             def decided(v) -> bool:         # the look that took the branch saw this press

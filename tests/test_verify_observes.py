@@ -265,6 +265,18 @@ def test_every_events_file_fault_is_a_usage_error_with_its_line(tmp_path, capsys
         assert rc == 2 and f"line {line}:" in err and "Traceback" not in err and "internal" not in err, err
 
 
+def test_a_press_after_a_cut_select_is_one_no_select_waited_for(tmp_path, capsys):
+    # the inner select waits in the outer one's meanwhile body; the first press takes the outer
+    # branch and cuts the inner select; main then ends: the second press (100 ms, many frames long)
+    # found no select waiting, not one it fell between two looks of
+    text = ("input k = P3.2\nservo a = P1.0\npose p { a: 100 }\nhome p\nmain {\n  select {\n    on k { }\n"
+            "    meanwhile {\n      select { on k { } meanwhile { hold 10s } }\n    }\n  }\n}\n")
+    rc, data = cli_verify(tmp_path, capsys, text, "0.3s k active\n0.6s k inactive\n0.9s k active\n1.0s k inactive\n")
+    assert rc == 0 and data["ok"], data
+    assert any("0.9000 s" in w and "no select was waiting" in w for w in data["warnings"]), data["warnings"]
+    assert not any("fell between two looks" in w for w in data["warnings"]), data["warnings"]
+
+
 def test_statements_that_take_no_frame_are_reached_when_the_run_passes_them(tmp_path, capsys):
     # a repeat of a hold shorter than half a frame, and a play of an empty sequence: the run goes
     # through them (the move after them is checked), so they are not "never reached"
