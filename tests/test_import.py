@@ -15,10 +15,10 @@ from servoc import api, cli
 from servoc.diagnostics import Reporter
 from servoc.imports import csvfile
 from servoc.imports import write as W
-from servoc.imports.keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track, identifier
+from servoc.imports.keyframes import Channel, ImportError_, Key, Keyframes, ReadOptions, Track, decimal, identifier
 from servoc.plan import expand
 from servoc.source import SourceFile
-from servoc.units import width_to_n
+from servoc.units import round_half_up, width_to_n
 
 
 def front(text: str, name: str = "imported.servo"):
@@ -89,13 +89,77 @@ def test_each_key_is_a_move_that_arrives_at_its_time():
     assert "  move seq_0 in 0ms  # row 2\n" in body      # arrives at time 0: its first frame
     assert "  move seq_1 in 600ms  # row 3\n" in body
     assert "  move seq_2 in 0ms  # row 4\n" in body      # at the time of the one before: one frame
-    assert "  hold 300ms  # row 5\n" in body
+    assert "  hold 299ms  # row 5\n" in body      # 56 frames: row 4's frame is taken back, row 5 ends on 900 ms
     assert "pose seq_1 { a: 1004us }" in imp.text    # a pose names only what its key sets
     assert imp.moves_out == 4 and imp.frames_in == 4 and imp.off_grid == 0
     fe, rep = front(imp.text)
     row4 = imp.text.split("\n").index("  move seq_2 in 0ms  # row 4") + 1
     errors = [(d.code, rep.source.line_col(d.span.start)[0]) for d in rep.diagnostics if d.is_error]
     assert errors == [("infeasible-speed", row4)]      # b to 2004 us in one frame: the user's to fix
+
+
+def csv_frames(tmp_path, text: str):
+    """Import the CSV `text` and plan it: (the program's text, its period, every frame's N per servo)."""
+    src = tmp_path / "rows.csv"
+    src.write_text(text)
+    imported = api.import_motion(str(src))
+    fe, rep = front(imported.text)
+    assert fe.plan is not None and not rep.has_errors, [d.message for d in rep.diagnostics]
+    return imported.text, fe.plan.period_us, [f.n for _, f in zip(range(fe.plan.total_frames), expand(fe.plan))]
+
+
+def test_rows_arrive_on_the_frame_nearest_their_time_without_drift(tmp_path):
+    """50 rows 8 ms apart (1.509 frames of 5.3 ms each): rounding each gap on its own made every
+    move 2 frames, and the last row arrived 130 ms late. Row r ends on frame round(t_r / P), counted
+    from the sequence's first frame (frame 0, at time 0), and the program ends there."""
+    rows = [(8 * r, 1500 + 8 * (r % 2)) for r in range(50)]
+    text, period, frames = csv_frames(tmp_path, "time_ms,a\n" + "".join(f"{t},{w}\n" for t, w in rows))
+    assert period == 5300 and "frame 5.3ms\n" in text
+    for t, w in rows:
+        k = round_half_up(Fraction(t * 1000, period))
+        assert frames[k] == (width_to_n(w),), (t, k)
+    assert len(frames) == round_half_up(Fraction(392_000, period)) + 1        # 75 frames, not 99
+    assert "  move rows_1 in 8ms  # row 3, 8 ms\n" in text      # the source's gap where it gives the frames
+    assert "  move rows_2 in 7ms  # row 4, 16 ms\n" in text     # else the whole ms nearest it that does
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from([0, 1, 2.5, 6, 8, 10.6, 13, 100, 333.3]), st.booleans(), st.booleans()),
+                min_size=1, max_size=30))
+def test_any_rows_end_on_the_frame_nearest_their_time(tmp_path_factory, rows):
+    """Whatever the gaps (some shorter than a frame, some rows setting nothing), each row that moves
+    ends on the frame nearest its time, unless the rows before it took that frame (a move takes one
+    frame at least), and then as soon as it can: no error piles up."""
+    at, lines, times = Fraction(0), [], []
+    for gap, sets, high in rows:
+        at += Fraction(str(gap))
+        lines.append(f"{decimal(at)},{(1508 if high else 1500) if sets else ''}")
+        times.append((at, (1508 if high else 1500) if sets else None))
+    if times[0][1] is None:
+        return                                        # the servo needs a position in the first row
+    text, period, frames = csv_frames(tmp_path_factory.mktemp("csv"), "time_ms,a\n" + "\n".join(lines) + "\n")
+    end = -1
+    for t, w in times:
+        want = round_half_up(t * 1000 / period)
+        if w is not None:
+            end = max(want, end + 1)
+            assert frames[end] == (width_to_n(w),), (t, end, text)
+        else:
+            end = max(want, end)
+    assert len(frames) == end + 1
+
+
+def test_a_negative_width_is_an_error_that_names_the_row_and_writes_nothing(tmp_path, capsys):
+    """-1500 µs is no pulse width, and `-1500us` is not a .servo width: the import is refused."""
+    src = tmp_path / "neg.csv"
+    src.write_text("time_ms,a\n0,1500\n100,-1500\n")
+    rc, out, err = run(["import", str(src)], capsys)
+    assert rc == 2 and "Traceback" not in err
+    assert f"{src}: row 3, 100 ms: `a` is at -1500 µs, a negative pulse width" in err, err
+    assert os.listdir(tmp_path) == ["neg.csv"]
+    src.write_text("time_ms,a_deg\n0,90\n100,-100\n")            # -100 degrees: -581.081 µs
+    rc, out, err = run(["import", str(src)], capsys)
+    assert rc == 2 and "row 3, 100 ms: `a` is at -581.081 µs" in err, err
 
 
 def test_off_grid_widths_are_rounded_and_counted():

@@ -344,9 +344,39 @@ def test_sniff_knows_the_three_exports():
     assert blender.sniff(fixture("anim.bin"), "ANIM.BIN")
 
 
+@pytest.mark.parametrize("path", ["anim.dat", "anim", "anim.txt", "anim.h", "anim.json"])
+def test_a_bin_export_is_known_by_its_bytes_whatever_its_name(path):
+    """Bytes that are nothing but 5-byte records (each frame ended by 0x0A) are a `.bin` export."""
+    assert blender.sniff(fixture("anim.bin"), path) and blender.is_records(fixture("anim.bin"))
+    assert read(fixture("anim.bin"), path, fps=Fraction(FPS)).tracks[0].keys == expected_track().keys
+
+
+@pytest.mark.parametrize("data", [b"", b"\n\n", b"<abc>", b"<abc>\n<d", b"time_ms,a\n", b"<UscSettings>\n",
+                                  GENERATED["anim.bin"][:-1], b"\x00" + GENERATED["anim.bin"]])
+def test_other_bytes_are_not_records(data):
+    assert not blender.is_records(data)
+
+
+def test_a_bin_export_under_another_name_imports_as_the_bin(tmp_path, capsys):
+    """A copy of anim.bin without its extension (its bytes are not UTF-8): recognised from its
+    content, and with `--from blender` read as records, not as Windows-1252 text; the same program."""
+    from servoc import cli
+    (tmp_path / "bin").mkdir()
+    named, bare = tmp_path / "bin" / "anim.bin", tmp_path / "anim"
+    named.write_bytes(fixture("anim.bin"))
+    bare.write_bytes(fixture("anim.bin"))
+    programs = []
+    for path, options in ((named, []), (bare, []), (bare, ["--from", "blender"])):
+        out = tmp_path / f"out{len(programs)}.servo"
+        assert cli.main(["import", str(path), "--fps", "30", "-o", str(out), *options]) == 1      # N 259: lint's
+        assert "written from" in capsys.readouterr().out
+        programs.append(out.read_text().split("\n", 1)[1])     # the same below the first line (the file's name)
+    assert programs[0] == programs[1] == programs[2]
+
+
 @pytest.mark.parametrize("data, path", [
     (MAESTRO, "settings.xml"), (CSV, "moves.csv"), (CSV, "moves.bin"), (b"", "x.bin"),
-    (b'{"name": "x", "positions": []}', "x.json"), (GENERATED["anim.bin"], "anim.dat"),
+    (b'{"name": "x", "positions": []}', "x.json"),
     (bytes(range(256)), "x.bin"), (GENERATED["anim.bin"][:-1], "anim.bin"),
 ])
 def test_sniff_refuses_other_files(data, path):

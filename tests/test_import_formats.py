@@ -57,6 +57,21 @@ def test_a_bottango_servo_s_maximum_speed_is_its_speed():
     assert re.search(r"servo pin_10 = P1\.2 limit", imp.text)
 
 
+def test_a_bottango_servo_faster_than_the_default_keeps_its_speed(tmp_path, capsys):
+    """rSVPin's maximum speed is the servo's `speed` even when faster than the default servo's
+    (3243 µs/s): 6000 µs/s is 750 DAV, 555°, a second. A curve that the default servo could not
+    follow (1000 to 2000 µs in 300 ms) then imports without a speed error."""
+    kf = read_bottango(bottango_file("rSVPin,1,1000,2000,6000,1500\\n",
+                                     "sC,1,0,300,0,0,0,8192,0,0\\nsC,1,300,250,8192,0,0,0,0,0\\n"))
+    assert kf.channels[0].speed_us_s == 6000 and kf.channels[0].servo_speed
+    src = tmp_path / "GeneratedCodeAnimations.cpp"
+    src.write_bytes(bottango_file("rSVPin,1,1000,2000,6000,1500\\n",
+                                  "sC,1,0,300,0,0,0,8192,0,0\\nsC,1,300,250,8192,0,0,0,0,0\\n"))
+    rc, out, err = run(["import", str(src), "-o", str(tmp_path / "fast.servo")], capsys)
+    assert rc == 0 and "infeasible-speed" not in err, err
+    assert "servo pin_1 = P1.1 speed 1s/555deg limit 1004us..1996us" in (tmp_path / "fast.servo").read_text()
+
+
 def test_a_negative_bottango_speed_is_an_error():
     with pytest.raises(ImportError_, match=r"line 1: .*negative maximum speed"):
         read_bottango(bottango_file("rSVPin,9,1000,2000,-5,1500\\n"))

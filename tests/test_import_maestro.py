@@ -17,6 +17,7 @@ from hypothesis import given, settings as hsettings, strategies as st
 
 from servoc.imports import maestro
 from servoc.imports.keyframes import Channel, ImportError_, ReadOptions
+from servoc.units import round_half_up
 
 HERE = os.path.join(os.path.dirname(__file__), "fixtures", "import", "maestro")
 
@@ -121,6 +122,20 @@ def test_targets_outside_a_channels_range_are_clamped_with_a_note():
     got = kf.tracks[0].keys[0].targets
     assert got[0] == max(750, lo[0] or 750) and got[1] == min(2250, hi[1] or 2250), (got, lo, hi)
     assert any("clamped" in n and "2 targets" in n for n in kf.notes), kf.notes
+
+
+def test_a_home_outside_a_channels_range_is_clamped_with_a_note(tmp_path):
+    """The Maestro clamps the start-up position as it clamps any target: 2250 µs on a channel of
+    1000..2000 µs starts at 2000 µs, and the program has no limit error."""
+    channels = ('<Channel name="a" mode="Servo" min="4000" max="8000" homemode="Goto" home="9000" />'
+                '<Channel name="b" mode="Servo" min="4000" max="8000" homemode="Goto" home="3000" />')
+    frames = '<Sequence name="S"><Frame name="Frame 0" duration="1000">6000 6000</Frame></Sequence>'
+    kf = read_text(frames, channels)
+    assert [c.home_us for c in kf.channels] == [2000, 1000]
+    assert any("2 targets outside the channel's min..max clamped" in n and "first: home, channel 0" in n
+               for n in kf.notes), kf.notes
+    text, _, _, _ = _frames_of(tmp_path, settings(frames, channels))      # no error (no limit violation)
+    assert "pose home { a: 1996us, b: 1004us }" in text                   # the limit's edges, on the grid
 
 
 def test_channel_names_limits_and_home():
@@ -487,6 +502,44 @@ def test_a_frame_too_short_for_its_move_is_a_warning_on_stderr_naming_it(tmp_pat
     assert "warning" not in out.out and (tmp_path / "short.servo").exists()
 
 
+def test_a_frame_shorter_than_its_move_is_cut_where_the_next_frame_starts(tmp_path):
+    """The spec: the next frame starts `duration` ms after this one started, as on the Maestro. At
+    500 µs/s, 1500 to 2000 µs needs 1008 ms; frame 0 lasts 200 ms: there the Maestro has the servo
+    at 1600 µs (N 137.5) and sets frame 1's target. The import cuts the move there (N 137, as far as
+    the servo gets in the frames to frame 1's start) and frame 1 starts on the frame nearest 200 ms."""
+    text, plan, frames, warnings = _frames_of(tmp_path, _one_servo(
+        '<Frame name="Frame 0" duration="200">8000</Frame><Frame name="Frame 1" duration="1000">6000</Frame>',
+        speed=20))
+    arm = [f[0] for f in frames]
+    assert max(arm) == 137 and arm[-1] == _n(1500)             # never on to 2000 µs (N 188)
+    assert _starts(text, plan.period_us)["S frame 1"] == round_half_up(Fraction(200_000, plan.period_us))
+    assert "  move S_0 in 196ms  # S frame 0: arm on the way as the next frame starts\n" in text
+    assert len(warnings) == 1 and warnings[0].startswith("S frame 0: its move needs 1008 ms")
+    assert "the next frame starts on time" in warnings[0]
+
+
+def test_a_servo_cut_short_goes_on_to_its_target_unless_the_next_frame_sets_it(tmp_path):
+    """Frame 1 sets only `b`: the Maestro leaves `arm`'s target, and it goes on to 2000 µs at its
+    speed, there about 1008 ms after frame 0 started; `b` is set when frame 1 starts (200 ms)."""
+    text, plan, frames, _ = _frames_of(tmp_path, _one_servo(
+        '<Frame name="Frame 0" duration="200">8000</Frame><Frame name="Frame 1" duration="1500">0 7000</Frame>',
+        speed=20))
+    p = plan.period_us
+    arm, b = [f[0] for f in frames], [f[1] for f in frames]
+    assert abs((arm.index(_n(2000)) - 1) * p - 1_008_000) <= 16_000 + p     # frame 0 is `home`
+    assert b.index(_n(1750)) - 1 == round_half_up(Fraction(200_000, p))
+    assert "# S frame 1: arm there" in text
+
+
+def test_the_last_frame_played_is_not_cut(tmp_path):
+    """After the last frame of the last sequence nothing changes the targets: its move completes
+    (with the warning, which says so)."""
+    text, plan, frames, warnings = _frames_of(tmp_path, _one_servo(
+        '<Frame name="Frame 0" duration="100">8000</Frame>', speed=20))
+    assert frames[-1][0] == _n(2000)
+    assert len(warnings) == 1 and "last frame played, so nothing changes the targets" in warnings[0]
+
+
 def test_each_servo_of_a_frame_goes_at_its_own_speed(tmp_path):
     """Two channels, 500 µs/s and as fast as the servo allows, both told to go 504 µs: the fast one
     is there after its own travel (155 ms), the slow one after 1008 ms, each at constant speed."""
@@ -510,7 +563,11 @@ def test_each_servo_of_a_frame_goes_at_its_own_speed(tmp_path):
 @given(st.data())
 def test_any_sequence_imports_to_a_program_without_errors(tmp_path_factory, data):
     """Whatever the channels' and frames' speeds, targets and durations, the moves the import writes
-    are never faster than a servo may go: lint finds no error (no infeasible-speed) in the program."""
+    are never faster than a servo may go: lint finds no error (no infeasible-speed) in the program.
+    And each frame's moves start on the firmware frame nearest the frame's start time (`_starts`):
+    a frame whose move needs longer than its duration is cut where the next one starts, so that
+    one starts on time (a frame whose moves need a frame at least, with less than one frame to the
+    next, makes the next start one frame late)."""
     from servoc import api
     from servoc.diagnostics import Reporter
     from servoc.source import SourceFile
@@ -520,19 +577,42 @@ def test_any_sequence_imports_to_a_program_without_errors(tmp_path_factory, data
         f'max="{data.draw(st.sampled_from([8000, 10000]))}" homemode="{data.draw(st.sampled_from(["Goto", "Off"]))}" '
         f'home="{data.draw(st.sampled_from([0, 6000, 7000]))}" speed="{data.draw(st.sampled_from([0, 5, 20, 200]))}" />'
         for i in range(count))
-    frames = ""
+    frames, durations = "", []
     for k in range(data.draw(st.integers(1, 5))):
         targets = " ".join(str(data.draw(st.sampled_from([0, 4000, 6000, 6001, 8000]))) for _ in range(count))
         speeds = data.draw(st.sampled_from(["", " s " + " ".join(str(data.draw(st.sampled_from([0, 3, 40])))
                                                                    for _ in range(count))]))
-        frames += f'<Frame name="F{k}" duration="{data.draw(st.sampled_from([0, 1, 300, 2500]))}">{targets}{speeds}</Frame>'
+        durations.append(data.draw(st.sampled_from([0, 1, 40, 100, 300, 2500])))
+        frames += f'<Frame name="F{k}" duration="{durations[-1]}">{targets}{speeds}</Frame>'
     src = tmp_path_factory.mktemp("maestro") / "any.xml"
     src.write_bytes(settings(f'<Sequence name="S">{frames}</Sequence>', channels))
     text = api.import_motion(str(src)).text
     source = SourceFile("any.servo", text)
     reporter = Reporter(source)
-    api.front_end(source, reporter)
+    fe = api.front_end(source, reporter)
     assert not [d.message for d in reporter.diagnostics if d.is_error], text
+    starts, before = _starts(text, fe.plan.period_us), None
+    for k in range(len(durations)):
+        want = round_half_up(Fraction(sum(durations[:k]) * 1000, fe.plan.period_us))
+        if f"S frame {k} (F{k})" in starts:
+            start = starts[f"S frame {k} (F{k})"]
+            assert want <= start <= max(want, -1 if before is None else before + 1), (k, want, start, text)
+            before = start
+
+
+def _starts(text: str, period_us: int) -> dict:
+    """The frame (from the start of sequence S) at which each Maestro frame's first move starts, by
+    the frame counts of the statements the import wrote (the Statements rule)."""
+    import re
+    from servoc.units import frames_for, move_frames
+    body = text[text.index("sequence S {"):]
+    body = body[:body.index("\n}")]
+    starts, at = {}, 0
+    for kind, ms, why in re.findall(r"^  (move \S+ in|hold) ([0-9.]+)ms  # (.*)$", body, re.M):
+        if kind != "hold":
+            starts.setdefault(why.split(":")[0], at)
+        at += (frames_for if kind == "hold" else move_frames)(Fraction(ms) * 1000, period_us)
+    return starts
 
 
 @pytest.mark.toolchain

@@ -8,7 +8,9 @@ github.com/timhendriks93/blender-servo-animation, `addon/ops/*_export.py`):
 - `.h`: `const byte FPS = 30; const int FRAMES = 100; const int LENGTH = 600;
   const byte PROGMEM ANIMATION_DATA[LENGTH] = {0x3c, ...};`, optionally inside
   `namespace Scene { ... }`; several such arrays in one header are several tracks.
-- `.bin`: the bytes of ANIMATION_DATA alone, no header, so `--fps` is required.
+- `.bin`: the bytes of ANIMATION_DATA alone, no header, so `--fps` is required. Known by its
+  name or by its bytes (`is_records`: nothing but records), so a copy under another name is
+  read as one too.
 The bytes are fixed 5-byte records `0x3C id hi lo 0x3E` (position = hi*256+lo),
 each frame ended by `0x0A`. They are read by position, never by searching for a
 marker, so a `0x3C` or `0x0A` inside an id or position (1852 = 0x073C,
@@ -97,18 +99,32 @@ def sniff(data: bytes, path: str) -> bool:
             return True
         if b"FPS" in data and _V1_SNIFF.search(data[:1 << 20]):      # an add-on 1.x header
             return True
-        body = data.lstrip(b"\n")
+        if is_records(data):
+            return True
+        body = data.lstrip(b"\n")          # named .bin: one that starts and ends as records do (errors name the byte)
         return (path.lower().endswith(".bin") and len(body) >= 6 and data[-1] == 0x0A
                 and body[0] == 0x3C and body[4] == 0x3E)
     except Exception:       # sniffing must never fail
         return False
 
 
+def is_records(data: bytes) -> bool:
+    """Whether `data` is a `.bin` export by its content, whatever the file is called: every byte in
+    5-byte records `0x3C id hi lo 0x3E`, each frame ended by 0x0A, and at least one record."""
+    if data[:1] not in (b"<", b"\n") or not data.strip(b"\n"):
+        return False
+    try:
+        _frames(data, "", limit=False)
+        return True
+    except ImportError_:
+        return False
+
+
 def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
     """The Keyframes of one Blender servo-animation export (see the module docstring)."""
     stem = os.path.splitext(os.path.basename(path))[0] or "animation"
-    text_like = path.lower().endswith((".h", ".hpp", ".json", ".txt"))
-    is_bin = path.lower().endswith(".bin")
+    is_bin = path.lower().endswith(".bin") or is_records(data)        # by its name, or its bytes
+    text_like = path.lower().endswith((".h", ".hpp", ".json", ".txt")) and not is_bin
     if data.lstrip(b"\xef\xbb\xbf \t\r\n")[:1] in (b"{", b"["):
         doc = _load_json(data, path)
         if _is_v1_json(doc):
@@ -226,14 +242,16 @@ def _read_header(text: str, path: str, stem: str, options: ReadOptions):
     return animations
 
 
-def _frames(data: bytes, where: str) -> list:
-    """The frames of 5-byte records `0x3C id hi lo 0x3E` each ended by 0x0A, as dicts id -> position."""
+def _frames(data: bytes, where: str, limit: bool = True) -> list:
+    """The frames of 5-byte records `0x3C id hi lo 0x3E` each ended by 0x0A, as dicts id -> position
+    (`limit`: no more than MAX_FRAMES of them)."""
     frames, frame, start, i, n = [], {}, 0, 0, len(data)
     while i < n:
         b = data[i]
         if b == 0x0A:
             frames.append(frame)
-            check_frames(len(frames), where)
+            if limit:
+                check_frames(len(frames), where)
             frame, start, i = {}, i + 1, i + 1
         elif b != 0x3C:
             raise ImportError_(f"{where}: byte {i} is 0x{b:02X}, not 0x3C (start of a servo record) "

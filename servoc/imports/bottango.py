@@ -9,8 +9,8 @@ straddle two). A file without such literals is read as bare command lines, one a
 
 Output: one `Channel` per `rSVPin,pin,minUs,maxUs,maxUsPerSec,startUs` (index = pin, name
 `pin_N`, home = start µs, `speed_us_s` = maxUsPerSec, the servo's top speed in µs of width a
-second, which the writer declares as the servo's `speed` where it is slower than the default
-servo; 0 says no speed; curves name the servo by its pin) and one sampled `Track` per
+second, which the writer declares as the servo's `speed` (`servo_speed`), faster or slower than
+the default servo; 0 says no speed; curves name the servo by its pin) and one sampled `Track` per
 animation, in file order: `curve(t_ms)` -> {pin: µs as Fraction}, `length_ms` = the end of its
 last curve.
 
@@ -217,7 +217,7 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
                 # min > max is a servo set up inverted (y = 0 at min): the limits are stored sorted, the
                 # direction in `signal`
                 servos[str(pin)] = Channel(pin, f"pin_{pin}", Fraction(min(lo, hi)), Fraction(max(lo, hi)),
-                                           Fraction(start), Fraction(speed) if speed else None)
+                                           Fraction(start), Fraction(speed) if speed else None, servo_speed=True)
                 signal[str(pin)] = (Fraction(lo), Fraction(hi))
             elif name == _RELAY or (_REGISTER.fullmatch(name) and name not in _SKIPPED):
                 if len(fields) < 2 + (name == "rSVI2C"):

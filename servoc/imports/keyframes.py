@@ -45,7 +45,11 @@ class Channel:
     max_us: Optional[Fraction] = None
     home_us: Optional[Fraction] = None      # where the source parks it at power-up, if it says
     speed_us_s: Optional[Fraction] = None   # its top speed in µs of width per second, when the source says
-                                            # (becomes the servo's `speed` when slower than the default servo)
+                                            # (the servo's `speed`: always with `servo_speed`, else when it is
+                                            # slower than the default servo)
+    servo_speed: bool = False               # True: `speed_us_s` is the servo's own (Bottango's rSVPin), faster
+                                            # than the default servo or not; False: a limit the source sets on
+                                            # the channel (a Maestro's), the servo going no faster than it can
 
 
 @dataclass(frozen=True)
@@ -156,7 +160,9 @@ _XML_ENCODING = re.compile(rb"""^(\s*<\?xml[^>]*?encoding\s*=\s*)(["'])[^"']*\2"
 def as_utf8(data: bytes, path: str) -> bytes:
     """A text file's bytes as UTF-8, whatever it was written in: UTF-8 (with or without BOM) as it
     is, UTF-16 with a BOM and Windows-1252 (any bytes that are not UTF-8) decoded; an XML
-    declaration's encoding then says UTF-8. A Blender `.bin` is binary: as it is."""
+    declaration's encoding then says UTF-8. A Blender `.bin` (by its name or its bytes) is binary:
+    as it is."""
+    from .blender import is_records         # here: blender imports this module
     if path.lower().endswith(".bin"):
         return data
     if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
@@ -166,6 +172,8 @@ def as_utf8(data: bytes, path: str) -> bytes:
             data.decode("utf-8")
             return data
         except UnicodeDecodeError:
+            if is_records(data):
+                return data
             text = data.decode("cp1252", errors="replace")
     out = text.lstrip("\ufeff").encode("utf-8")
     return _XML_ENCODING.sub(rb"\1\2utf-8\2", out, count=1)

@@ -32,7 +32,8 @@ Output: `Keyframes(format="maestro")`:
 - keys: one per `<Frame>`, at the frame's start (`at_ms`: the sum of the durations
   before it); the track lasts the sum of all of them. A target of 0 means the channel
   keeps its target: left out of `Key.targets` (a frame that sets nothing is a pause).
-  A target outside the channel's `min`..`max` is clamped there (a note counts them).
+  A target outside the channel's `min`..`max` is clamped there, and so is a `home` (a note
+  counts them).
   Every key's `speeds` are the frame's own (after `s`) where it has them, else the
   channels' (µs/s; 0 = as fast as the servo allows). A channel's `speed_us_s`, which the
   writer declares as the servo's speed, is the fastest it is asked to go: its channel
@@ -165,13 +166,17 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
     bounds = {c.index: (c.min_us, c.max_us) for c in channels}
     clamped: list[str] = []
 
-    def clamp(ch: int, us: Fraction, source: str) -> Fraction:
-        """A target outside the channel's min..max, clamped there as the Maestro does."""
+    def clamp(ch: int, us: Fraction | None, source: str) -> Fraction | None:
+        """A target (or home) outside the channel's min..max, clamped there as the Maestro does."""
+        if us is None:
+            return None
         lo, hi = bounds[ch]
         kept = min(max(us, lo if lo is not None else us), hi if hi is not None else us)
         if kept != us:
             clamped.append(f"{source}, channel {ch}")
         return kept
+
+    channels = [dataclasses.replace(c, home_us=clamp(c.index, c.home_us, "home")) for c in channels]
 
     sequences = [] if root.find("Sequences") is None else root.find("Sequences").findall("Sequence")
     for number, seq in enumerate(sequences, 1):
@@ -206,7 +211,7 @@ def read(data: bytes, path: str, options: ReadOptions) -> Keyframes:
         notes.append("The frames' own accelerations (after 'a') are not imported: each move is at constant speed.")
     if clamped:
         notes.append(f"{len(clamped)} target{'s' if len(clamped) != 1 else ''} outside the channel's min..max "
-                     f"clamped there, as the Maestro does (first: {clamped[0]}).")
+                     f"clamped there, as the Maestro does (first: {clamped[0]}).")     # a home counts as one
     if not sequences:
         notes.append("The file has no sequences.")
     if (root.findtext("Script") or "").strip():

@@ -7,10 +7,16 @@ naming its source) and the import's figures.
 
 - Positions become N by the Positions rule (widths rounded half up to the
   8 µs grid) and are written as widths on the grid; `Imported.off_grid`
-  counts those that were not on it.
-- A keyed track (Maestro, CSV): each key is one linear move that arrives at
-  its time, `move KEY in (time - previous time)` (a key at the time of the one
-  before: `in 0ms`, one frame), a key that sets nothing a `hold`.
+  counts those that were not on it. A negative width is an `ImportError_`
+  that names its key (`-1500us` is no .servo width: nothing is written).
+- A keyed track (CSV): each key is one linear move that arrives at its time:
+  it ends on the frame nearest that time, frames counted from the sequence's
+  first (frame 0, at time 0) at the period the program declares (`frame`, the
+  default of the pins in use), so no rounding piles up from key to key. The
+  duration written is the source's `time - previous time` where that gives
+  those frames, else the whole ms nearest it that does (a key at the time of
+  the one before: `in 0ms`, one frame; a key that sets nothing: a `hold`).
+- A paced track (Maestro): see `_Writer.paced`.
 - A sampled track (Blender; a Bottango curve sampled at every frame): the
   first sample is a `move` without a duration, then as few linear moves as
   meet every sample within ±1 N. A run of samples i..j becomes one move when,
@@ -33,7 +39,8 @@ from fractions import Fraction
 from .. import nodes
 from ..printer import format_program
 from ..source import NO_SPAN
-from ..units import BASE_US, DAV_DEG, DEFAULT_T_DAV_US, DIV_US, N_MAX, n_to_width_us, round_half_up, width_on_grid, width_to_n
+from ..units import (BASE_US, DAV_DEG, DEFAULT_T_DAV_US, DIV_US, N_MAX, frames_for, move_frames, n_to_width_us,
+                     round_half_up, width_on_grid, width_to_n)
 from .keyframes import ImportError_, Keyframes, Track, check_frames, decimal, identifier
 
 MAX_MOVE_FRAMES = 65535        # the firmware's frame counters are 16 bits
@@ -90,9 +97,15 @@ class _Writer:
         self.comments: dict = {}
         self.positions = self.off_grid = self.moves = self.frames_in = self.deviation = 0
         self.warnings: list = []
+        self.on_the_way: dict = {}        # paced tracks: channel -> the target of a servo cut short on its way
 
     # ---- positions
-    def n(self, width: Fraction) -> int:
+    def n(self, width: Fraction, ch: int, *where: str) -> int:
+        """N of a source width (channel `ch`, at `where`: the key, or the track and sample). A negative
+        width is an `ImportError_` naming them: no N is below 0 µs, and `-1500us` is not a .servo width."""
+        if width < 0:
+            raise ImportError_(f"{', '.join(where)}: `{self.names[ch]}` is at {decimal(width)} µs, a negative pulse "
+                               f"width (a servo's pulse is 500 µs + 8 µs x N, N 0..250)")
         self.positions += 1
         if not width_on_grid(width):
             self.off_grid += 1
@@ -110,26 +123,38 @@ class _Writer:
         return stmt
 
     # ---- tracks
-    def keyed(self, track: Track, prefix: str) -> list:
-        body, last = [], Fraction(0)
+    def keyed(self, track: Track, prefix: str, period: int) -> list:
+        """A keyed track (CSV) at the frame period `period` (µs): each key's move ends on the frame
+        nearest its time, frame 0 the sequence's first (at time 0), whatever the keys before it took."""
+        body, last, frame = [], Fraction(0), -1           # frame: where the moves so far end (-1: none yet)
         for i, key in enumerate(track.keys):
             self.frames_in += 1
-            values = {ch: self.n(w) for ch, w in sorted(key.targets.items()) if ch in self.names}
-            duration = max(Fraction(0), key.at_ms - last)
-            last = key.at_ms
+            values = {ch: self.n(w, ch, key.source) for ch, w in sorted(key.targets.items()) if ch in self.names}
+            gap, last = max(Fraction(0), key.at_ms - last), key.at_ms
+            frames = round_half_up(key.at_ms * 1000 / period) - frame        # to the frame nearest its time
             if not values:
-                if duration > 0:
-                    body.append(self.statement(nodes.HoldStmt(_ms(duration), NO_SPAN), key.source))
+                if frames > 0:
+                    body.append(self.statement(nodes.HoldStmt(_frames_ms(frames, period, gap), NO_SPAN), key.source))
+                    frame += frames
                 continue
+            frames = max(1, frames)                  # a move takes a frame at least
             pose = self.pose(f"{prefix}_{i}", values)
-            body.append(self.statement(nodes.MoveStmt(pose, _ms(duration), None, NO_SPAN), key.source))
+            body.append(self.statement(nodes.MoveStmt(pose, _frames_ms(frames, period, gap, move=True), None,
+                                                      NO_SPAN), key.source))
+            frame += frames
         return body
 
-    def paced(self, track: Track, prefix: str, timing: Timing, current: dict) -> list:
-        """A paced track (Maestro) at the frame period `timing.period_us`: each key's moves start on
-        the frame nearest its start time, each servo going at its own speed (`runs`); holds fill
-        the time to the next key's start and to the track's end. `current`: channel -> N where the
-        servos are as the track starts (updated as it goes)."""
+    def paced(self, track: Track, prefix: str, timing: Timing, current: dict, final: bool = True) -> list:
+        """A paced track (Maestro) at the frame period `timing.period_us`, run as the Maestro runs it:
+        each key's moves start on the frame nearest its start time, each servo going at its own speed
+        (`runs`), and the next key starts on the frame nearest its own start time, holds filling the
+        time to it and to the track's end. A servo still on its way when the next key starts (the key
+        is shorter than its move: a warning names it) is cut there: its move ends where it is then
+        (`reach`), and it goes on to its target in the next key unless that key sets it (the
+        Maestro changes its target mid-move), in the next track's first key after the last. Only the
+        very last key played (`final`: no track after this one has keys) is not cut: nothing changes
+        the targets after it. `current`: channel -> N where the servos are as the track starts
+        (updated as it goes)."""
         period, channels = timing.period_us, {c.index: c for c in self.kf.channels}
         body, frame = [], 0                  # frames since the track's start
 
@@ -142,28 +167,68 @@ class _Writer:
 
         for i, key in enumerate(track.keys):
             self.frames_in += 1
-            values = {ch: self.n(w) for ch, w in sorted(key.targets.items()) if ch in self.names}
-            values = {ch: n for ch, n in values.items() if current.get(ch) != n}     # the servos it moves
+            own = {ch: self.n(w, ch, key.source) for ch, w in sorted(key.targets.items()) if ch in self.names}
+            targets = {**self.on_the_way, **own}     # the servos cut short go on unless the key sets them
+            values = {ch: n for ch, n in sorted(targets.items()) if current.get(ch) != n}     # the servos it moves
             if not values:
                 continue                     # a pause: the hold before the next key's move waits it out
             wait_until(key.at_ms, f"until {key.source} starts")
-            need_us = max(self.travel_us(channels[ch], current.get(ch), n, key.speeds) for ch, n in values.items())
-            runs = self.runs(values, current, key.speeds, channels, period)
-            for j, (moves, pose, arriving) in enumerate(runs):
-                name = self.pose(f"{prefix}_{i}" + (f"_{j + 1}" if j else ""), pose)
-                why = key.source if len(runs) == 1 else \
-                    f"{key.source}: {', '.join(self.names[ch] for ch in arriving)} there"
-                body.append(self.statement(nodes.MoveStmt(name, _frames_ms(moves, period), None, NO_SPAN), why))
-                frame += moves
             end_ms = track.keys[i + 1].at_ms if i + 1 < len(track.keys) else track.length_ms
-            if need_us > (end_ms - key.at_ms) * 1000:
+            duration = end_ms - key.at_ms
+            need_us = max((self.travel_us(channels[ch], current.get(ch), n, key.speeds)
+                           for ch, n in values.items() if ch in own), default=0)
+            last = final and i + 1 == len(track.keys)
+            if need_us > duration * 1000:
                 self.warnings.append(
                     f"{key.source}: its move needs {decimal(need_us / 1000, 1)} ms at the servos' speeds, longer than "
-                    f"the frame's {decimal(end_ms - key.at_ms, 1)} ms (the Maestro would change targets mid-move); "
-                    f"here the next frame starts when this move ends")
-            current.update(values)
+                    f"the frame's {decimal(duration, 1)} ms" + (
+                        "; it is the last frame played, so nothing changes the targets and its move completes" if last
+                        else " (the Maestro would change targets mid-move): here too the next frame starts on time, "
+                             "from where the servos are then"))
+            frames = None if last else max(1, round_half_up(end_ms * 1000 / period) - frame)   # to the next key
+            goal, runs = self.cut(values, current, key.speeds, channels, period, duration, frames)
+            self.on_the_way = {ch: n for ch, n in values.items() if goal[ch] != n}
+            for j, (moves, pose, arriving) in enumerate(runs):
+                name = self.pose(f"{prefix}_{i}" + (f"_{j + 1}" if j else ""), pose)
+                there = [self.names[ch] for ch in arriving if ch not in self.on_the_way]
+                cut = [self.names[ch] for ch in arriving if ch in self.on_the_way]
+                why = key.source if len(runs) == 1 and not cut else f"{key.source}: " + "; ".join(
+                    ([f"{', '.join(there)} there"] if there else [])
+                    + ([f"{', '.join(cut)} on the way as the next frame starts"] if cut else []))
+                body.append(self.statement(nodes.MoveStmt(name, _frames_ms(moves, period), None, NO_SPAN), why))
+                frame += moves
+            current.update(goal)
         wait_until(track.length_ms, f"until the end of {track.name}'s last frame")
         return body
+
+    def cut(self, values: dict, current: dict, speeds, channels: dict, period: int, ms: Fraction, frames) -> tuple:
+        """(where each servo of `values` ends this key, the key's `runs`): where it is `ms` after the key's
+        start (`reach`), at most where it gets in the key's `frames` so that the next key starts on time
+        (None: not cut). When the runs take longer than `frames` (a move boundary costs a servo at its
+        very top speed a frame or more, see `runs`), the servos still on their way stop that much
+        sooner."""
+        budget = frames
+        while True:
+            goal = values if frames is None else {ch: self.reach(channels[ch], current.get(ch), n, speeds, ms,
+                                                                  budget * period) for ch, n in values.items()}
+            moving = {ch: n for ch, n in goal.items() if current.get(ch) != n}
+            runs = self.runs(moving, current, speeds, channels, period) if moving else []
+            over = sum(r[0] for r in runs) - (frames or 0)
+            if frames is None or over <= 0 or budget == 1:
+                return goal, runs
+            budget = max(1, budget - over)
+
+    def reach(self, channel, n0, n1: int, speeds, ms: Fraction, most_us: int) -> int:
+        """Where a servo going from N0 to N1 at its speed (`travel_us`) is `ms` after it starts: its width
+        then, start + sign x min(|delta|, speed x time), by the Positions rule; and no farther than it
+        goes in `most_us` (the frames the move has), so that the move is never too fast for it."""
+        if n0 is None or n0 == n1:
+            return n1                        # no position yet: set at once
+        per_n = self.travel_us(channel, 0, 1, speeds)        # µs it needs per N, so DIV_US µs of width per per_n
+        sign = 1 if n1 > n0 else -1
+        width = n_to_width_us(n0) + sign * min(abs(n1 - n0) * DIV_US, DIV_US * ms * 1000 / per_n)
+        step = min(abs(width_to_n(width) - n0), int(most_us // per_n))
+        return n0 + sign * step
 
     def runs(self, values: dict, current: dict, speeds, channels: dict, period: int) -> list:
         """The moves of one paced key, each servo at its own speed: (frames, pose, the servos that
@@ -227,7 +292,7 @@ class _Writer:
                 raise ImportError_(f"{track.name}, {labels[i]}: no position for `{missing[0]}`")
         at = [f for f, _ in frames]
         exact = {ch: [float((Fraction(t[ch]) - BASE_US) / DIV_US) for _, t in frames] for ch in channels}
-        ns = {ch: [self.n(t[ch]) for _, t in frames] for ch in channels}
+        ns = {ch: [self.n(t[ch], ch, track.name, labels[k]) for k, (_, t) in enumerate(frames)] for ch in channels}
         first = self.pose(f"{prefix}_0", {ch: ns[ch][0] for ch in channels})
         body = [self.statement(nodes.MoveStmt(first, None, None, NO_SPAN), f"{track.name}: {labels[0]}, the start")]
         i = 0
@@ -276,7 +341,8 @@ def _deviation(at: list, ns: dict, i: int, j: int) -> int:
 
 def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) -> Imported:
     """The program for `kf`: `pins` maps each channel to its pin (`P1.0`); `timing` is how sampled
-    tracks meet the frames (None when there are none)."""
+    tracks meet the frames, or the period of paced ones (None when there are neither: keyed tracks
+    then take the default period of the pins in use, as `servoc.api` gives a paced one)."""
     used = {c.index for c in kf.channels if c.home_us is not None}
     for track in kf.tracks:
         used |= {c.index for c in kf.channels} if track.curve is not None else \
@@ -284,22 +350,27 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
     unused = [c for c in kf.channels if c.index not in used]
     kf = dataclasses.replace(kf, channels=tuple(c for c in kf.channels if c.index in used))
     kf, edged = _inside_limits(kf)
+    if timing is None and kf.tracks:
+        from ..api import _default_period_on
+        timing = Timing(_default_period_on(sorted({pins[c.index] for c in kf.channels})))
     w = _Writer(kf, pins)
     servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _speed(c) + _limit(c),
                               NO_SPAN) for c in kf.channels]
     sequences = []
-    homes = {c.index: w.n(c.home_us) for c in kf.channels if c.home_us is not None}
+    homes = {c.index: w.n(c.home_us, c.index, "the home position") for c in kf.channels if c.home_us is not None}
     current = dict(homes)                   # where paced tracks find the servos: main plays them in order
-    for track in kf.tracks:
+    final = max((i for i, t in enumerate(kf.tracks) if t.keys), default=-1)    # the last track with keys
+    for i, track in enumerate(kf.tracks):
         seq = identifier(track.name, "seq", w.taken)
         body = w.sampled(track, seq, timing) if track.sampled else \
-            w.paced(track, seq, timing, current) if track.paced else w.keyed(track, seq)
+            w.paced(track, seq, timing, current, i == final) if track.paced else \
+            w.keyed(track, seq, timing.period_us)
         sequences.append(nodes.SequenceDecl(_name(seq), tuple(body), NO_SPAN))
     items: list = []
     if homes:
         home = w.pose("home", homes)
         items.append(nodes.SettingDecl(_name("home"), home, NO_SPAN))
-    if timing is not None and any(t.sampled or t.paced for t in kf.tracks):
+    if timing is not None and kf.tracks:
         items.append(nodes.FrameDecl(_ms(Fraction(timing.period_us, 1000)), NO_SPAN))
     main = tuple(nodes.PlayStmt(s.name, NO_SPAN) for s in sequences)
     items += servos + w.poses + sequences + [nodes.MainDecl(main, NO_SPAN, NO_SPAN)]
@@ -333,10 +404,17 @@ def _ms(value: Fraction) -> nodes.Quantity:
     return nodes.Quantity(Fraction(value), "ms", NO_SPAN)
 
 
-def _frames_ms(frames: int, period_us: int) -> nodes.Quantity:
-    """A duration of exactly `frames` frames of `period_us`, in whole ms (a period is over 2 ms, so
-    the nearest ms is within half a frame of it and F = floor(DUR / P + 1/2) gives `frames`)."""
-    return _ms(Fraction(round_half_up(Fraction(frames * period_us, 1000))))
+def _frames_ms(frames: int, period_us: int, near: Fraction | None = None, move: bool = False) -> nodes.Quantity:
+    """A duration that lasts exactly `frames` (1 or more) frames of `period_us` by the Statements rule
+    (a hold's F = floor(DUR / P + 1/2), a `move`'s at least 1): `near` (ms) itself where it does, else
+    the whole ms nearest it that does; without `near`, the whole ms nearest frames x P. (A period is
+    over 2 ms, so whole ms lie within the half frame either side of frames x P.)"""
+    if near is not None and (move_frames if move else frames_for)(near * 1000, period_us) == frames:
+        return _ms(near)
+    lo = Fraction((2 * frames - 1) * period_us, 2000)          # F is `frames` from lo (inclusive) to hi
+    hi = Fraction((2 * frames + 1) * period_us, 2000)
+    ms = round_half_up(Fraction(frames * period_us, 1000) if near is None else near)
+    return _ms(Fraction(min(max(ms, math.ceil(lo)), math.ceil(hi) - 1)))
 
 
 def _width(n: int) -> nodes.Quantity:
@@ -344,16 +422,20 @@ def _width(n: int) -> nodes.Quantity:
 
 
 def t_dav_us(channel) -> Fraction:
-    """The time per DAV (µs) of the servo a channel becomes: its own speed where it is slower than
-    the default servo's, else the default's."""
+    """The time per DAV (µs) of the servo a channel becomes: the source's speed where it is the
+    servo's own (`Channel.servo_speed`: Bottango's rSVPin), else where it is slower than the default
+    servo's (a Maestro channel's speed is a limit: the servo goes no faster than it can), else the
+    default's."""
     if channel.speed_us_s is None or channel.speed_us_s <= 0:
         return DEFAULT_T_DAV_US
-    return max(DEFAULT_T_DAV_US, Fraction(DIV_US * 1_000_000) / channel.speed_us_s)
+    own = Fraction(DIV_US * 1_000_000) / channel.speed_us_s
+    return own if channel.servo_speed else max(DEFAULT_T_DAV_US, own)
 
 
 def _speed(channel) -> tuple:
-    """`speed 1s/Adeg` for a channel slower than the default servo: v µs/s is v/8 DAV a second."""
-    if t_dav_us(channel) == DEFAULT_T_DAV_US:
+    """`speed 1s/Adeg` for a channel whose speed is the servo's own or slower than the default servo:
+    v µs/s is v/8 DAV a second."""
+    if t_dav_us(channel) == DEFAULT_T_DAV_US and not (channel.servo_speed and channel.speed_us_s):
         return ()
     degrees = Fraction(channel.speed_us_s) / DIV_US * DAV_DEG
     return (nodes.SpeedOption(nodes.Quantity(Fraction(1), "s", NO_SPAN), nodes.Quantity(degrees, "deg", NO_SPAN),
