@@ -730,7 +730,9 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
     def host(st: HostStep) -> Iterator[GoldenFrame]:
         """A run of `st`: each frame the bytes its reading read go to the model, then the frame; a
         `PL 0 SQ n` plays sequence n, its frames each followed by a reading (`Q` answers `+`), then
-        a frame repeating its end, and the run goes on with the lines read meanwhile."""
+        a frame repeating its end, and the run goes on with the lines read meanwhile; a group or
+        `PL` line read while it plays ends it, and the run goes on with that line, with no frame
+        repeating the sequence's end."""
         names = [q.name for q in plan.program.sequences]
         run_ = decider.host(st)
         session = ssc32.Session(host_servos, plan.period_us, {names.index(p.sequence) for p in st.plays},
@@ -747,8 +749,11 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                     pending.extend(session.line(cmd))
             offsets.update(session.offsets)
 
+        carry = False               # a line that ended a sequence is carried out with no reading first
         while True:
-            read()
+            if not carry:
+                read()
+            carry = False
             now = session.frame()
             for i, s in enumerate(host_servos):
                 state[i] = now[s.channel]
@@ -768,13 +773,19 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                             frames_.close()
                             session.reading_stopped = False
                             break
+                        if session.replace_play:    # a group or PL line: it ends here, and the line is
+                            frames_.close()         # carried out in the next frame
+                            break
                 finally:                            # its end (or a cut of `host`) lets them go
                     held.clear()
                     session.held.clear()
-                session.sequence_running = session.stop_play = False
+                replaced = session.replace_play
+                session.sequence_running = session.stop_play = session.replace_play = False
                 session.move = None
-                yield frame(st.span)                # the frame that repeats the sequence's end
-                session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
+                carry = replaced
+                if not replaced:
+                    yield frame(st.span)            # the frame that repeats the sequence's end
+                    session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
 
     def passed(st: Step) -> None:
         """`st`, which takes no frame and sends nothing, has run: so has each statement in it."""

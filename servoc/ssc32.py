@@ -75,7 +75,10 @@ The rules, as the document states them:
   frame i; the sequence's frames, from frame i + 2, are `plan.expand`'s);
   other n do nothing. While a sequence `PL` started plays, `STOP` ends it
   (`Session.stop_play`) and `STOP c` holds channel c where it is until it
-  ends (`Session.held`: `plan.expand` leaves it out of the sequence's moves).
+  ends (`Session.held`: `plan.expand` leaves it out of the sequence's moves);
+  a group line that names a servo and a `PL 0 SQ n` line (any n) end it too
+  (`Session.replace_play`), and are carried out in the next frame as if
+  read in the sequence's last frame, with no frame repeating its end.
   ESC and a bad line drop only their own line.
 - A group line that names a servo, an offset line and `PL 0 SQ n` (any n)
   end the frame's reading: the bytes after them are read in the next frame
@@ -576,6 +579,8 @@ class Session:
         self.plays: list[int] = []
         self.sequence_running = False
         self.stop_play = False                # STOP was read while a sequence played: it ends there
+        self.replace_play = False             # a group or PL line was read while a sequence played: it ends
+                                              # there, and the line is carried out in the next frame
         self.held: set[int] = set()           # channels STOP c holds where they are while a sequence plays
         self.frames = 0                       # frames computed so far
         self.reading_stopped = False          # a line that stops the reading was read in this frame
@@ -597,6 +602,8 @@ class Session:
         if not isinstance(cmd, (Group, Offset, Query, QueryPulse, Version, Stop, Play)):
             raise TypeError(f"not a command: {cmd!r}")
         self.reading_stopped = self.stops_reading(cmd)
+        if self.sequence_running and self.reading_stopped and isinstance(cmd, (Group, Play)):
+            self.replace_play = True
         if isinstance(cmd, Query):
             return b"+" if self.moving() else b"."
         if isinstance(cmd, QueryPulse):

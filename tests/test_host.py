@@ -478,24 +478,41 @@ def test_a_firmware_that_reads_late_fails_verify():
     assert not report.ok and "left" in problems(report) and "unread" in problems(report)
 
 
-def test_q_is_answered_while_a_sequence_plays_and_lines_wait_for_its_end():
-    # the wave (tuck, then rest) takes over a second: Q at 0.4 s answers '+', and so does QP
-    # (the shoulder on its way down from 90deg); a group sent meanwhile moves the base once the
-    # wave has ended; STOP 1 meanwhile holds the shoulder for the rest of the wave; Q long after
-    # answers '.'
+def test_q_is_answered_while_a_sequence_plays_and_an_offset_line_waits_for_its_end():
+    # the wave (tuck, then rest): Q at 0.25 s answers '+', and so does QP (the shoulder on its way
+    # down from 90deg); STOP 1 holds the shoulder for the rest of the wave; an offset line sent
+    # meanwhile waits for the wave's end: the group after it moves the base by 2000 - 40 us
     b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n'
-                               '0.4s "Q\\r"\n'
-                               '0.5s "QP 1\\r"\n'
-                               '0.6s "STOP 1\\r"\n'
-                               '0.7s "#0P2000\\r"\n'
+                               '0.25s "Q\\r"\n'
+                               '0.3s "QP 1\\r"\n'
+                               '0.35s "STOP 1\\r"\n'
+                               '0.45s "#0PO-40\\r"\n'
+                               '1.5s "#0P2000\\r"\n'
                                '4.0s "Q\\r"\n', 800)
     out = sent(trace)
     assert out[0:1] == b"+" and 54 * 8 + 500 < 10 * out[1] < 1476 and out[2:] == b"."
     base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    assert base[-1] == 183                                   # (1960 - 500 + 4) >> 3
+
+
+def test_a_group_or_pl_line_read_while_a_sequence_plays_replaces_it():
+    # the wave (tuck, then rest: the shoulder 90deg -> 40deg -> 90deg) from 0.2 s; a group for the
+    # base at 0.42 s, while the shoulder is on its way back up: the wave ends where the shoulder is
+    # as the line's end is read (one byte a frame while a sequence plays), and the base's move
+    # starts in the next frame; later `PL` twice: the second replaces the first, which plays again
+    # from where the servos are and ends at rest
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.42s "#0P2000\\r"\n1.5s "Q\\r"\n'
+                               '2.0s "PL 0 SQ 0\\r"\n2.15s "PL 0 SQ 0\\r"\n', 560)
+    assert sent(trace) == b"."
+    frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
     shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]
-    assert base[-1] == 188                                   # 2000 us, after the wave
-    back = next(i for i in range(len(shoulder) - 1, 0, -1) if shoulder[i - 1] != shoulder[i])   # the wave's end
-    assert all(n == 122 for n in base[:back])               # the base waited for it
+    base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    assert min(shoulder[frame(0.2):frame(0.42)]) == 54      # the wave's tuck was reached
+    cut = frame(0.42) + len("#0P2000\r") + 3             # the line's bytes read, one a frame, then its move
+    assert base[frame(0.42)] == 122 and base[cut] > 122      # the base is on its way
+    still = shoulder[cut:frame(1.9)]
+    assert len(set(still)) == 1 and 54 < still[0] < 122, sorted(set(still))   # never back to rest
+    assert base[frame(1.9)] == 188 and shoulder[-1] == 122 and base[-1] == 122
 
 
 def test_stop_ends_a_sequence_pl_started_where_the_servos_are():
