@@ -506,7 +506,7 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
                 exact = _write.Timing(round_half_up(interval * 1000))
         else:
             timing = _write.Timing(floor_us)
-    elif any(t.paced for t in kf.tracks):   # Maestro frames start on the frames of this period
+    elif kf.tracks:     # Maestro frames start, and CSV keys arrive, on the frames of this period
         timing = _write.Timing(_default_period_on(sorted(set(pin_of.values()))))
     try:
         imported = _write.write(kf, pin_of, exact or timing, os.path.basename(path))

@@ -84,7 +84,7 @@ def keyed(*keys, channels=(Channel(0, "a"), Channel(1, "b"))):
 def test_each_key_is_a_move_that_arrives_at_its_time():
     kf = keyed(Key(Fraction(0), {0: 1500, 1: 1500}, "row 2"), Key(Fraction(600), {0: 1004}, "row 3"),
                Key(Fraction(600), {1: 2004}, "row 4"), Key(Fraction(900), {}, "row 5"))
-    imp = W.write(kf, {0: "P1.0", 1: "P1.1"}, None, "x.csv")
+    imp = W.write(kf, {0: "P1.0", 1: "P1.1"}, W.Timing(5300), "x.csv")
     body = imp.text[imp.text.index("sequence seq {"):]
     assert "  move seq_0 in 0ms  # row 2\n" in body      # arrives at time 0: its first frame
     assert "  move seq_1 in 600ms  # row 3\n" in body
@@ -163,7 +163,7 @@ def test_a_negative_width_is_an_error_that_names_the_row_and_writes_nothing(tmp_
 
 
 def test_off_grid_widths_are_rounded_and_counted():
-    imp = W.write(keyed(Key(Fraction(0), {0: 1000, 1: 1505}, "r")), {0: "P1.0", 1: "P1.1"}, None, "x.csv")
+    imp = W.write(keyed(Key(Fraction(0), {0: 1000, 1: 1505}, "r")), {0: "P1.0", 1: "P1.1"}, W.Timing(5300), "x.csv")
     assert "a: 1004us" in imp.text and "b: 1508us" in imp.text
     assert imp.off_grid == 2 and any("2 of 2 positions" in n for n in imp.notes)
 
@@ -171,7 +171,7 @@ def test_off_grid_widths_are_rounded_and_counted():
 def test_home_and_limits_come_from_the_channels():
     chans = (Channel(0, "a", Fraction(992), Fraction(2000), Fraction(1500)), Channel(1, "b"))
     imp = W.write(keyed(Key(Fraction(500), {0: 1200, 1: 1500}, "r"), channels=chans), {0: "P1.0", 1: "P1.1"},
-                  None, "x.csv")
+                  W.Timing(5300), "x.csv")
     assert "home home\n" in imp.text and "pose home { a: 1500us }" in imp.text
     assert "servo a = P1.0 limit 996us..1996us" in imp.text          # rounded inward: never past 992..2000 µs
     fe, rep = front(imp.text)

@@ -61,12 +61,11 @@ def test_a_bottango_servo_faster_than_the_default_keeps_its_speed(tmp_path, caps
     """rSVPin's maximum speed is the servo's `speed` even when faster than the default servo's
     (3243 µs/s): 6000 µs/s is 750 DAV, 555°, a second. A curve that the default servo could not
     follow (1000 to 2000 µs in 300 ms) then imports without a speed error."""
-    kf = read_bottango(bottango_file("rSVPin,1,1000,2000,6000,1500\\n",
-                                     "sC,1,0,300,0,0,0,8192,0,0\\nsC,1,300,250,8192,0,0,0,0,0\\n"))
+    data = bottango_file("rSVPin,1,1000,2000,6000,1500\\n", "sC,1,0,300,0,0,0,8192,0,0\\nsC,1,300,250,8192,0,0,0,0,0\\n")
+    kf = read_bottango(data)
     assert kf.channels[0].speed_us_s == 6000 and kf.channels[0].servo_speed
     src = tmp_path / "GeneratedCodeAnimations.cpp"
-    src.write_bytes(bottango_file("rSVPin,1,1000,2000,6000,1500\\n",
-                                  "sC,1,0,300,0,0,0,8192,0,0\\nsC,1,300,250,8192,0,0,0,0,0\\n"))
+    src.write_bytes(data)
     rc, out, err = run(["import", str(src), "-o", str(tmp_path / "fast.servo")], capsys)
     assert rc == 0 and "infeasible-speed" not in err, err
     assert "servo pin_1 = P1.1 speed 1s/555deg limit 1004us..1996us" in (tmp_path / "fast.servo").read_text()
@@ -323,7 +322,7 @@ def test_ticks_on_a_format_that_gives_widths_itself_is_ignored_with_a_note(tmp_p
 def test_a_limit_never_widens_the_source_s_range_and_positions_stay_inside():
     chans = (Channel(0, "a", Fraction(1001), Fraction(2000), Fraction(1001)),)
     keys = (Key(Fraction(0), {0: Fraction(1001)}, "r1"), Key(Fraction(500), {0: Fraction(2000)}, "r2"))
-    imp = W.write(Keyframes("csv", chans, (Track("t", keys),)), {0: "P1.0"}, None, "x.csv")
+    imp = W.write(Keyframes("csv", chans, (Track("t", keys),)), {0: "P1.0"}, W.Timing(5300), "x.csv")
     assert "limit 1004us..1996us" in imp.text                  # 1001 up to 1004, 2000 down to 1996
     assert "a: 1996us" in imp.text and "a: 2004us" not in imp.text
     assert any("1 position at the edge" in n for n in imp.notes)    # 2000, not 1001 (it rounds to 1004)

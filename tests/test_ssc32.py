@@ -741,16 +741,27 @@ def test_stop_c_after_a_group_is_read_in_the_next_frame():
     assert s.frame() == {0: None, 1: 240}
 
 
-def test_stop_c_of_every_servo_leaves_the_frame_count():
+def test_stop_c_of_every_servo_leaves_no_move_under_way():
+    # STOP 0 ends the only servo's part of the move: its frames go on, but no servo is on its way,
+    # so Q answers '.'; with a second servo still moving it answers '+' until its last frame
     s = Session([Servo(0, t_dav_us=Fraction(2000))], P20, start={0: 0})
     _line(s, b"#0P900\r")                 # F = 5
     assert s.frame() == {0: 10}
-    assert _line(s, b"STOP 0\rQ\r") == b"+"
+    assert _line(s, b"STOP 0\rQ\r") == b"."
     got = []
     for _ in range(4):                    # frames 2..5 of 5: #0 stays at 10
         got.append(s.frame()[0])
         got.append(_line(s, b"Q\r"))
-    assert got == [10, b"+", 10, b"+", 10, b"+", 10, b"."]
+    assert got == [10, b".", 10, b".", 10, b".", 10, b"."]
+    s = Session([Servo(0, t_dav_us=Fraction(2000)), Servo(1, t_dav_us=Fraction(2000))], P20, start={0: 0, 1: 0})
+    _line(s, b"#0P900#1P900\r")
+    s.frame()
+    assert _line(s, b"STOP 0\rQ\r") == b"+"
+    answers = []
+    for _ in range(4):
+        s.frame()
+        answers.append(_line(s, b"Q\r"))
+    assert answers == [b"+", b"+", b"+", b"."]
 
 
 def test_new_servo_set_at_once_and_t_holds_q():
@@ -766,8 +777,8 @@ def test_new_servo_set_at_once_and_t_holds_q():
     assert _line(s, b"Q\r") == b"."
 
 
-def test_a_move_in_which_nothing_moves_still_has_its_frames():
-    # #0 goes 0 -> 0, #1 is turned off: F = F_T(100) = 5
+def test_a_move_in_which_nothing_moves_is_no_move_under_way():
+    # #0 goes 0 -> 0, #1 is turned off: F = F_T(100) = 5 frames, but no servo is on its way: '.'
     s = _two()
     _line(s, b"#0P500#1P0T100\r")
     assert s.frame() == {0: 0, 1: None}
@@ -775,7 +786,8 @@ def test_a_move_in_which_nothing_moves_still_has_its_frames():
     for _ in range(4):
         answers.append(_line(s, b"Q\r"))
         s.frame()
-    assert answers == [b"+"] * 4 and _line(s, b"Q\r") == b"."
+    assert answers == [b"."] * 4 and _line(s, b"Q\r") == b"."
+    assert s.move is None
 
 
 def test_p0_turns_the_pulses_off_and_qp():
@@ -1067,7 +1079,8 @@ def test_group_lines_one_a_frame_land_on_their_targets(start, entries, t, lines)
             if last:
                 if k == 1:              # the lines after it, that name no servo: nothing
                     assert s.read(p, data) == (b"", len(data))
-                assert _line(s, b"Q\r") == (b"+" if k < frames else b".")
+                moving = any(n0s[ch] is not None and n1 is not None and n1 != n0s[ch] for ch, n1 in targets.items())
+                assert _line(s, b"Q\r") == (b"+" if k < frames and moving else b".")
     # a servo that no line names stays where it started
     named = {ch for _, g in chunks for ch in group_move(g, s.by_channel, {}, {}, P20)[1]}
     assert all(s.now[ch] == start[ch] for ch in range(3) if ch not in named)

@@ -341,8 +341,8 @@ def _deviation(at: list, ns: dict, i: int, j: int) -> int:
 
 def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) -> Imported:
     """The program for `kf`: `pins` maps each channel to its pin (`P1.0`); `timing` is how sampled
-    tracks meet the frames, or the period of paced ones (None when there are neither: keyed tracks
-    then take the default period of the pins in use, as `servoc.api` gives a paced one)."""
+    tracks meet the frames, or the period of keyed and paced ones (`servoc.api` gives the default
+    period of the pins in use; None only without tracks)."""
     used = {c.index for c in kf.channels if c.home_us is not None}
     for track in kf.tracks:
         used |= {c.index for c in kf.channels} if track.curve is not None else \
@@ -350,9 +350,6 @@ def write(kf: Keyframes, pins: dict, timing: Timing | None, source_name: str) ->
     unused = [c for c in kf.channels if c.index not in used]
     kf = dataclasses.replace(kf, channels=tuple(c for c in kf.channels if c.index in used))
     kf, edged = _inside_limits(kf)
-    if timing is None and kf.tracks:
-        from ..api import _default_period_on
-        timing = Timing(_default_period_on(sorted({pins[c.index] for c in kf.channels})))
     w = _Writer(kf, pins)
     servos = [nodes.ServoDecl(_name(w.names[c.index]), nodes.Pin(pins[c.index], NO_SPAN), _speed(c) + _limit(c),
                               NO_SPAN) for c in kf.channels]

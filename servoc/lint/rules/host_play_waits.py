@@ -12,7 +12,7 @@ from .. import Report, rule
 @rule("host-play-waits", Severity.WARNING)
 def host_play_waits(plan: Plan, report: Report) -> None:
     """While a sequence `PL 0 SQ n` started plays, the bytes received are the host's: a select in it
-    that waits only for bytes (no input, no `after`) would keep it playing for ever."""
+    that waits only for bytes (no input, no `after`) keeps it playing until the host ends it."""
     if plan.program.serial is None or not hosted(plan):
         return
     names = [q.name for q in plan.program.sequences]
@@ -26,6 +26,7 @@ def host_play_waits(plan: Plan, report: Report) -> None:
                 continue
             told.add(id(st))
             report(f"`PL 0 SQ {names.index(name)}` plays `{name}`, whose select waits only for bytes; while it "
-                   "plays the bytes received are the host's, so it would wait for ever",
+                   "plays the bytes received are the host's, so it waits until the host ends the sequence "
+                   "(`STOP`, a group line or a `PL` line)",
                    st.span, label="only a byte ends it",
                    help="give the select an input or an `after` branch, or keep it out of the sequences the host plays")
