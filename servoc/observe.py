@@ -30,6 +30,7 @@ from .sim import SimTrace
 REACH, LOOK, EXIT, BRANCH, RX_GOT, RX_END = "reach", "look", "exit", "branch", "rx_got", "rx_end"
 HOST_START, HOST_FRAME, HOST_BYTE, HOST_END = "host_start", "host_frame", "host_byte", "host_end"
 PLAY_FRAME, PLAY_END = "play_frame", "play_end"      # the same, while a sequence `PL` started plays
+PLAY_START, PLAY_CUT = "play_start", "play_cut"      # a sequence `PL` started begins; the host ends it
 HOST_BYTE_RAM = 0x02            # bank 0 R2: the byte host_byte is reading (`hb_in`)
 
 # A listing line (sdas8051 -l, relocated .rst): address in columns 6..11, the source line's number
@@ -145,13 +146,14 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
         if not {"HLINE", "TXW", "TXR"} <= equ.keys():
             raise ProbeError("the host's RAM is not named in the assembly")
         ram = {HOST_BYTE: (HOST_BYTE_RAM,), HOST_FRAME: rx_state, HOST_START: (), PLAY_FRAME: rx_state,
-               HOST_END: rx_state + (equ["HLINE"], equ["TXW"], equ["TXR"])}
+               HOST_END: rx_state + (equ["HLINE"], equ["TXW"], equ["TXR"]), PLAY_START: (), PLAY_CUT: ()}
         ram[PLAY_END] = ram[HOST_END]
         for lab, kind in (("host_run", HOST_START), ("host_read", HOST_FRAME), ("hb_in", HOST_BYTE),
-                          ("hp_end", HOST_END), ("play_read", PLAY_FRAME), ("pr_end", PLAY_END)):
+                          ("hp_end", HOST_END), ("play_read", PLAY_FRAME), ("pr_end", PLAY_END),
+                          ("host_plays", PLAY_START), ("pc_go", PLAY_CUT)):
             if lab in labels:
                 add(labels[lab], kind, "", None, ram[kind])
-            elif not lab.startswith(("play", "pr_")):       # play_read: only with sequences
+            elif not lab.startswith(("play", "pr_", "host_plays", "pc_")):       # only with sequences
                 raise ProbeError(f"the listing has no {lab}")
     if queue:
         for lab in ("ui_got", "ui_drop"):
@@ -266,6 +268,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
     pending = None
     hosts: list[HostVisit] = []
     host_queued = 0
+    played_from = None          # the cycle the sequence `PL` started last began
     for p, (kind, label, k) in ((p, m) for p in trace.probes for m in probes.meaning[p.tag]):
         if kind == REACH:
             if label in active:
@@ -312,6 +315,12 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
             pending = None
         elif kind == HOST_START:
             hosts.append(HostVisit(p.cycle))
+        elif kind == PLAY_START:
+            played_from = p.cycle
+        elif kind == PLAY_CUT and played_from is not None:
+            for other in [v for v in active.values() if v.reached > played_from]:
+                other.cut = True            # waiting in the sequence the host ended (STOP, a group or PL line)
+                del active[other.label]
         elif kind in (HOST_FRAME, PLAY_FRAME):
             if not hosts:
                 problems.append(f"the host's reading began at cycle {p.cycle} with no `host` running")

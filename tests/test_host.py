@@ -542,6 +542,21 @@ def test_stop_ends_a_sequence_pl_started_while_its_select_waits():
     assert all(n == 122 for n in a[:frame(1.0)]) and a[frame(1.5)] == 63 and a[-1] == 81   # `move low` after `host`
 
 
+def test_a_sequence_ended_while_its_select_waits_can_play_again():
+    # `dip` waits in its select (its meanwhile body moving `a`); STOP ends it, PL plays it again,
+    # a PL line replaces it while its select waits, and a group line replaces that one: verify
+    # follows each select the host ended (it once took a select reached again for one still
+    # waiting); the press of go at the end finds no select waiting, and `a` goes where the group
+    # sends it
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.4s "STOP\\r"\n0.6s "PL 0 SQ 0\\r"\n'
+                               '0.9s "PL 0 SQ 0\\r"\n1.2s "#0P1000\\r"\n1.8s go active\n1.9s go inactive\n',
+                               400, HOST_AND_A_SELECT)
+    a = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
+    assert set(a[:frame(1.2)]) == {122}                       # the meanwhile body's first move: to mid
+    assert a[frame(1.7)] == 63 and a[-1] == 63
+
+
 def test_a_line_of_any_length_is_read_byte_by_byte():
     # 40 entries (the 4 channels named ten times each: the last entry of each wins), 400 bytes
     entries = "".join(f"#{ch} P{1000 + 10 * k + 100 * i} " for k in range(10) for i, ch in enumerate((0, 1, 2, 7)))
