@@ -33,7 +33,7 @@ from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
                    host_xram, hosted, move_starts,
-                   port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, watches)
+                   port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
                     host_playable,
@@ -239,7 +239,7 @@ def _ops(ctx: _Ctx, body: tuple[Step, ...], out: list[dict]) -> None:
         if isinstance(st, RepeatStep) and fewest_frames(st.body, ctx.plan, ctx.fewest_memo) == 0:
             # a pass can run through without a frame (only sends, or a select whose event is there):
             # written out pass by pass, so that the work between two frames stays bounded (lint
-            # limits the passes: `too-long`, and the sends: at most QUEUE bytes in all)
+            # limits the passes: `too-long`, and the sends: at most flow.TX_MOST bytes in all)
             if framed and ctx.written * st.count > layout.MAX_FRAMELESS_PASSES:    # lint's `too-long` first
                 raise layout.FramelessRepeat(
                     f"this repeat's passes can take no frame, and the firmware writes such a repeat out "
@@ -388,10 +388,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                                   f"the firmware has {room_promised}")
     state_base = layout.state_base(nports, in_xram)
     limits: list[layout.LayoutError] = []      # the serial line's limits: all of them are said at once
-    if serial is not None and send_run(plan) > costs.QUEUE:
+    txq = tx_queue(plan)
+    if serial is not None and send_run(plan) > txq:
         sends_ = [st for st in steps(plan) if isinstance(st, SendStep)]
         limits.append(layout.SendOverrun(f"the program can send {_bytes(send_run(plan))} with no frame between them; "
-                                         f"the transmit queue holds {costs.QUEUE}",
+                                         f"the transmit queue holds {txq} at the most",
                                          span=sends_[0].span if sends_ else serial.span,
                                          labels=tuple((st.span, "sends too") for st in sends_[1:4])))
     # the runtime, and the RAM, leave out what no record or statement uses
@@ -431,7 +432,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
-    s = None if serial is None else _serial(serial, ram, uses["sends"], rxq)
+    s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, txq)
     if hosting:
         for var in HOST_VARS:
             ram.alloc(*var)
@@ -452,7 +453,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
-        ram.alloc("TXQ", costs.QUEUE, "the transmit queue", direct=False)
+        ram.alloc("TXQ", txq, "the transmit queue", direct=False)
     if s is not None:
         slots = rxq + 1         # one slot always free: the ring is full when the slot after RXW is RXR's
         s.update(_rx_ring(ram.alloc("RXQ", slots, f"the receive queue: {rxq} bytes in a ring of {slots} slots",
@@ -777,11 +778,10 @@ def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:
     return sum(bodies[:len(bodies) - swaps])
 
 
-def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int) -> dict:
+def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int, q: int) -> dict:
     """The serial line's numbers (serial.asm.j2) and its counters (its queues are allocated with
     the other buffers). `sending`: the program sends (else no transmit side); `rxq`: the receive
-    queue's size."""
-    q = costs.QUEUE
+    queue's size; `q`: the transmit queue's (flow.tx_queue)."""
     ram.alloc("RXW", 1, "the receive queue's slot for the next byte received")
     ram.alloc("RXR", 1, "the receive queue's slot of the oldest byte (RXW: none)")
     ram.alloc("RXB", 1, "the byte just received")

@@ -74,12 +74,14 @@ def edge_ports(plan: Plan) -> tuple[int, ...]:
 
 
 def select_ram(plan: Plan, xram: bool | None = None) -> int:
-    """Bytes of RAM the selects (and a `host` statement) take from the stack: a look's sample of each
-    port in `edge_ports`, per level of `select_slots` with a meanwhile body, the select running it
-    and its stack pointer, and `host_ram` (`xram`: as `host_ram`)."""
+    """Bytes of RAM the selects (and a `host` statement, and a transmit queue longer than the
+    serial line's own) take from the stack: a look's sample of each port in `edge_ports`, per
+    level of `select_slots` with a meanwhile body, the select running it and its stack pointer,
+    `host_ram` (`xram`: as `host_ram`), and `tx_queue` past costs.QUEUE."""
+    from . import costs
     slots = select_slots(plan)
     levels = {slots[id(st)] for st in steps(plan) if isinstance(st, SelectStep) and st.meanwhile is not None}
-    return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan, xram)
+    return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan, xram) + tx_queue(plan) - costs.QUEUE
 
 
 HOST_VARS = 17          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
@@ -375,6 +377,18 @@ def _fold_sends(plan: Plan, blank, send):
 def send_run(plan: Plan) -> int:
     """The most bytes the program can `send` with no frame between them."""
     return _fold_sends(plan, SendRun(0), SendRun(1, None, None, 1)).most
+
+
+TX_MOST = 32            # the longest transmit queue: a run of sends past it is `send-overrun`
+
+
+def tx_queue(plan: Plan) -> int:
+    """The transmit queue's size (a power of two, for its ring's mask): costs.QUEUE, or the
+    program's longest run of sends rounded up to a power of two, at most TX_MOST (RAM sized to
+    the program: every byte of a run waits in it while the line sends the one before)."""
+    from . import costs
+    run = send_run(plan) if plan.program.serial is not None else 0
+    return min(TX_MOST, max(costs.QUEUE, 1 << max(0, run - 1).bit_length()))
 
 
 @dataclass(frozen=True)

@@ -223,7 +223,7 @@ class SerialTooFast(LayoutError):
 class SendOverrun(LayoutError):
     """`send` could find the transmit queue full."""
     code = "send-overrun"
-    help = f"put a frame (a move or a hold) between the sends: at most {costs.QUEUE} bytes between two frames"
+    help = "put a frame (a move or a hold) between the sends, or send fewer bytes at a time"
 
 
 # A select's `after` F is counted in 16 bits: F + 1 looks (one as it is reached, one after each

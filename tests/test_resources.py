@@ -156,7 +156,7 @@ def test_serial_limits_point_at_their_causes():
     fe, diags = front_end_text(many.replace("serial 19200", f"serial {rate}"))
     assert not [d for d in diags if d.is_error], [d.message for d in diags]        # the fix works
     chatty = ("serial 4800\nservo a = P1.0\npose p { a: 10 }\nmain {\n  move p in 100ms\n"
-              '  loop { send "a"; send "b"; send "c"; send "d"; send "e"; hold 100ms }\n}\n')
+              '  loop { send "a"; ' + "send \"b\"; " * 32 + 'hold 100ms }\n}\n')      # 33 bytes: past the longest queue
     fe, diags = front_end_text(chatty)
     (d,) = [d for d in diags if d.is_error]
     assert d.code == "send-overrun" and SourceFile("x", chatty).snippet(d.span) == 'send "a"'
@@ -256,7 +256,7 @@ def test_every_program_lint_accepts_compiles(text):
 def test_serial_limits_come_all_at_once():
     text = ("target stc89c52rc clock 11.0592MHz\nserial 19200\n" + "".join(f"servo s{i} = P1.{i}\n" for i in range(8))
             + "pose p { " + ", ".join(f"s{i}: {20 + 9 * i}" for i in range(8)) + " }\nmain {\n  move p in 100ms\n"
-            + '  loop { send "a"; send "b"; send "c"; send "d"; send "e"; hold 100ms }\n}\n')
+            + '  loop { ' + 'send "a"; ' * 33 + 'hold 100ms }\n}\n')
     fe, diags = front_end_text(text)
     assert sorted(d.code for d in diags if d.is_error) == ["send-overrun", "serial-too-fast"], [d.message for d in diags]
 

@@ -203,7 +203,7 @@ def test_rates_that_cannot_be_kept_are_refused(tmp_path, capsys):
 def test_sends_that_outrun_the_line_are_refused(tmp_path, capsys):
     base = "serial 1200\nservo arm = P1.0\npose p { arm: 100 }\npose q { arm: 120 }\n"
     path = tmp_path / "s.servo"
-    path.write_text(base + 'main { move p; send "a"; send "b"; send "c"; send "d"; send "e" }\n')
+    path.write_text(base + 'main { move p; ' + 'send "a"; ' * 33 + '}\n')     # past the longest transmit queue
     assert cli.main(["compile", str(path)]) == 1
     assert "[send-overrun]" in capsys.readouterr().err
     path.write_text(base + 'main { loop { move p; send "a"; move q; send "b" } }\n')   # 1200 baud: 8.3 ms a byte
@@ -285,6 +285,26 @@ def test_sends_at_the_limit_verify():
     report = api.verify(built.plan, built.firmware, 300)
     assert report.ok, [str(m) for m in report.mismatches[:5]]
     assert report.bytes_sent >= 140
+
+
+@pytest.mark.parametrize("count, queue", [(7, 8), (20, 32)])
+def test_a_long_run_of_sends_has_a_queue_of_its_size_and_every_byte_goes_out(count, queue):
+    """`count` sends with no frame between them, in a loop with time enough for the line: the
+    transmit queue is sized to the run (a power of two), every byte goes out in order in ucsim, and
+    a run past the longest queue is refused."""
+    def text(n: int) -> str:
+        return ("serial 4800\nservo arm = P1.0\npose p { arm: 100 }\npose q { arm: 120 }\n"
+                "main {\n  loop {\n    move p in 100ms\n" + "".join(f'    send {65 + k % 26}\n' for k in range(n))
+                + "    move q in 100ms\n  }\n}\n")
+    from servoc.flow import TX_MOST, tx_queue
+    built = build_text(text(count))
+    assert send_run(built.plan) == count and tx_queue(built.plan) == queue
+    assert re.search(rf"^TXQ\s+= 0x[0-9A-F]+\s+; the transmit queue$", built.firmware.unit.text, re.M)
+    report = api.verify(built.plan, built.firmware, 200)
+    assert report.ok, [str(m) for m in report.mismatches[:5]]
+    assert report.bytes_sent >= 2 * count
+    _, diags = front_end_text(text(TX_MOST + 1))
+    assert [d.code for d in diags if d.is_error] == ["send-overrun"]
 
 
 def deep_serial_source(depth: int) -> str:
