@@ -114,7 +114,7 @@ _MARK_TX = _MARK_BASE + 60     # marker printed before the tick count of each wr
 _MARK_PROBE = _MARK_BASE + 70  # marker printed before a probe's tag, tick count and RAM bytes
 SBUF = 0x99
 
-_TICKS_WRAP = 1 << 32  # sim_ticks is a 32-bit unsigned value
+TICKS_WRAP = 1 << 32  # sim_ticks is a 32-bit unsigned value
 _STATE_CLKS_RE = re.compile(r"^Total time since last reset=.*\((\d+) clks\)")
 
 
@@ -435,7 +435,7 @@ def _parse(out: str, err: str, returncode: int, cycles: int, n_bytes: int) -> Si
                 raw = int(lines[i + 1])
                 value = int(lines[i + 2])
                 if raw < last_raw:
-                    wrap += _TICKS_WRAP
+                    wrap += TICKS_WRAP
                 last_raw = raw
                 writes.append(PortWrite(_to_cycles(raw + wrap), port, value & 0xFF))
                 i += 3
@@ -443,7 +443,7 @@ def _parse(out: str, err: str, returncode: int, cycles: int, n_bytes: int) -> Si
             if s == probe_marker:
                 tag, count, raw = int(lines[i + 1]), int(lines[i + 2]), int(lines[i + 3])
                 if raw < last_raw:
-                    wrap += _TICKS_WRAP
+                    wrap += TICKS_WRAP
                 last_raw = raw
                 ram = tuple(int(lines[i + 4 + k]) & 0xFF for k in range(count))
                 probes.append(Probe(tag, _to_cycles(raw + wrap), ram))
@@ -452,7 +452,7 @@ def _parse(out: str, err: str, returncode: int, cycles: int, n_bytes: int) -> Si
             if s == end_marker:
                 raw = int(lines[i + 1])
                 if raw < last_raw:
-                    wrap += _TICKS_WRAP
+                    wrap += TICKS_WRAP
                 final_ticks = raw + wrap
                 # `state` prints the 64-bit clock count; prefer it.
                 for ln in lines[i + 2 :]:

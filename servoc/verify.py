@@ -22,7 +22,7 @@ from .observe import Observation, Visit
 from .flow import host_queue, host_watchers
 from .plan import Choice, HostRun, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
-from .sim import SimTrace
+from .sim import CLOCKS_PER_CYCLE, TICKS_WRAP, SimTrace
 from .target import byte_cycles
 RESET_LOW_US = 20          # servo lines low this soon after reset
 MAX_JITTER_US = 2          # a rise may stand this far from its frame slot
@@ -818,15 +818,13 @@ MAX_SPAN_CYCLES = 60_000_000    # the longest run verify makes unless asked: 60 
 SETTLE_MARGIN = 3               # frames after the last branch ends: its last bytes are out within 2 P
 
 
-TICKS_LIMIT = 1 << 32            # ucsim's clock tick counter: a run stays below it
-
-
 def max_frames(plan: Plan) -> int:
-    """The most frames from the first pulse a run can check: its clock ticks stay below
-    TICKS_LIMIT (about 358 s at 12 MHz), the frames before the first pulse and two more included."""
-    target = plan.program.target
-    period = target.cycles(plan.period_us)
-    return max(1, (TICKS_LIMIT - 1) // target.clocks_per_cycle // period - (first_pulse_frame(plan) or 0) - 2)
+    """The most frames from the first pulse a run can check: its clock ticks stay below ucsim's
+    32-bit counter (sim.TICKS_WRAP; ucsim's core takes sim.CLOCKS_PER_CYCLE ticks a machine cycle in
+    6T mode too: about 358 s at 12 MHz, 179 s at 11.0592 MHz 6T), the frames before the first pulse
+    and two more included."""
+    period = plan.program.target.cycles(plan.period_us)
+    return max(1, (TICKS_WRAP - 1) // CLOCKS_PER_CYCLE // period - (first_pulse_frame(plan) or 0) - 2)
 
 
 @dataclass(frozen=True)
