@@ -495,14 +495,16 @@ def test_q_is_answered_while_a_sequence_plays_and_an_offset_line_waits_for_its_e
     assert base[-1] == 183                                   # (1960 - 500 + 4) >> 3
 
 
-def test_a_group_or_pl_line_read_while_a_sequence_plays_replaces_it():
+@pytest.mark.parametrize("clock", ["11.0592MHz", "11.0592MHz mode 6T", "22.1184MHz"])
+def test_a_group_or_pl_line_read_while_a_sequence_plays_replaces_it(clock):
     # the wave (tuck, then rest: the shoulder 90deg -> 40deg -> 90deg) from 0.2 s; a group for the
     # base at 0.42 s, while the shoulder is on its way back up: the wave ends where the shoulder is
     # as the line's end is read (one byte a frame while a sequence plays), and the base's move
     # starts in the next frame; later `PL` twice: the second replaces the first, which plays again
     # from where the servos are and ends at rest
+    text = ARM.replace("clock 11.0592MHz", f"clock {clock}")
     b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.42s "#0P2000\\r"\n1.5s "Q\\r"\n'
-                               '2.0s "PL 0 SQ 0\\r"\n2.15s "PL 0 SQ 0\\r"\n', 560)
+                               '2.0s "PL 0 SQ 0\\r"\n2.15s "PL 0 SQ 0\\r"\n', round(3e6 / built(text).plan.period_us), text)
     assert sent(trace) == b"."
     frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
     shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]

@@ -287,13 +287,15 @@ def test_sends_at_the_limit_verify():
     assert report.bytes_sent >= 140
 
 
-@pytest.mark.parametrize("count, queue", [(7, 8), (20, 32)])
-def test_a_long_run_of_sends_has_a_queue_of_its_size_and_every_byte_goes_out(count, queue):
+@pytest.mark.parametrize("count, queue, head", [(7, 8, "serial 4800"), (20, 32, "serial 4800"),
+                                               (12, 16, "target stc89c52rc clock 11.0592MHz mode 6T\nserial 9600"),
+                                               (5, 8, "target at89c52 clock 22.1184MHz\nserial 19200")])
+def test_a_long_run_of_sends_has_a_queue_of_its_size_and_every_byte_goes_out(count, queue, head):
     """`count` sends with no frame between them, in a loop with time enough for the line: the
     transmit queue is sized to the run (a power of two), every byte goes out in order in ucsim, and
     a run past the longest queue is refused."""
     def text(n: int) -> str:
-        return ("serial 4800\nservo arm = P1.0\npose p { arm: 100 }\npose q { arm: 120 }\n"
+        return (head + "\nservo arm = P1.0\npose p { arm: 100 }\npose q { arm: 120 }\n"
                 "main {\n  loop {\n    move p in 100ms\n" + "".join(f'    send {65 + k % 26}\n' for k in range(n))
                 + "    move q in 100ms\n  }\n}\n")
     from servoc.flow import TX_MOST, tx_queue
