@@ -411,7 +411,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                               host_ram_short if decides else None)
     ram.next = layout.ADDR["FLAGS"] + 1
     ram.alloc("SEGF", 2, "F of the current move")
-    framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED, and BFULL and TXON where used"), 0)
+    framed_bit = layout.bit_address(ram.alloc("RUNF", 1, "the runtime's flags (bit-addressable): FRAMED, and BFULL, TXON and PLAYH where used"), 0)
     ram.next = layout.work_base(nports)
     ram.alloc("ERR0", 2, "DDA start of the current linear move: floor(-F / 2) mod 65536")
     ram.alloc("FLEFT", 2, "frames left in the current move or hold")
@@ -511,7 +511,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
-                  ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, hl_drop=layout.HLINE_DROP, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2,
+                  ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, hl_drop=layout.HLINE_DROP, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2, playh_bit=framed_bit + 3,
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,
@@ -556,7 +556,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                             None if len(plan.ports) != 1 or starts[plan.ports[0]] is None
                             else costs.start_loads(target, starts[plan.ports[0]]),
                             0 if s is None else s["byte_cycles"], bport is not None,
-                            uses["sends"], uses["holds"])
+                            uses["sends"], uses["holds"], _pl_barred(plan, sequences) if hosting else None)
     budget, work_from = measure(text)
     spans = e["spans"]
     if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
@@ -731,16 +731,19 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
 
 def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loads: tuple[costs.PortLoad, ...],
                  starts: frozenset | None = None, byte_cycles: int = 0, last_in_b: bool = False,
-                 sends: bool = False, holds: bool = True) -> tuple[costs.Budget | None, str]:
+                 sends: bool = False, holds: bool = True,
+                 barred: tuple[str, tuple[tuple[str, str], ...]] | None = None) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
     (costs.port_load); its sort is the longest path less the swaps no frame makes. `starts`: one
     port's move starts (costs.start_loads), so that the work of a path that starts a move is
     paired with that move's first frame (None: every path with the worst frame). `byte_cycles`:
     a byte's time on the serial line (0: the program has none); `sends`: the program has a `send`;
-    `holds`: the code has hold records (without, every path that reads a record reads a move's)."""
+    `holds`: the code has hold records (without, every path that reads a record reads a move's);
+    `barred`: the code no RET returns to while a sequence `PL` started plays (`_pl_barred`)."""
     try:
-        code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record))
+        code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record),
+                         frozenset({"PLAYH"}), barred)
         work, at = code.between_frames()
         fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
         sorts = tuple(f - _unswapped(code, n, load.swaps) for f, n, load in zip(fs, lines, loads))
@@ -769,6 +772,18 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
     return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
                          **paired, **serial),
             code.label_at(at))
+
+
+def _pl_barred(plan: Plan, sequences: list[dict]) -> tuple[str, tuple[tuple[str, str], ...]] | None:
+    """wcet's `barred` fact: while PLAYH is set (a sequence `PL` started plays, host_plays to
+    host_free), no RET returns into `main` or into a sequence `PL` cannot play (program.asm.j2
+    lays them out from `main` to `looks_start`, in this order)."""
+    playable = set(host_playable(plan.program))
+    if not playable:
+        return None
+    labels = ["main"] + [sq["label"] for sq in sequences] + ["looks_start"]
+    names = [None] + [sq["name"] for sq in sequences]
+    return "PLAYH", tuple((a, b) for a, b, name in zip(labels, labels[1:], names) if name not in playable)
 
 
 def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:
@@ -859,7 +874,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "play_list": [{"n": [q.name for q in plan.program.sequences].index(name), "name": name,
                            "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
-            "play_passes": min(flow_mod.PLAY_PASSES, host_passes(plan)), "xram": host_xram(plan),
+            "xram": host_xram(plan),
             "gen_limit": 0xFF - host_passes(plan)}
 
 

@@ -89,7 +89,6 @@ HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pendin
 HOST_XRAM_PER_SERVO = HOST_PER_SERVO + 1    # in XRAM (host_xram) also its pending entry's generation
 
 
-PLAY_PASSES = 1         # bytes a frame's reading reads while a sequence `PL` started plays (a `Q` line in two frames)
 
 
 def host_passes(plan: Plan) -> int:

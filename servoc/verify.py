@@ -567,7 +567,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     # sends it), or it read as many as a frame's reading reads.
     if obs.hosts:
         from . import ssc32
-        from .flow import PLAY_PASSES, host_passes
+        from .flow import host_passes
         from .model import host_channel
         passes = host_passes(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
@@ -588,8 +588,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                     bad(cycle, f"the host parser stopped reading at {when(cycle)} (lines pending {ended.hline:#x}) "
                                "with no line that stops it")
                 waiting, held, played = bool(waits), stops, ended.playing
-                most = min(PLAY_PASSES, passes) if ended.playing else passes
-                if ended.left and not stops and len(got) < most:
+                if ended.left and not stops and len(got) < passes:
                     bad(cycle, f"the host parser left {ended.left} byte{'s' if ended.left != 1 else ''} unread at "
                                f"{when(cycle)} that had come before that frame's reading began")
 

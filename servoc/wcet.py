@@ -32,7 +32,14 @@ servo named, a hold) are followed the same way: run_list writes the byte whole f
 (`MOV FLAGS, A`), and from there a path that went one way at a test of a bit goes the same way at
 every later test of it until the byte is written again, so a record is charged for what one kind
 of record does (a record without F is not also charged for reading one; a linear move not for the
-eased table). Nothing else writes FLAGS: the handlers never touch it.
+eased table). Nothing else writes FLAGS: the handlers never touch it. A few bits of other bytes
+(`state_bits`: PLAYH, set while a sequence the host's `PL` started plays) are followed the same
+way from their `SETB`, `CLR` and tests, and stay known when FLAGS is written or a select cuts. A
+second fact from code generation uses it (`barred`): while PLAYH is set, the stack holds return
+addresses into the runtime, the host's code and the sequences `PL` can play only, so a RET on a
+path that knows PLAYH set (one that read the host's bytes in frame_h) does not go on behind a call
+in `main` or in a sequence `PL` cannot play. And host_run's start tests PLAYH: such a path does not
+go on into `host`'s own reading either.
 
 A select's meanwhile body is cut by frame_w, which runs right after each frame: an event sets
 the stack back to where the select started the body (`MOV SP, ...`) and jumps to its branches
@@ -109,9 +116,13 @@ _LABEL = re.compile(r"^([A-Za-z_.$][\w.$]*)::?\s*(.*)$")
 class Code:
     """The instructions of one assembly text, with their labels."""
 
-    def __init__(self, text: str, flag_byte: str = "", flag_bits: frozenset[str] = frozenset()) -> None:
+    def __init__(self, text: str, flag_byte: str = "", flag_bits: frozenset[str] = frozenset(),
+                 state_bits: frozenset[str] = frozenset(), barred: tuple[str, tuple[tuple[str, str], ...]] | None = None
+                 ) -> None:
         self.flag_byte = flag_byte      # a byte whose bits a path learns from its branches (`walk`)
         self.flag_bits = flag_bits
+        self.state_bits = state_bits    # bits of other bytes a path learns the same way, which a write
+                                        # of the flag byte leaves known
         self.instrs: list[Instr] = []
         self.labels: dict[str, int] = {}
         pending: list[str] = []
@@ -133,6 +144,10 @@ class Code:
                 self.labels[lab] = len(self.instrs)
             pending = []
             self.instrs.append(Instr(len(self.instrs), op, args, cycles_of(op, args), lineno))
+        # (bit, ranges): while the state bit is known set, a RET never returns behind a call in one of
+        # the ranges (from label to label): a fact of code generation (codegen.frame_budget)
+        self._barred_bit = barred[0] if barred else None
+        self._barred = frozenset(i for a, b in (barred[1] if barred else ()) for i in range(self.labels[a], self.labels[b]))
         self._call_targets = sorted({self.labels[i.args[0]] for i in self.instrs
                                      if i.op in _CALLS and i.args[0] in self.labels}
                                     | ({self.labels["main"]} if "main" in self.labels else set()))
@@ -223,7 +238,9 @@ class Code:
             jump = self.instrs[nxt]
             if jump.op != "LJMP":
                 raise WcetError(f"line {ins.line}: `MOV SP` between frames must be followed by an LJMP")
-            return {("frame", tag): c + jump.cycles + v for tag, v in self.resume(self.target(jump)).items()}
+            state = frozenset(f for f in known if f[0] in self.state_bits)     # the state bits stay known
+            return {("frame", tag): c + jump.cycles + v
+                    for tag, v in self.resume(self.target(jump), False, state).items()}
         if ins.op == "JMP":
             raise WcetError(f"line {ins.line}: an indirect jump between frames")
         if ins.op in _JUMPS:
@@ -234,7 +251,7 @@ class Code:
             if ins.op == "JB":      # set (behind a frame) unless cleared since
                 return _plus(self.walk(nxt if clear else self.target(ins), clear, known), c)
             raise WcetError(f"line {ins.line}: `{ins.op} {FRAME_FLAG}` outside frame_io")
-        if ins.args and ins.args[0] in self.flag_bits:
+        if ins.args and (ins.args[0] in self.flag_bits or ins.args[0] in self.state_bits):
             bit = ins.args[0]
             rest = frozenset(f for f in known if f[0] != bit)
             if ins.op in ("JB", "JNB"):
@@ -249,7 +266,8 @@ class Code:
                 return _plus(self.walk(nxt, clear, rest | {(bit, ins.op == "SETB")}), c)
             known = rest           # any other write (JBC, CPL, MOV bit,C): its value unknown
         elif ins.args and ins.args[0] == self.flag_byte:
-            known = frozenset({WRITTEN})    # the byte written whole (a record read)
+            known = frozenset({WRITTEN} | {f for f in known if f[0] in self.state_bits})  # the byte written
+                                            # whole (a record read)
         loop = self._counted(ins)
         if loop:
             end, k = loop
@@ -280,6 +298,8 @@ class Code:
                 raise WcetError(f"a RET at {self.label_at(i)} outside any routine")
             # a routine nobody calls (the record runner of a program without moves) never returns
             for s in self.call_sites(entry):
+                if s in self._barred and (self._barred_bit, True) in key[2]:
+                    continue
                 best = _merge(best, _plus(self.resume(s + 1, key[1], key[2]), v))
         return best
 
@@ -307,6 +327,7 @@ class Code:
             if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE:
                 raise WcetError(f"line {ins.line}: a frame inside the counted loop at line {self.instrs[head].line}")
             if ins.args and (ins.args[0] in (counter, self.flag_byte, FRAME_FLAG) or ins.args[0] in self.flag_bits
+                             or ins.args[0] in self.state_bits
                              or (ins.op == "XCH" and ins.args[-1] == counter)) \
                     and not ins.op.startswith("J") and ins.op != "CJNE":
                 raise WcetError(f"line {ins.line}: `{ins.op} {', '.join(ins.args)}` inside the counted loop at "
