@@ -151,3 +151,48 @@ def test_a_flag_bit_tested_twice_goes_the_same_way_both_times():
     # the byte written again in between: the second test goes both ways
     rewritten = FLAGGED.replace("two:    JNB", "two:    MOV     FLAGS, A\n        JNB")
     assert wcet.Code(rewritten, "FLAGS", frozenset({"KIND"})).between_frames()[0] == 1 + 2 + 4 + 2 + 1 + 2 + 12 + 2 + 2
+
+
+
+# `fr` takes a frame and then, while PLAY is set (called from `seq`), reads (MUL x 3, then a record's
+# flag byte written whole, then one more MUL unless PLAY is still set); main calls it with PLAY clear
+# and has heavy work (MUL x 5) behind that call.
+PLAYED = """
+main:   LCALL   fr              ; 2
+        MUL     AB              ; 4 x 5
+        MUL     AB
+        MUL     AB
+        MUL     AB
+        MUL     AB
+        LCALL   frame_io        ; 2
+        LCALL   seq             ; 2
+        SJMP    main            ; 2
+seq:    SETB    PLAY            ; 1
+        LCALL   fr              ; 2
+        CLR     PLAY            ; 1
+        LCALL   frame_io        ; 2
+        RET                     ; 2
+fr:     LCALL   frame_io        ; 2
+        JNB     PLAY, fr_r      ; 2
+        MUL     AB              ; 4 x 3
+        MUL     AB
+        MUL     AB
+        MOV     FLAGS, A        ; 1
+        JB      PLAY, fr_r      ; 2
+        MUL     AB              ; 4
+fr_r:   RET                     ; 2
+frame_io:
+        RET
+"""
+
+
+def test_a_state_bit_stays_known_through_the_flag_byte_and_bars_returns():
+    """Behind fr's frame: with PLAY set, JNB 2 + 12 + MOV 1 + JB 2 (+ MUL 4 unless PLAY is still
+    known) + RET 2; then behind main's call MUL x 5 + LCALL 2 (22), behind seq's CLR + LCALL 2 (3).
+    With PLAY clear: JNB 2 + RET 2, then the same."""
+    assert wcet.Code(PLAYED).between_frames()[0] == 23 + 22
+    assert wcet.Code(PLAYED, "FLAGS", frozenset({"PLAY"})).between_frames()[0] == 23 + 22   # forgotten
+    assert wcet.Code(PLAYED, "FLAGS", frozenset(), frozenset({"PLAY"})).between_frames()[0] == 19 + 22
+    barred = wcet.Code(PLAYED, "FLAGS", frozenset(), frozenset({"PLAY"}), ("PLAY", (("main", "seq"),)))
+    # PLAY set: fr returns behind seq's call only (19 + 3); PLAY clear: behind main's (4 + 22)
+    assert barred.between_frames()[0] == 4 + 22
