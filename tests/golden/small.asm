@@ -21,7 +21,7 @@ DIRB    = 0x26              ; per port: lines moving down; bit address 0x30 + pi
 RMASK   = 0x29              ; per port: lines the current record names; bit address 0x48 + pin
 FLAGS   = 0x2C              ; move flags, bits below
 SEGF    = 0x2D              ; F of the current move
-RUNF    = 0x2F              ; the runtime's flags (bit-addressable): FRAMED, and BFULL and TXON where used
+RUNF    = 0x2F              ; the runtime's flags (bit-addressable): FRAMED, and BFULL, TXON and PLAYH where used
 ERR0    = 0x40              ; DDA start of the current linear move: floor(-F / 2) mod 65536
 FLEFT   = 0x42              ; frames left in the current move or hold
 SEGK    = 0x44              ; frame number k in the current move
@@ -1170,6 +1170,7 @@ seq1:                                  ; small.servo:12  sequence nod {
         LCALL   run_list
 
         RET
+looks_start:                            ; (main and the sequences end here; the looks follow)
 program_end::
 
 ; ================================================================ motion data
