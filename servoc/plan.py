@@ -768,6 +768,10 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
                         yield fr
                         session.now = {s.channel: state[i] for i, s in enumerate(host_servos)}
                         read()
+                        if session.pending_offsets is not None:     # an offset line: its offsets now, and
+                            session.set_offsets()                   # the reading goes on in the next frame
+                            offsets.update(session.offsets)
+                            session.reading_stopped = False
                         held.update(i for i, s in enumerate(host_servos) if s.channel in session.held)
                         if session.stop_play:       # `STOP` read: the sequence ends in this frame
                             frames_.close()

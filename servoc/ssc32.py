@@ -78,7 +78,8 @@ The rules, as the document states them:
   ends (`Session.held`: `plan.expand` leaves it out of the sequence's moves);
   a group line that names a servo and a `PL 0 SQ n` line (any n) end it too
   (`Session.replace_play`), and are carried out in the next frame as if
-  read in the sequence's last frame, with no frame repeating its end.
+  read in the sequence's last frame, with no frame repeating its end; an
+  offset line sets its offsets in the frame it is read (`set_offsets`).
   ESC and a bad line drop only their own line.
 - A group line that names a servo, an offset line and `PL 0 SQ n` (any n)
   end the frame's reading: the bytes after them are read in the next frame
@@ -663,12 +664,18 @@ class Session:
                 paths[ch] = (n0, n1)
         self.move = Move(frames, paths)         # the move under way before it ends here
 
+    def set_offsets(self) -> None:
+        """The offset line read in this frame sets its offsets (`frame` does it; while a sequence
+        `PL` started plays, `plan.expand` does it after each of the sequence's frames' reading)."""
+        if self.pending_offsets is not None:
+            self.offsets = line_offsets(self.pending_offsets, self.by_channel, self.offsets)
+        self.pending_offsets = None
+
     def frame(self) -> dict[int, int | None]:
         if self.pending is not None:
             self._commit(self.pending)
-        if self.pending_offsets is not None:
-            self.offsets = line_offsets(self.pending_offsets, self.by_channel, self.offsets)
-        self.pending = self.pending_offsets = None
+        self.set_offsets()
+        self.pending = None
         m = self.move
         if m is not None:
             m.k += 1

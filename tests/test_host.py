@@ -291,12 +291,15 @@ def test_a_frame_call_wrapped_twice_fits_the_stack_it_counts():
     assert len(sent(trace)) == 2
 
 
-def test_an_offset_line_read_while_a_sequence_plays_waits_for_its_end():
-    # the wave plays for over a second; the offset line read meanwhile keeps the reading stopped,
-    # frame after frame, until the wave has ended (verify accepts the wait), and then counts
-    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.4s "#0PO-40\\r"\n2.5s "#0P1500\\r"\n3.0s "QP0\\r"\n', 650)
+def test_an_offset_line_read_while_a_sequence_plays_sets_its_offsets_and_the_reading_goes_on():
+    # the wave plays for over a second; the offset line read meanwhile sets its offset in the
+    # frame it is read, and the reading goes on: the Q after it is answered '+' while the wave
+    # plays (a firmware that waited for the wave's end read it after, and answered '.'); the
+    # offset counts in the group line after the wave
+    b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.4s "#0PO-40\\r"\n0.45s "Q\\r"\n2.5s "#0P1500\\r"\n'
+                               '3.0s "QP0\\r"\n', 650)
     # 1500 - 40 = 1460 us: N = (1460 - 500 + 4) // 8 = 120; QP0 answers (500 + 960) // 10 = 146
-    assert sent(trace) == bytes([146])
+    assert sent(trace) == b"+" + bytes([146])
 
 
 def test_limits_reverse_trim_and_clamps():
@@ -478,10 +481,10 @@ def test_a_firmware_that_reads_late_fails_verify():
     assert not report.ok and "left" in problems(report) and "unread" in problems(report)
 
 
-def test_q_is_answered_while_a_sequence_plays_and_an_offset_line_waits_for_its_end():
+def test_q_is_answered_while_a_sequence_plays_and_an_offset_line_counts_after_it():
     # the wave (tuck, then rest): Q at 0.25 s answers '+', and so does QP (the shoulder on its way
     # down from 90deg); STOP 1 holds the shoulder for the rest of the wave; an offset line sent
-    # meanwhile waits for the wave's end: the group after it moves the base by 2000 - 40 us
+    # meanwhile sets its offset: the group after the wave moves the base by 2000 - 40 us
     b, trace, report = session('0.2s "PL 0 SQ 0\\r"\n'
                                '0.25s "Q\\r"\n'
                                '0.3s "QP 1\\r"\n'
