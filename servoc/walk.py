@@ -176,7 +176,8 @@ def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:
 
 def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
     """The first `repeat` or `play`, in program order, at level limit + 1, or the `select` whose
-    frame, kept while its meanwhile body runs, reaches it; None if there is none."""
+    frame, kept while it waits and while its meanwhile body runs, reaches it (a `host` statement's
+    blocks are the plays of the sequences it can start); None if there is none."""
     memo: dict = {}
     used = 0
     while True:
@@ -189,12 +190,12 @@ def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
                 if used + 1 + nesting(inner, body_of, memo) > limit:
                     body, used = inner, used + 1
                     break
-            elif k in ("loop", "select"):
+            elif k in ("loop", "select", "host"):
                 under = [(b, used) for b in blocks(st)]
+                if k == "select" and used + (select_frame(st) + 1) // 2 > limit:
+                    return st           # its counters, kept while it waits (and its meanwhile body runs)
                 if k == "select" and getattr(st, "meanwhile", None) is not None:
                     under[-1] = (under[-1][0], used + (select_frame(st) + 1) // 2)
-                    if under[-1][1] > limit:
-                        return st
                 deep = next(((b, u) for b, u in under if u + nesting(b, body_of, memo) > limit), None)
                 if deep is not None:
                     body, used = deep
@@ -207,8 +208,9 @@ def too_deep_text(depth: int, stack: int, limit: int, st: Any) -> tuple[str, str
     """`too-deep`'s message and label: the program nests `depth` levels, a `stack` of that many bytes
     has room for `limit`, and `st` (first_too_deep's statement, or None) is the one past it."""
     word = kind(st) if st is not None else "repeat"
-    subject = ("this `select`'s counters, kept while its meanwhile body runs, reach" if word == "select"
-               else f"this `{word}` is")
+    subject = (("this `select`'s counters, kept while its meanwhile body runs, reach"
+                if getattr(st, "meanwhile", None) is not None else "this `select`'s counters, kept while it waits, reach")
+               if word == "select" else f"this `{word}` is")
     return (f"repeats, plays and waiting selects nest {depth} level{'s' if depth != 1 else ''} deep, but the "
             f"firmware's {stack}-byte stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); "
             f"{subject} level {limit + 1}", f"level {limit + 1}")

@@ -875,3 +875,19 @@ def test_pl_reaches_any_of_many_sequences():
     assert sent(trace) == b"+"                       # the sequence plays
     w = [n_of(b, c) for c in widths(b, trace, 1, 0)]
     assert max(w) == 130 and w[-1] == 100            # to q and back
+
+
+def test_too_deep_through_a_sequence_pl_plays_names_the_statement_past_the_limit():
+    # two ports of an AT89C52 (an eased move too): the stack has room for 2 levels; `host until press stop` keeps its
+    # edge's sample (a level), `PL` plays `w` (a level), and w's select keeps its `after` counter
+    # while it waits: that select is level 3, and too-deep names it (not `main`)
+    text = ("target at89c52 clock 11.0592MHz\nserial 9600\nhost ssc32\ninput stop = P3.2\n"
+            + "".join(f"servo s{i} = P{1 + i % 2}.{i // 2}\n" for i in range(5))
+            + "pose a { " + ", ".join(f"s{i}: {60 + 20 * i}" for i in range(5)) + " }\n"
+            + "pose c { " + ", ".join(f"s{i}: {200 - 25 * i}" for i in range(5)) + " }\nhome a\n"
+            + "sequence w {\n  move c\n  select {\n    on stop { move a }\n    after 300ms { move a in 600ms ease in-out }\n"
+            + "  }\n}\nsequence two {\n  move a\n  hold 100ms\n}\nmain {\n  host until press stop\n  move a\n}\n")
+    fe, diags = front_end_text(text)
+    deep = [d for d in diags if d.code == "too-deep"]
+    assert len(deep) == 1 and "this `select`'s counters, kept while it waits, reach level 3" in deep[0].message
+    assert text[deep[0].span.start:].startswith("select {")

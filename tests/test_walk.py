@@ -88,3 +88,15 @@ def test_rebuild_changes_leaves_inside_out():
     out = walk.rebuild(main, lambda st: model.Hold(st.duration_us * 10) if isinstance(st, model.Hold) else st)
     assert out == (rep(model.Hold(10), model.Loop((model.Hold(20),))), model.Hold(30))
     assert walk.rebuild((), lambda st: st) == ()
+
+
+def test_first_too_deep_names_a_waiting_select_whose_counters_go_past_the_limit():
+    """A select with `after` keeps its counter (2 bytes, a level) while it waits, meanwhile body or
+    not: inside a repeat at limit 1 it is the statement past the limit, and the message says so."""
+    from fractions import Fraction
+    sel = model.Select((model.On(model.Event("b", None, "b"), (H,)), model.After(Fraction(100_000), ())))
+    main = (rep(sel),)
+    assert walk.nesting(main, {}.__getitem__) == 2
+    assert walk.first_too_deep(main, {}.__getitem__, 1) is sel
+    assert walk.first_too_deep(main, {}.__getitem__, 2) is None
+    assert "kept while it waits, reach level 2" in walk.too_deep_text(2, 30, 1, sel)[0]
