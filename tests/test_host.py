@@ -891,3 +891,18 @@ def test_too_deep_through_a_sequence_pl_plays_names_the_statement_past_the_limit
     deep = [d for d in diags if d.code == "too-deep"]
     assert len(deep) == 1 and "this `select`'s counters, kept while it waits, reach level 3" in deep[0].message
     assert text[deep[0].span.start:].startswith("select {")
+
+
+def test_no_path_between_two_frames_reads_the_host_twice():
+    # a frame inside a sequence `PL` started reads the host's bytes (frame_h); the analysis must not
+    # join that reading to `host`'s own one (host_read) or to main's code: PLAYH and the barred
+    # returns leave the longest work between frames below the two readings together
+    from servoc import wcet
+    b = built()
+    text = b.firmware.unit.text
+    code = wcet.Code(text)
+    twice = code.longest("host_read", set()) + code.longest("play_read", set()) + code.longest("host_step", set())
+    assert b.firmware.unit.budget.work < twice
+    # without the facts the analysis finds such a path: a sequence's reading, then host's and its step
+    blind = wcet.Code(text, "FLAGS", frozenset())
+    assert blind.between_frames()[0] > twice
