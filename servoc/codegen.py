@@ -463,8 +463,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if decides and state_base - stack_base < stack_bytes:
         room = state_base - stack_base
         limit = (room - least_stack) // 2
-        deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body, limit)
-        message, _ = walk.too_deep_text(plan.nesting, room, limit, deep)
+        trail: list = []
+        deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body, limit, trail)
+        message, _ = walk.too_deep_text(plan.nesting, room, limit, deep, trail)
         raise layout.StackTooDeep(message, layout.FLATTEN, span=deep.span if deep is not None else None)
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base

@@ -174,12 +174,14 @@ def nesting(body: tuple, body_of: BodyOf, memo: dict | None = None) -> int:
     return fold(body, body_of, 0, _deepest, memo)
 
 
-def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
+def first_too_deep(body: tuple, body_of: BodyOf, limit: int, trail: list | None = None) -> Any:
     """The first `repeat` or `play`, in program order, at level limit + 1, or the `select` whose
     frame, kept while it waits and while its meanwhile body runs, reaches it (a `host` statement's
-    blocks are the plays of the sequences it can start); None if there is none."""
+    blocks are the plays of the sequences it can start); None if there is none. `trail`, if given,
+    gets the statements the search went into on the way, outermost first."""
     memo: dict = {}
     used = 0
+    trail = [] if trail is None else trail
     while True:
         for st in body:
             k = kind(st)
@@ -189,6 +191,7 @@ def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
                 inner = children(st) if k == "repeat" else body_of(callee(st))
                 if used + 1 + nesting(inner, body_of, memo) > limit:
                     body, used = inner, used + 1
+                    trail.append(st)
                     break
             elif k in ("loop", "select", "host"):
                 under = [(b, used) for b in blocks(st)]
@@ -199,21 +202,27 @@ def first_too_deep(body: tuple, body_of: BodyOf, limit: int) -> Any:
                 deep = next(((b, u) for b, u in under if u + nesting(b, body_of, memo) > limit), None)
                 if deep is not None:
                     body, used = deep
+                    trail.append(st)
                     break
         else:
             return None
 
 
-def too_deep_text(depth: int, stack: int, limit: int, st: Any) -> tuple[str, str]:
+def too_deep_text(depth: int, stack: int, limit: int, st: Any, trail: list = ()) -> tuple[str, str]:
     """`too-deep`'s message and label: the program nests `depth` levels, a `stack` of that many bytes
-    has room for `limit`, and `st` (first_too_deep's statement, or None) is the one past it."""
+    has room for `limit`, and `st` (first_too_deep's statement, or None) is the one past it, the
+    search having gone into `trail` (first_too_deep's): when that passed a `host` statement, the
+    message says which sequence its `PL` plays on the way there."""
     word = kind(st) if st is not None else "repeat"
     subject = (("this `select`'s counters, kept while its meanwhile body runs, reach"
                 if getattr(st, "meanwhile", None) is not None else "this `select`'s counters, kept while it waits, reach")
                if word == "select" else f"this `{word}` is")
+    hosts = [i for i, t in enumerate(trail) if kind(t) == "host"]
+    played = next((callee(t) for t in trail[hosts[-1] + 1:] if kind(t) == "play"), None) if hosts else None
+    via = f" (`host`'s `PL` plays `{played}` on the way)" if played is not None else ""
     return (f"repeats, plays and waiting selects nest {depth} level{'s' if depth != 1 else ''} deep, but the "
             f"firmware's {stack}-byte stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); "
-            f"{subject} level {limit + 1}", f"level {limit + 1}")
+            f"{subject} level {limit + 1}{via}", f"level {limit + 1}")
 
 
 def rebuild(body: tuple, change: Callable[[Any], Any]) -> tuple:

@@ -890,6 +890,7 @@ def test_too_deep_through_a_sequence_pl_plays_names_the_statement_past_the_limit
     fe, diags = front_end_text(text)
     deep = [d for d in diags if d.code == "too-deep"]
     assert len(deep) == 1 and "this `select`'s counters, kept while it waits, reach level 3" in deep[0].message
+    assert "(`host`'s `PL` plays `w` on the way)" in deep[0].message
     assert text[deep[0].span.start:].startswith("select {")
 
 
