@@ -907,3 +907,19 @@ def test_no_path_between_two_frames_reads_the_host_twice():
     # without the facts the analysis finds such a path: a sequence's reading, then host's and its step
     blind = wcet.Code(text, "FLAGS", frozenset())
     assert blind.between_frames()[0] > twice
+
+
+def test_the_barred_returns_keep_a_sequence_reading_out_of_main():
+    # `q0` can be played by `PL` and by main; with PLAYH alone, a reading in q0's frames could run on
+    # into main's selects and moves (q1's looks) before a frame: the fact that no RET goes back into
+    # main or an unplayable sequence while PLAYH is set keeps the bound below that
+    from servoc import codegen, layout, wcet
+    b = built(HOST_PLAYS_AND_MEANWHILE)
+    text = b.firmware.unit.text
+    flags = frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record)
+    barred = codegen._pl_barred(b.plan, [{"label": codegen._seq_label(b.plan, q.name), "name": q.name}
+                                         for q in b.plan.program.sequences])
+    assert barred is not None and ("main", barred[1][0][1]) == barred[1][0]
+    with_fact = wcet.Code(text, "FLAGS", flags, frozenset({"PLAYH"}), barred).between_frames()[0]
+    without = wcet.Code(text, "FLAGS", flags, frozenset({"PLAYH"})).between_frames()[0]
+    assert with_fact == b.firmware.unit.budget.work < without
