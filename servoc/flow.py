@@ -89,8 +89,6 @@ HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pendin
 HOST_XRAM_PER_SERVO = HOST_PER_SERVO + 1    # in XRAM (host_xram) also its pending entry's generation
 
 
-
-
 def host_passes(plan: Plan) -> int:
     """The bytes the host parser reads in one frame at the most, p. With b the bytes a frame brings
     (from a host 2 % fast): at least one more than b, so that bytes left queued by a late frame are
