@@ -923,3 +923,30 @@ def test_the_barred_returns_keep_a_sequence_reading_out_of_main():
     with_fact = wcet.Code(text, "FLAGS", flags, frozenset({"PLAYH"}), barred).between_frames()[0]
     without = wcet.Code(text, "FLAGS", flags, frozenset({"PLAYH"})).between_frames()[0]
     assert with_fact == b.firmware.unit.budget.work < without
+
+
+@pytest.mark.parametrize("clock", ["11.0592MHz", "11.0592MHz mode 6T"])
+def test_q_lines_back_to_back_through_a_whole_sequence_keep_every_frame_exact(clock):
+    # at the arm's shortest period: `PL 0 SQ 0`, then `Q` lines back to back at 9600 baud for longer
+    # than the wave plays, so that every frame of the sequence, those that start its moves too,
+    # reads as many bytes as a frame's reading reads; verify finds every pulse and the period exact,
+    # every Q is answered, '+' while the wave plays and '.' after it
+    text = ARM.replace("clock 11.0592MHz", f"clock {clock}")
+    # the shortest period, with `frame` at it (the reading's size follows P: lint's shortest for the
+    # program at one P can be shorter than that P; go down to where it is P itself)
+    plain, shortest = text, built(text).plan.min_period_us
+    for _ in range(4):
+        text = plain.replace("host ssc32\n", f"host ssc32\nframe {shortest / 1000}ms\n")
+        b = built(text)
+        if b.plan.min_period_us == shortest:
+            break
+        shortest = b.plan.min_period_us
+    assert b.plan.period_us == shortest == b.plan.min_period_us
+    _, diags = front_end_text(plain.replace("host ssc32\n", f"host ssc32\nframe {(shortest - 1) / 1000}ms\n"))
+    assert "period-too-short" in {d.code for d in diags}          # 1 us less is refused
+    count = 300                                     # 300 x 2 bytes: 0.625 s at 9600 baud
+    _, trace, report = session('0.2s "PL 0 SQ 0\\r"\n0.22s "' + "Q\\r" * count + '"\n',
+                               round(1.2e6 / b.plan.period_us), text)
+    out = sent(trace)
+    assert len(out) == count and out[0:1] == b"+" and out[-1:] == b"."
+    assert out == b"+" * out.count(b"+") + b"." * out.count(b".")     # '+' until the wave ends, then '.'
