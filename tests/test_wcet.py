@@ -153,7 +153,6 @@ def test_a_flag_bit_tested_twice_goes_the_same_way_both_times():
     assert wcet.Code(rewritten, "FLAGS", frozenset({"KIND"})).between_frames()[0] == 1 + 2 + 4 + 2 + 1 + 2 + 12 + 2 + 2
 
 
-
 # `fr` takes a frame and then, while PLAY is set (called from `seq`), reads (MUL x 3, then a record's
 # flag byte written whole, then one more MUL unless PLAY is still set); main calls it with PLAY clear
 # and has heavy work (MUL x 5) behind that call.
