@@ -433,6 +433,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
     s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, txq)
+    if s is not None:
+        s["marks"] = hosting        # a byte lost to a full queue spoils the line it was in
     if hosting:
         for var in HOST_VARS:
             ram.alloc(*var)
@@ -810,10 +812,10 @@ def _serial(serial, ram: layout.RamAllocator, sending: bool, rxq: int, q: int) -
 
 
 def _rx_ring(base: int, slots: int) -> dict:
-    """The receive queue's ring of `slots` slots at `base`: the address past its last slot (rx_end),
-    and what turns rx_end into base under XRL (rx_wrap)."""
+    """The receive queue's ring of `slots` slots at `base`: its first slot (rx_base), the address
+    past its last slot (rx_end), and what turns rx_end into base under XRL (rx_wrap)."""
     end = base + slots          # past RAM_SIZE only where RamAllocator.check refuses the layout
-    return {"rx_slots": slots, "rx_end": end & 0xFF, "rx_wrap": base ^ (end & 0xFF)}
+    return {"rx_slots": slots, "rx_base": base, "rx_end": end & 0xFF, "rx_wrap": base ^ (end & 0xFF)}
 
 
 HOST_WORDS = ("P", "PO", "S", "T", "Q", "QP", "V", "VE", "VER", "ST", "STO", "STOP", "PL", "SQ")

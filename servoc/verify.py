@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 from . import layout
 from .observe import Observation, Visit
-from .flow import host_queue, host_watchers
+from .flow import hosted, host_queue, host_watchers
 from .plan import Choice, HostRun, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
 from .sim import CLOCKS_PER_CYCLE, TICKS_WRAP, SimTrace
@@ -435,6 +435,20 @@ def _enqueued(obs: Observation) -> list[int]:
     return [i for i, got in enumerate(obs.received) if got.queued]
 
 
+def _spoiled(obs: Observation, marks: bool) -> dict[int, int]:
+    """With `host` (`marks`), a byte that finds the receive queue full is lost and the newest byte
+    queued becomes 0xFF (serial_isr.asm.j2), so that the line it was in is bad, not read with
+    bytes missing: received byte index -> the cycle from which its slot holds 0xFF."""
+    out: dict[int, int] = {}
+    newest = None
+    for i, got in enumerate(obs.received):
+        if got.queued:
+            newest = i
+        elif marks and newest is not None:
+            out.setdefault(newest, got.cycle)
+    return out
+
+
 @dataclass(frozen=True)
 class Taken:
     """A branch a select took: the visit, the first rise of the branch's first frame (None: no
@@ -623,6 +637,8 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         if host.arrives + per < trace.cycles:
             bad(host.arrives, f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was never received")
 
+    spoiled = _spoiled(obs, marks=hosted(plan))
+
     def rises(a: int, b: int) -> int:           # frames that began after cycle a, up to b
         return (b - t1) // period - (a - t1) // period
 
@@ -639,7 +655,8 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                                     + ("it was reached, not in the same frame" if j == 0 else "the look before, not 1"))
             if look.exit is None:
                 continue                        # the run ended during it
-            new = [got.byte for got in obs.received if look.entry < got.cycle < look.exit and got.queued]
+            new = [0xFF if spoiled.get(i, look.exit) < look.exit else got.byte
+                   for i, got in enumerate(obs.received) if look.entry < got.cycle < look.exit and got.queued]
             before = visit.looks[j - 1] if j else None
             lo_prev, hi_prev = (visit.reached, look.entry) if before is None else (before.entry, before.exit or before.entry)
             allowed: set = set()
