@@ -21,6 +21,7 @@ import importlib
 import gc
 import io
 import json
+import math
 import os
 import re
 import shutil
@@ -490,6 +491,7 @@ def _verify(args, run: _Run, source, plan: Plan, hex_text: str, firmware) -> int
                 sys.stderr.write(f"servoc: simulating {frames} frames in ucsim...\r")
             cycles = max(api.cycles_needed(plan, frames, choices), stim.last() + 1)
             trace = api.simulate(hex_text, cycles, plan.program.target, stim, probes if watched else None)
+            _listens_first(trace, span.events, plan.program.target, args.events)
             if progress:
                 sys.stderr.write(" " * 60 + "\r")
         except api.ToolNotFound as exc:
@@ -890,6 +892,23 @@ def _compile_data(source, out: str, asm: str | None, plan: Plan, firmware) -> di
             "data_bytes": firmware.data_bytes, "ram_bytes": firmware.unit.ram_bytes, "ram_size": chip.ram_bytes,
             "xram_bytes": firmware.unit.xram_bytes,
             "stack_bytes": firmware.unit.stack_bytes, "built_for_size": plan.compact}
+
+
+def _listens_first(trace, events: list, target, path: str) -> None:
+    """A usage error when the events' first bytes start before the firmware's UART receives
+    (serial_init sets its receiver on a little after reset): a chip would miss them or read a
+    wrong byte, and ucsim holds them back, so no run of the program is what verify would check."""
+    from .events import ByteEvent
+    obs = getattr(trace, "observation", None)
+    first = next((e for e in events if isinstance(e, ByteEvent)), None)
+    if obs is None or obs.listening is None or first is None or not trace.uart:
+        return
+    start = trace.uart[0][0]
+    if start < obs.listening:
+        on = obs.listening * float(target.cycle_us)
+        raise _Stop(f"{path}: line {first.line}: the bytes at {float(first.time_us) / 1000:g} ms start before the "
+                    f"firmware's serial line receives ({on / 1000:.3f} ms after reset): a chip would miss them or read "
+                    f"a wrong byte; send them from {math.ceil(on) / 1000:g} ms on")
 
 
 def verify_data(report, source, plan: Plan) -> dict:

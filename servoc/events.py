@@ -189,6 +189,13 @@ def uart_windows(events: list, byte_cycles: int, target: Target) -> tuple[bytes,
     return bytes(data), windows
 
 
+def bytes_through(events: list, byte_cycles: int, target: Target) -> int:
+    """The cycle by which the last byte the events send is through (0: they send none): bytes
+    back to back take a byte time each from the line's start (`uart_windows`)."""
+    _, windows = uart_windows(events, byte_cycles, target)
+    return windows[-1][0] + byte_cycles - byte_cycles // 2 if windows else 0
+
+
 def spaced(pins: list[tuple[int, int, int]], windows: list[tuple[int, bool]]) -> tuple[list, list]:
     """Pin changes and UART flag changes kept MIN_SPACING cycles apart from each other (the later of
     two that come closer moves later)."""

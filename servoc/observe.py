@@ -31,6 +31,7 @@ REACH, LOOK, EXIT, BRANCH, RX_GOT, RX_END = "reach", "look", "exit", "branch", "
 HOST_START, HOST_FRAME, HOST_BYTE, HOST_END = "host_start", "host_frame", "host_byte", "host_end"
 PLAY_FRAME, PLAY_END = "play_frame", "play_end"      # the same, while a sequence `PL` started plays
 PLAY_START, PLAY_CUT = "play_start", "play_cut"      # a sequence `PL` started begins; the host ends it
+LISTEN = "listen"               # the UART's receiver is on (serial_init, `serial_on`)
 HOST_BYTE_RAM = 0x02            # bank 0 R2: the byte host_byte is reading (`hb_in`)
 
 # A listing line (sdas8051 -l, relocated .rst): address in columns 6..11, the source line's number
@@ -155,6 +156,8 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
                 add(labels[lab], kind, "", None, ram[kind])
             elif not lab.startswith(("play", "pr_", "host_plays", "pc_")):       # only with sequences
                 raise ProbeError(f"the listing has no {lab}")
+    if queue and "serial_on" in labels:
+        add(labels["serial_on"], LISTEN, "", None, ())
     if queue:
         for lab in ("ui_got", "ui_drop"):
             if lab not in labels:
@@ -245,6 +248,7 @@ class Observation:
     received: tuple[Received, ...]
     problems: tuple[str, ...] = ()       # probes out of order: the firmware went where no select is
     hosts: tuple[HostVisit, ...] = ()
+    listening: int | None = None         # the cycle from which the UART receives (None: not seen)
 
 
 class _Counter:
@@ -269,6 +273,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
     hosts: list[HostVisit] = []
     host_queued = 0
     played_from = None          # the cycle the sequence `PL` started last began
+    listening = None
     for p, (kind, label, k) in ((p, m) for p in trace.probes for m in probes.meaning[p.tag]):
         if kind == REACH:
             if label in active:
@@ -313,6 +318,8 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
             received.append(Received(pending[0], pending[1], pending[2], p.ram[1] != pending[3]))
             rxw(p.ram[1])
             pending = None
+        elif kind == LISTEN:
+            listening = p.cycle
         elif kind == HOST_START:
             hosts.append(HostVisit(p.cycle))
         elif kind == PLAY_START:
@@ -342,4 +349,4 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
                 problems.append(f"the host parser read a byte at cycle {p.cycle} outside a frame's reading")
                 continue
             hosts[-1].frames[-1][2].append(p.ram[0])
-    return Observation(tuple(visits), tuple(received), tuple(problems), tuple(hosts))
+    return Observation(tuple(visits), tuple(received), tuple(problems), tuple(hosts), listening)

@@ -235,11 +235,24 @@ def verify(plan: Plan, trace: SimTrace, frames: int, choices: tuple = (), driven
     mismatches += sent_bad
     diffs = [b - a for rises in rises_by_channel.values() for a, b in zip(rises, rises[1:])
              if round((b - a) / period) == 1]
-    spans = [(r[-1] - r[0], len(r) - 1) for r in rises_by_channel.values() if len(r) > 1]
+    spans = [(run[-1] - run[0], len(run) - 1) for rises in rises_by_channel.values()
+             for run in _runs(rises, period) if len(run) > 1]      # a line switched off (P0) splits its runs
     mean = (sum(s for s, _ in spans) / sum(k for _, k in spans)) if spans else None
     return VerifyReport(len(golden), checked, max_err, min(diffs) if diffs else None,
                         max(diffs) if diffs else None, mean, reset_low, tuple(mismatches), unit, sent,
                         float(target.cycle_us), period_cycles=period)
+
+
+def _runs(rises: list[int], period: int) -> list[list[int]]:
+    """A line's rises split where a frame has none (its pulses were switched off): the runs of
+    rises a frame apart, over which the mean period is taken."""
+    runs = [rises[:1]]
+    for a, b in zip(rises, rises[1:]):
+        if round((b - a) / period) == 1:
+            runs[-1].append(b)
+        else:
+            runs.append([b])
+    return runs
 
 
 def _check_sent(plan: Plan, trace: SimTrace, choices: tuple, lead: int, frames: int,
@@ -860,7 +873,7 @@ def verify_span(plan: Plan, asked: int | None, events: list | None) -> RunSpan:
     tail, or up to its loop and two passes (`plan.verify_frames`), or, with events, on past the
     last event until every branch an event chose has run to its end (`settle_frame`, found after
     a run) - never more than MAX_SPAN_CYCLES of simulation, and it says what it leaves out."""
-    from .events import EventsError
+    from .events import ByteEvent, EventsError, bytes_through
     from .plan import verify_frames
     target = plan.program.target
     period = target.cycles(plan.period_us)
@@ -870,6 +883,9 @@ def verify_span(plan: Plan, asked: int | None, events: list | None) -> RunSpan:
     def secs(frames: int) -> str:
         return f"{frames * period * target.cycle_us / 1e6:.1f} s"
 
+    sending = [e for e in events or () if isinstance(e, ByteEvent)]
+    serial = plan.program.serial
+    through = 0 if not sending or serial is None else bytes_through(sending, byte_cycles(serial.th1, serial.smod), target)
     if asked:
         frames = limit = asked
         if plan.total_frames is not None and plan.total_frames > asked:
@@ -883,18 +899,21 @@ def verify_span(plan: Plan, asked: int | None, events: list | None) -> RunSpan:
                          f"verify checks the first {limit} ({secs(limit)}): use --frames N "
                          "for more (ucsim runs some 4 million machine cycles a second)")
         if events:
-            last = max(target.cycles(e.time_us) for e in events)
+            last = max([target.cycles(e.time_us) for e in events] + [through])
             frames = max(frames, (last + target.cycles(2_000_000)) // period + 1)
         frames = min(frames, limit)
     if events:
         end = (lead + frames) * period
+        more = ": ask for more with --frames" if asked else f": verify runs at most {secs(limit)} of the program"
         for e in events:
             if target.cycles(e.time_us) >= end:
                 raise EventsError(getattr(e, "line", 0),
                                   f"this event at {float(e.time_us) / 1e6:g} s comes after the {frames} frames verify "
-                                  f"runs ({end * target.cycle_us / 1e6:.3f} s)"
-                                  + (": ask for more with --frames" if asked else
-                                     f": verify runs at most {secs(limit)} of the program"))
+                                  f"runs ({end * target.cycle_us / 1e6:.3f} s){more}")
+        if through >= end:
+            raise EventsError(sending[-1].line,
+                              f"the bytes sent go on until {through * target.cycle_us / 1e6:.3f} s, after the {frames} "
+                              f"frames verify runs ({end * target.cycle_us / 1e6:.3f} s){more}")
     return RunSpan(frames, limit, list(events or []), tuple(notes))
 
 

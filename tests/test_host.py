@@ -966,3 +966,52 @@ def test_a_byte_lost_to_a_full_queue_spoils_its_line_so_no_line_is_read_with_byt
     whole = [ln for ln in read.replace(b"\n", b"\r").split(b"\r")[:-1] if 0xFF not in ln]
     assert whole and set(whole) <= {ln.rstrip("\r").encode() for ln in lines}, whole
     assert sum(1 for w in report.warnings if "was lost" in w and "dropped as a bad line" in w) >= 1
+
+
+TWO = """\
+target stc89c52rc clock 11.0592MHz
+serial 9600
+host ssc32
+servo s0 = P1.0
+servo s1 = P1.1
+pose rest { s0: 90deg, s1: 90deg }
+home rest
+main {
+  host
+}
+"""
+
+
+def test_verify_runs_until_the_bytes_sent_are_through_and_every_answer_is_checked(tmp_path, capsys):
+    """One events line of 1250 `Q` lines (2.6 s of bytes at 9600 baud): verify runs until the last
+    byte is through and checks every answer, not only those of the 2 s after the line began; a run
+    asked shorter than the bytes is refused, as an event after its end is."""
+    from test_verify_observes import cli_verify
+    scenario = '0.1s "' + "Q\\r" * 1250 + '"\n'
+    rc, data = cli_verify(tmp_path, capsys, TWO, scenario)
+    assert rc == 0 and data["ok"] and not data["partial"], data
+    assert data["bytes_sent"] == 1250 and data["span_s"] > 2.7, data["bytes_sent"]
+    assert not [w for w in data["warnings"] if "still queued" in w], data["warnings"]
+    rc, err = cli_verify(tmp_path, capsys, TWO, scenario, "--frames", "300")
+    assert rc == 2 and "the bytes sent go on until 2.704 s" in err, err
+
+
+def test_bytes_sent_before_the_firmware_listens_are_a_usage_error(tmp_path, capsys):
+    """A byte whose start bit comes before serial_init turns the UART's receiver on would be missed
+    or misread by a chip (and ucsim holds it back, shifting every answer after it): verify refuses
+    such events and says from when on bytes may come; a byte from then on is received."""
+    from test_verify_observes import cli_verify
+    rc, err = cli_verify(tmp_path, capsys, TWO, '50us 0x0D\n300ms "Q\\r"\n')
+    assert rc == 2 and "before the firmware's serial line receives" in err, err
+    on = float(re.search(r"send them from ([\d.]+) ms on", err).group(1))
+    rc, data = cli_verify(tmp_path, capsys, TWO, f'{on}ms 0x0D\n300ms "Q\\r"\n500ms "QP0\\r"\n')
+    assert rc == 0 and data["ok"] and data["bytes_sent"] == 2, data
+
+
+def test_the_mean_period_counts_a_line_switched_off_with_p0_by_its_frames(tmp_path, capsys):
+    """`#0P0` switches s0's pulses off for a while: the mean period verify reports is still P, not
+    s0's first-to-last rise over its pulses (which spans the frames without one)."""
+    from test_verify_observes import cli_verify
+    rc, data = cli_verify(tmp_path, capsys, TWO, '0.1s "#0P0\\r"\n1.0s "#0P1500\\r"\n')
+    assert rc == 0 and data["ok"], data
+    assert data["period_us"]["min"] == data["period_us"]["max"] == data["period_us"]["mean"] == pytest.approx(5299.479)
