@@ -358,7 +358,19 @@ def _seq_label(plan: Plan, name: str) -> str:
 def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) -> AsmUnit:
     """Lay out the firmware for a plan (which must have passed lint without errors).
     `hold_off` > 0 makes a test build that holds interrupts off for that many cycles (NOPs
-    between CLR EA and SETB EA) at several points of the background: the edges must not move."""
+    between CLR EA and SETB EA) at several points of the background: the edges must not move.
+    With `host`, HAQ holds HOST_ANSWERS answers waiting where the RAM allows it, else one (the
+    RAM `flow.host_vars` counts): a program that fits with one is never refused for the others."""
+    if not (plan.program.serial is not None and hosted(plan)):
+        return _generate(plan, source, hold_off, 1)
+    try:
+        return _generate(plan, source, hold_off, HOST_ANSWERS)
+    except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
+        return _generate(plan, source, hold_off, 1)
+
+
+def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int) -> AsmUnit:
+    """`generate`, with room for `answers` answers waiting in HAQ (with `host`)."""
     ctx = _Ctx(plan, source, [], {})
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)
@@ -436,8 +448,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
     if s is not None:
         s["marks"] = hosting        # a byte lost to a full queue spoils the line it was in
     if hosting:
-        for var in HOST_VARS:
-            ram.alloc(*var)
+        for name, size, what in HOST_VARS:
+            ram.alloc(name, answers if name == "HAQ" else size, what)
         if host_playable(plan.program):
             ram.alloc("HFRZ", nports, "while a sequence `PL` started plays: per port in use, the lines `STOP c` "
                                       "holds where they are until it ends")
@@ -526,7 +538,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) ->
                   looks=ctx.looks, watch=watch, fcall=fcall,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables,
                   fneed=fneed if uses["nodur"] else [], ftables=fneed, pin_dmax=pin_dmax,
-                  h=_host(plan, chans, fneed, rxq, fbase) if hosting else None,
+                  h=_host(plan, chans, fneed, rxq, fbase, answers) if hosting else None,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
                                                  "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},
@@ -822,6 +834,7 @@ HOST_WORDS = ("P", "PO", "S", "T", "Q", "QP", "V", "VE", "VER", "ST", "STO", "ST
 assert HOST_WORDS[:4] == ("P", "PO", "S", "T")      # host_item: the words below T are an entry's options
 
 
+HOST_ANSWERS = 3        # answers (Q, QP, VER) that wait in HAQ while the reading goes on, where RAM allows (else 1)
 # The variables of host.asm.j2 (flow.HOST_VARS bytes) and its per-servo arrays (flow.HOST_PER_SERVO bytes a servo).
 HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: more flags"),
              ("HW", 1, "host parser: the word being read"), ("HNUM", 2, "host parser: the number"),
@@ -829,9 +842,9 @@ HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: mor
              ("HEP", 2, "host parser: the entry's P (or PO + 100)"),
              ("HES", 2, "host parser: the entry's S"), ("HARG", 2, "host parser: T (0 without, once a group line has ended), or a command's number"),
              ("HCMD", 1, "host parser: the line's command word"),
-             ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence, 4 HANS, 6 a VER waits"),
-             ("HVER", 1, "the next byte of the answer to VER"),
-             ("HANS", 1, "an answer waiting to be sent (HLINE bit 4)"),
+             ("HLINE", 1, "lines for host_step: bit 0 groups, 1 VER, 2 offsets, 3 a sequence, 4 HAQ full, 5 STOP"),
+             ("HVER", 1, "the next byte of the answer to VER (bits 6, 7: the answers waiting in HAQ)"),
+             ("HAQ", 1, "the answers waiting, in order (0xFF: VER's; HVER's bits 6, 7 count them)"),
              ("HPLAY", 1, "while a sequence `PL` started plays: the stack pointer it started at (0: none)"))
 HOST_ARRAYS = (("HPW", 2, "per servo: the pending width (high byte 0xFF: none), or offset + 100 (0xFC)"),
                ("HPS", 2, "per servo: the pending S (0: none)"), ("HOF", 1, "per servo: its offset in us"))
@@ -840,7 +853,7 @@ assert sum(v[1] for v in HOST_VARS) == flow_mod.HOST_VARS and sum(a[1] for a in 
 assert sum(a[1] for a in HOST_ARRAYS + (HOST_TAGS,)) == flow_mod.HOST_XRAM_PER_SERVO
 
 
-def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: str) -> dict:
+def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: str, answers: int) -> dict:
     """The numbers of host.asm.j2: per servo its record and table, the channel map and the tables
     of the protocol's arithmetic (docs/host-protocol.md; servoc.ssc32 is the same in Python)."""
     from . import ssc32
@@ -868,7 +881,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
                     "lim_what": f"limit {lo}..{hi}{', reverse' if servo.reverse else ''}, trim {servo.trim}",
                     "fneed": tables[c.speed_class]["label"]})
     return {"count": len(out), "chans": out,
-            "chan_act": chan_act, "chan_mask": chan_mask, "chan_cur": chan_cur, "queue": rxq, "passes": host_passes(plan), "words": words, "words_table": table,
+            "chan_act": chan_act, "chan_mask": chan_mask, "chan_cur": chan_cur, "queue": rxq, "passes": host_passes(plan), "answers": answers, "words": words, "words_table": table,
             "chan_map": chan_map, "ports": plan.ports, "rt": ssc32.time_factor(period),
             "qp": [(500 + 8 * n) // 10 for n in range(N_MAX + 1)],
             "st_q": st_q, "st_e": st_e,

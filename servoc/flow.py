@@ -84,7 +84,7 @@ def select_ram(plan: Plan, xram: bool | None = None) -> int:
     return len(edge_ports(plan)) + 2 * len(levels) + host_ram(plan, xram) + tx_queue(plan) - costs.QUEUE
 
 
-HOST_VARS = 17          # the host parser's variables, the answer to VER's next byte, HPLAY (host.asm.j2)
+HOST_VARS = 17          # the host parser's variables, VER's answer's next byte, the answers waiting, HPLAY (host.asm.j2)
 HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pending S (2) and its offset
 HOST_XRAM_PER_SERVO = HOST_PER_SERVO + 1    # in XRAM (host_xram) also its pending entry's generation
 

@@ -139,12 +139,12 @@ class Bit:
 # out; verify reads it at the end of each frame's reading.
 HLINE_BITS = (
     Bit("GROUP", 0, "a group to commit (HARG: its T)"),
-    Bit("VERQ", 1, "VER's answer being queued (the reading goes on)"),
+    Bit("ANSQ", 1, "answers waiting: VER's being queued, or some in HAQ (the reading goes on)"),
     Bit("OFFS", 2, "offsets to set"),
     Bit("PLAY", 3, "a sequence to play (PL 0 SQ n)"),
-    Bit("HANS", 4, "an answer waiting in HANS for room in the transmit queue"),
+    Bit("HANS", 4, "the answers waiting for room in the transmit queue fill HAQ"),
     Bit("STOP", 5, "STOP read while a sequence `PL` started plays"),
-    Bit("VERW", 6, "a VER waiting for the answer before it"),
+    Bit("VERQ", 6, "VER's answer being queued (the reading goes on)"),
 )
 HLINE = {b.name: b for b in HLINE_BITS}
 HLINE_DROP = 0xFF ^ HLINE["GROUP"].mask ^ HLINE["OFFS"].mask    # clears what a dropped line may have set

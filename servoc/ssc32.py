@@ -90,10 +90,11 @@ The rules, as the document states them:
   group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
   `STOP`, `STOP c`, a group line that names no servo, a line that does
   nothing, a bad line) do not end the reading, except that an answer that
-  cannot be queued at its line end (the transmit queue full, or `VER`'s
-  answer still being queued) waits, computed, and the reading stops until it
-  is queued: the firmware's timing, which `Session` does not model (verify
-  takes it from the firmware's probes).
+  cannot be queued at its line end (the transmit queue full, or answers
+  before it still waiting) waits, computed, in the firmware's queue of
+  answers, and while that is full the reading stops until one is queued:
+  the firmware's timing, which `Session` does not model (verify takes it
+  from the firmware's probes).
 """
 
 from __future__ import annotations
@@ -555,9 +556,9 @@ class Session:
     `PL 0 SQ n` it played: frame i + 1 repeats frame i, and the sequence's own frames, from
     frame i + 2, are `plan.expand`'s (it sets `now` to where they leave the servos, and
     `sequence_running` while they play, to make `Q` answer `+`). Not modelled
-    either: the transmit queue (an answer that finds it full, or finds `VER`'s answer still
-    going in, waits and stops the reading: then the bytes after it wait more than a frame) and
-    a receive queue that overflows."""
+    either: the transmit queue (an answer that finds it full, or finds answers before it still
+    waiting, waits in the firmware's queue of answers, and while that is full the reading stops:
+    then the bytes after it wait more than a frame) and a receive queue that overflows."""
 
     def __init__(self, servos: Iterable[Servo], period_us: int | Fraction, sequences: int | Iterable[int] = 0,
                  start: Mapping[int, int | None] | None = None) -> None:

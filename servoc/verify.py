@@ -98,8 +98,8 @@ SEARCH_FRAMES = 1_000_000     # how far to look for the first frame that carries
 _FIRST_PULSE: dict = {}     # (id(plan), choices) -> (plan, the answer): the search can take seconds
 
 
-HLINE_QUEUING = layout.HLINE["VERQ"].mask        # host.asm.j2's HLINE: the reading goes on
-HLINE_WAITS = layout.HLINE["HANS"].mask | layout.HLINE["VERW"].mask     # an answer waiting for room
+HLINE_QUEUING = layout.HLINE["VERQ"].mask | layout.HLINE["ANSQ"].mask   # host.asm.j2's HLINE: the reading goes on
+HLINE_WAITS = layout.HLINE["HANS"].mask      # the answers waiting for room fill their queue
 
 def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     """0-based index of the first golden frame with a pulse, or None if there is none."""

@@ -1015,3 +1015,26 @@ def test_the_mean_period_counts_a_line_switched_off_with_p0_by_its_frames(tmp_pa
     rc, data = cli_verify(tmp_path, capsys, TWO, '0.1s "#0P0\\r"\n1.0s "#0P1500\\r"\n')
     assert rc == 0 and data["ok"], data
     assert data["period_us"]["min"] == data["period_us"]["max"] == data["period_us"]["mean"] == pytest.approx(5299.479)
+
+
+@pytest.mark.parametrize("clock", ["11.0592MHz", "11.0592MHz mode 6T"])
+def test_a_group_line_after_answers_that_wait_moves_within_2_p(clock):
+    """`VER` (17 bytes back), `Q` and a group line back to back: VER's answer fills the transmit
+    queue, so Q's answer waits (in HAQ, with room for three), and the reading goes on: the group
+    line's move starts at most 2 P after its CR, not once the answers are out. Then `VER` twice and
+    a group line: the second VER's answer waits behind the first, and the move is as quick. Every
+    answer goes out whole, in the order of the lines."""
+    text = ARM.replace("clock 11.0592MHz", f"clock {clock}")
+    b, trace, report = session('0.1s "VER\\rQ\\r#0P2000\\r"\n0.5s "VER\\rVER\\r#1P2000\\r"\n',
+                               round(1.2e6 / built(text).plan.period_us), text)
+    ver = b"SSC32-servoc-0.1\r"
+    assert sent(trace) == ver + b"." + ver + ver
+    frame = lambda s: round(s * 1e6 / b.plan.period_us)      # noqa: E731
+    base = [n_of(b, w) for w in widths(b, trace, 1, 0)]
+    shoulder = [n_of(b, w) for w in widths(b, trace, 1, 1)]
+    cr = 0.1 + len("VER\rQ\r#0P2000\r") * 10 / 9600
+    moved = next(i for i in range(frame(0.05), len(base)) if base[i] != 122)
+    assert frame(0.1) < moved <= frame(cr) + 2, (moved, frame(cr))
+    cr = 0.5 + len("VER\rVER\r#1P2000\r") * 10 / 9600
+    moved = next(i for i in range(frame(0.45), len(shoulder)) if shoulder[i] != 122)
+    assert frame(0.5) < moved <= frame(cr) + 2, (moved, frame(cr))
