@@ -29,7 +29,8 @@ from . import verify as _verify
 from .diagnostics import Reporter, limit_diagnostic
 from .source import NO_SPAN, SourceFile, Span
 from .flow import hosted
-from .steps import Plan
+from .steps import MoveStep, Plan
+from .steps import steps
 from .units import round_half_up
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
 
@@ -105,7 +106,7 @@ def plan(program, reporter: Reporter) -> Plan:
     return choose_period(program, _plan.plan(program, reporter))
 
 
-def choose_period(program, first: Plan, decide: bool = True) -> Plan:
+def choose_period(program, first: Plan, decide: bool = True, least: bool = True) -> Plan:
     """The period stage: the plan with `min_period_us`, the shortest period the code generated for
     it holds (costs.py, read by wcet.py). Without `frame`, P is the default: the plan is made again
     at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
@@ -119,7 +120,39 @@ def choose_period(program, first: Plan, decide: bool = True) -> Plan:
             over = _overflow(result)       # built for size, still too big: lint says so, as compile
             if over:
                 result = dataclasses.replace(result, firmware_limit=(("rom-overflow", *over, NO_SPAN, ()),))
+    if least and decide and result.firmware_limit is None and result.min_period_us < result.period_us and _eased(result):
+        least = _least_fitting(program, first, result)
+        if least != result.min_period_us:
+            result = dataclasses.replace(result, min_period_us=least)
     return result
+
+
+def _plan_at(program, period: int) -> Plan:
+    """The program planned at `period`, whatever its own `frame` (a candidate for the shortest)."""
+    return _plan.plan(dataclasses.replace(program, frame_us=None), None, period)
+
+
+def _eased(p: Plan) -> bool:
+    """Whether the program has an eased move: its curve tables (a byte a frame) grow as P shrinks."""
+    return any(isinstance(st, MoveStep) and st.ease != "linear" for st in steps(p))
+
+
+def _least_fitting(program, first: Plan, at: Plan) -> int:
+    """The shortest period to report where the firmware's size follows P (eased curve tables, a
+    byte a frame): the least P, from `at`'s shortest on, at which `frame P` builds (for speed or
+    for size) and holds P. `at` (its own P) builds; between the two, by bisection."""
+    def builds(p: int) -> bool:
+        asked = dataclasses.replace(_plan_at(program, p), compact=first.compact, period_is_default=False)
+        got = choose_period(program, asked, least=False)
+        return got.firmware_limit is None and got.min_period_us <= p
+
+    lo, hi = at.min_period_us, at.period_us
+    if builds(lo):
+        return lo
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        lo, hi = (lo, mid) if builds(mid) else (mid, hi)
+    return hi
 
 
 def _overflow(p: Plan) -> tuple[str, str] | None:
@@ -214,7 +247,7 @@ def _least_period(program, at: Plan) -> int:
 
     def need(p: int) -> int:            # the shortest period of the code built for p (p + 1: none)
         if p not in known:
-            got = _budgeted(dataclasses.replace(_plan.plan(program, None, p), compact=at.compact))
+            got = _budgeted(dataclasses.replace(_plan_at(program, p), compact=at.compact))
             known[p] = p + 1 if got.firmware_limit is not None else got.min_period_us
         return known[p]
 

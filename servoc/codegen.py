@@ -476,7 +476,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     stack_base = ram.next
     if decides and state_base - stack_base < stack_bytes:
         room = state_base - stack_base
-        limit = (room - least_stack) // 2
+        limit = max(0, (room - least_stack) // 2)      # below 0: not even the runtime's own fits
         trail: list = []
         deep = walk.first_too_deep(plan.main, lambda name: plan.sequence(name).body, limit, trail)
         message, _ = walk.too_deep_text(plan.nesting, room, limit, deep, trail)
@@ -603,7 +603,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         shortest, period_holds = None, False
     if budget is not None and s is not None and period_holds and not limits:   # else `period-too-short` first
         try:
-            _check_sends(plan, budget, period_cycles)
+            _check_sends(plan, budget, period_cycles, shortest)
         except layout.SendOverrun as exc:
             limits.append(exc)
     if limits:
@@ -940,8 +940,9 @@ def _send_floor(plan: Plan, budget: costs.Budget, shortest: int) -> int:
     return shortest if gap >= cap else max(shortest, -(-(need + budget.work) // gap))
 
 
-def _check_sends(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
-    """The bytes sent never outrun the line (costs.py), at the program's sends."""
+def _check_sends(plan: Plan, budget: costs.Budget, period_cycles: int, shortest: int | None = None) -> None:
+    """The bytes sent never outrun the line (costs.py), at the program's sends; `shortest`: the
+    shortest period (µs) at which they do not, which the help names."""
     serial = plan.program.serial
     run = send_run(plan)
     if run:
@@ -956,6 +957,8 @@ def _check_sends(plan: Plan, budget: costs.Budget, period_cycles: int) -> None:
                 f"{serial.baud} baud that takes {need} machine cycles, more than the "
                 f"{gap * period_cycles - budget.work} there are",
                 help=f"keep at least {frames} frames ({fmt_ms(frames * plan.period_us)}: a `hold` of that long) "
-                     "between the sends, send fewer bytes at a time, or use a faster rate",
+                     "between the sends, send fewer bytes at a time, or use a faster rate"
+                     + (f"; or `frame {fmt_ms(shortest).replace(' ', '')}` or longer, the shortest period at which "
+                        "they fit" if shortest is not None and shortest > plan.period_us else ""),
                 span=sends_[0].span if sends_ else serial.span,
                 labels=tuple((st.span, "sends too") for st in sends_[1:4]) + ((serial.span, "the line's rate"),))

@@ -221,7 +221,8 @@ def too_deep_text(depth: int, stack: int, limit: int, st: Any, trail: list = ())
     played = next((callee(t) for t in trail[hosts[-1] + 1:] if kind(t) == "play"), None) if hosts else None
     via = f" (`host`'s `PL` plays `{played}` on the way)" if played is not None else ""
     return (f"repeats, plays and waiting selects nest {depth} level{'s' if depth != 1 else ''} deep, but the "
-            f"firmware's {stack}-byte stack has room for {limit} level{'s' if limit != 1 else ''} (2 bytes each); "
+            f"firmware's {stack}-byte stack has room for "
+            f"{'no level' if limit <= 0 else f'{limit} level' + ('s' if limit != 1 else '')} (2 bytes each); "
             f"{subject} level {limit + 1}{via}", f"level {limit + 1}")
 
 

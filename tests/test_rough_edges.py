@@ -84,3 +84,36 @@ def test_lint_finds_what_compile_finds_without_the_assembler():
     overrun = ('serial 4800\nservo a = P1.0\npose p { a: 20 }\n'
                'main { move p; loop { repeat 3 { wait "a"; send "b" } } }\n')
     assert "send-overrun" in [c for c, _ in codes_and_messages(overrun)]
+
+
+def test_the_shortest_period_reported_is_one_whose_eased_tables_fit_the_chip():
+    """An eased move of 30 s takes a curve table of a byte a frame: at the 2.611 ms the timing
+    allows, 11,489 bytes, more than the AT89C52's 8 KB even built for size. The shortest period
+    reported is the least at which the firmware fits (and holds P): `frame` at it builds, and 1 us
+    less is refused, as too big for the chip."""
+    import re
+    text = "servo arm = P1.0\npose a { arm: 0 }\npose b { arm: 250 }\nmain {\n  move a\n  move b in 30s ease in-out\n}\n"
+    fe, diags = front_end_text(text)
+    shortest = fe.plan.min_period_us
+    assert not [d for d in diags if d.is_error] and 2611 < shortest < 5300, shortest
+    fe, diags = front_end_text(f"frame {shortest}us\n" + text)
+    assert not [d for d in diags if d.is_error] and fe.plan.min_period_us == shortest
+    _, diags = front_end_text(f"frame {shortest - 1}us\n" + text)
+    assert [d.code for d in diags if d.is_error] == ["rom-overflow"]
+    assert re.search(r"eased curve tables \d+", next(d.message for d in diags if d.is_error))
+
+
+def test_too_deep_with_no_level_left_says_so():
+    """24 servos, the serial line and three selects nested in meanwhile bodies: the stack has room
+    for no level at all; `too-deep` says so, at the first select, not "room for -1 levels"."""
+    pins = [f"P{p}.{b}" for p in (0, 1, 2) for b in range(8)]
+    inner = 'move lo in 700ms; send "A"; move hi in 700ms'
+    for _ in range(3):
+        inner = f"select {{ on release b2 {{ hold 10ms }} after 5s {{ hold 10ms }} meanwhile {{ {inner} }} }}"
+    text = ("serial 4800\ninput b2 = P3.3\n" + "".join(f"servo s{i} = {p}\n" for i, p in enumerate(pins))
+            + "pose lo { P0: 0, P1: 0, P2: 0 }\npose hi { P0: 250, P1: 250, P2: 250 }\n"
+            + f"main {{\n  loop {{ {inner} }}\n}}\n")
+    _, diags = front_end_text(text)
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "too-deep" and "has room for no level" in d.message and "-1" not in d.message, d.message
+    assert "reach level 1" in d.message

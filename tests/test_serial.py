@@ -488,3 +488,16 @@ def test_the_serial_handler_s_run_that_takes_a_byte_changes_no_flag(sends):
     if sends:       # the run that sends may use the carry: it saves PSW first
         send = next(r for r in _isr_paths(unit.text)[1:] if any("SBUF, @R0" in s for s in r))
         assert send[send.index(next(s for s in send if s.startswith("PUSH"))):][0] == "PUSH    PSW"
+
+
+def test_send_overrun_names_the_shortest_period_at_which_the_sends_fit():
+    """1 us below the shortest period lint reports, the runs of sends no longer fit: `send-overrun`
+    refuses the program, and its help names that shortest period as a `frame` to use."""
+    text = 'serial 4800\ninput b = P3.2\nservo a = P1.0\npose p { a: 100 }\nhome p\nmain { move p; loop { wait press b; send "x" } }\n'
+    fe, _ = front_end_text(text)
+    shortest = fe.plan.min_period_us
+    _, diags = front_end_text(f"frame {shortest - 1}us\n" + text)
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "send-overrun" and f"`frame {shortest / 1000:g}ms` or longer" in d.help, d.help
+    _, diags = front_end_text(f"frame {shortest}us\n" + text)
+    assert not [d for d in diags if d.is_error]

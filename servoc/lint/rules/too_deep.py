@@ -38,7 +38,7 @@ def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_
             serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3,
             wrapped: bool = False) -> None:
     """At the first repeat or play past the limit."""
-    limit = costs.max_nesting(serial, watch, taken, ports, wrapped)
+    limit = max(0, costs.max_nesting(serial, watch, taken, ports, wrapped))
     st = walk.first_too_deep(main, body_of, limit)
     message, label = walk.too_deep_text(depth, costs.stack_room(serial, taken, ports), limit, st)
     report(message, st.span if st is not None else main_span, label=label,
