@@ -714,6 +714,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
         "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
+        "period": period_cycles,
         "ctime": "\n".join("        " + line for line in table + ctime),
         "ctime_kept": "\n".join("        " + line for line in ctime),     # where DPTR is ctab already
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],

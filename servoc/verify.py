@@ -883,6 +883,9 @@ def verify_span(plan: Plan, asked: int | None, events: list | None) -> RunSpan:
     def secs(frames: int) -> str:
         return f"{frames * period * target.cycle_us / 1e6:.1f} s"
 
+    if not plan.channels:
+        notes.append("the program drives no servo line: with no pulse to time its frames by, verify checks "
+                     "none of its timing (holds, `after`, sends, selects)")
     sending = [e for e in events or () if isinstance(e, ByteEvent)]
     serial = plan.program.serial
     through = 0 if not sending or serial is None else bytes_through(sending, byte_cycles(serial.th1, serial.smod), target)

@@ -117,3 +117,20 @@ def test_too_deep_with_no_level_left_says_so():
     (d,) = [d for d in diags if d.is_error]
     assert d.code == "too-deep" and "has room for no level" in d.message and "-1" not in d.message, d.message
     assert "reach level 1" in d.message
+
+
+def test_a_program_with_no_servos_keeps_its_frames():
+    """No port to pulse: Timer0 alone times the frames, so `hold 20ms` at P = 5.3 ms is 4 frames
+    between two sends, to the machine cycle, at 12 MHz, at 11.0592 MHz and in 6T mode (the frames
+    ran at no pace before: hundreds of bytes a second); verify says it checked none of the timing."""
+    from conftest import build_text
+    from servoc import api
+    for head in ("", "target stc89c52rc clock 11.0592MHz\n", "target stc89c52rc clock 11.0592MHz mode 6T\n"):
+        b = build_text(head + 'serial 4800\nmain { loop { send "a"; hold 20ms } }\n')
+        period = b.plan.program.target.cycles(b.plan.period_us)
+        trace = api.simulate(b.firmware.hex_text, 12 * 4 * period, b.plan.program.target, api.stimulus(b.plan))
+        starts = [t for t, _ in trace.sent]
+        assert len(starts) >= 10 and all(b_ - a == 4 * period for a, b_ in zip(starts[1:], starts[2:])), \
+            (head, period, [b_ - a for a, b_ in zip(starts, starts[1:])])
+        from servoc.verify import verify_span
+        assert any("drives no servo line" in note for note in verify_span(b.plan, None, None).notes)
