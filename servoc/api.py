@@ -186,8 +186,11 @@ def rom_overflow(unit: codegen.AsmUnit, image, room: layout.Fit) -> tuple[str, s
                f"start-up {image.symbols['runtime_start']}, runtime {room.runtime}, program {room.program}, "
                f"motion data {room.data} ("
                + ", ".join(f"{what} {size}" for what, size in unit.data_breakdown[:4]) + ")")
+    eased = any(what == "eased curve tables" for what, _ in unit.data_breakdown)
     help_ = ("shorten the program: fewer distinct moves (play a sequence several times instead of "
              "writing its moves out again), shorter eased moves, or one `speed` for servos of one model"
+             + ("; an eased move's curve table has a byte a frame, so a longer `frame` makes it smaller"
+                if eased else "")
              + (f"; or build for a chip with more code memory: `target {bigger[0].lower().rstrip('+')}`"
                 if bigger else ""))
     return message, help_

@@ -100,7 +100,8 @@ def test_the_shortest_period_reported_is_one_whose_eased_tables_fit_the_chip():
     assert not [d for d in diags if d.is_error] and fe.plan.min_period_us == shortest
     _, diags = front_end_text(f"frame {shortest - 1}us\n" + text)
     assert [d.code for d in diags if d.is_error] == ["rom-overflow"]
-    assert re.search(r"eased curve tables \d+", next(d.message for d in diags if d.is_error))
+    d = next(d for d in diags if d.is_error)
+    assert re.search(r"eased curve tables \d+", d.message) and "a longer `frame` makes it smaller" in d.help
 
 
 def test_too_deep_with_no_level_left_says_so():
