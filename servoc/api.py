@@ -29,8 +29,7 @@ from . import verify as _verify
 from .diagnostics import Reporter, limit_diagnostic
 from .source import NO_SPAN, SourceFile, Span
 from .flow import hosted
-from .steps import MoveStep, Plan
-from .steps import steps
+from .steps import MoveStep, Plan, steps
 from .units import round_half_up
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
 
@@ -112,7 +111,8 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
     at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
     depends on P. It also decides the build once for every command: when the firmware built for
     speed does not fit the chip's code memory, the plan is the one built for size (`compact`).
-    `decide` False: the build `first` asks for, whether it fits or not."""
+    `decide` False: the build `first` asks for, whether it fits or not. `least` False: no search
+    below the code's own shortest period for one at which the firmware still fits (eased moves)."""
     result = _periods(program, first)
     if decide and not result.compact and result.firmware_limit is None and _overflow(result):
         result = _periods(program, dataclasses.replace(first, compact=True))

@@ -630,7 +630,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
             break
 
     # Each byte the host sent, as the serial handler received it.
-    spoiled = _spoiled(obs, marks=hosted(plan))
+    spoiled = _spoiled(obs, marks=hosted(plan))     # empty with no byte dropped, or without `host`
     enqueued = _enqueued(obs)                   # queue position -> index into `sent`
     for i, got in enumerate(obs.received):
         if i >= len(sent):
@@ -644,11 +644,10 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
             bad(got.cycle, f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped with only "
                            f"{got.queued_before} queued: the queue holds {queue}")
         elif not got.queued:
-            found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was dropped: the queue "
-                                  f"already held {queue} bytes no select had taken" if not hosted(plan) else
-                                  f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was lost: the receive "
-                                  f"queue already held {queue} bytes not yet read, so the line it was in is dropped "
-                                  "as a bad line (docs/host-protocol.md, Timing)")
+            why = (f"lost: the receive queue already held {queue} bytes not yet read, so the line it was in is "
+                   "dropped as a bad line (docs/host-protocol.md, Timing)" if spoiled else
+                   f"dropped: the queue already held {queue} bytes no select had taken")
+            found.warnings.append(f"byte {_show(host.byte)} (arrived at {when(host.arrives)}) was {why}")
     per = 0 if plan.program.serial is None else byte_cycles(plan.program.serial.th1, plan.program.serial.smod)
     for host in sent[len(obs.received):]:
         if host.arrives + per < trace.cycles:
