@@ -138,7 +138,7 @@ class Bit:
 # HLINE (host.asm.j2): the lines the host parser has read that host_step (or frame_h) must carry
 # out; verify reads it at the end of each frame's reading.
 HLINE_BITS = (
-    Bit("GROUP", 0, "a group to commit (HARG: its T)"),
+    Bit("GROUP", 0, "a group to commit (SEGF: its T)"),
     Bit("ANSQ", 1, "answers waiting: VER's being queued, or some in HAQ (the reading goes on)"),
     Bit("OFFS", 2, "offsets to set"),
     Bit("PLAY", 3, "a sequence to play (PL 0 SQ n)"),

@@ -149,9 +149,16 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
         ram = {HOST_BYTE: (HOST_BYTE_RAM,), HOST_FRAME: rx_state, HOST_START: (), PLAY_FRAME: rx_state,
                HOST_END: rx_state + (equ["HLINE"], equ["TXW"], equ["TXR"]), PLAY_START: (), PLAY_CUT: ()}
         ram[PLAY_END] = ram[HOST_END]
+        # built for size, the reading while a sequence `PL` started plays is host_read itself: its
+        # end tells the two apart by HPLAY (0 but while such a sequence plays)
+        shared = "play_read" in labels and labels["play_read"] == labels.get("host_read")
+        if shared:
+            ram[HOST_END] += (equ["HPLAY"],)
         for lab, kind in (("host_run", HOST_START), ("host_read", HOST_FRAME), ("hb_in", HOST_BYTE),
                           ("hp_end", HOST_END), ("play_read", PLAY_FRAME), ("pr_end", PLAY_END),
                           ("host_plays", PLAY_START), ("pc_go", PLAY_CUT)):
+            if shared and kind in (PLAY_FRAME, PLAY_END):
+                continue
             if lab in labels:
                 add(labels[lab], kind, "", None, ram[kind])
             elif not lab.startswith(("play", "pr_", "host_plays", "pc_")):       # only with sequences
@@ -343,7 +350,7 @@ def observe(probes: Probes, trace: SimTrace) -> Observation:
             rxw(p.ram[1])
             read = len(hosts[-1].frames[-1][2])
             hosts[-1].ends.append(Ended(host_queued, max(0, host_queued - read), p.ram[2], (p.ram[3] - p.ram[4]) & 0xFF,
-                                        kind == PLAY_END))
+                                        kind == PLAY_END or (len(p.ram) > 5 and p.ram[5] != 0)))
         elif kind == HOST_BYTE:
             if not hosts or not hosts[-1].frames:
                 problems.append(f"the host parser read a byte at cycle {p.cycle} outside a frame's reading")

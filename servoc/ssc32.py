@@ -82,12 +82,15 @@ The rules, as the document states them:
   offset line sets its offsets in the frame it is read (`set_offsets`).
   ESC and a bad line drop only their own line.
 - A group line that names a servo, an offset line and `PL 0 SQ n` (any n)
-  end the frame's reading: the bytes after them are read in the next frame
-  (`stops_reading`, `Session.read`). So a frame reads at most one of them,
-  as its last line: one group per frame (the group lines of one frame never
-  merge; a second one's move replaces the first's from where frame i + 1
-  left the servos), and no `STOP`, `STOP c`, ESC or bad line comes after a
-  group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
+  end the frame's lines (`stops_reading`, `Session.read`): an offset line
+  and `PL` end its reading, the bytes after them are read in the next frame;
+  after a group line the reading goes on into the next line, and stops
+  before a byte that would end it, drop it or end one of its entries
+  (`LineParser.stalls`: CR, LF, ESC, and a '#' after a '#' of that line). So a frame reads at most one of them, as its last
+  line: one group per frame (the group lines of one frame never merge; a
+  second one's move replaces the first's from where frame i + 1 left the
+  servos), and no `STOP`, `STOP c`, ESC or bad line comes after a group or
+  an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
   `STOP`, `STOP c`, a group line that names no servo, a line that does
   nothing, a bad line) do not end the reading, except that an answer that
   cannot be queued at its line end (the transmit queue full, or answers
@@ -198,6 +201,7 @@ class LineParser:
 
     def _reset(self) -> None:
         self.bad = False                # the line is ignored up to its end
+        self.hashed = False             # a '#' has been read in the line (an entry begun)
         self.item: str | None = None    # the open item: "#" (a channel number) or a word's letters
         self.digits = False             # a digit has followed the open item
         self.num = 0
@@ -229,6 +233,7 @@ class LineParser:
                 self.num = min(NUM_MAX, 10 * self.num + byte - 48)
                 self.digits = True
         elif byte == 35:                                # '#': an entry starts
+            self.hashed = True
             self._close_item()
             if self.cmd is not None or self.time is not None:
                 self.bad = True
@@ -254,6 +259,14 @@ class LineParser:
         else:
             self.bad = True
         return None
+
+    def stalls(self, byte: int) -> bool:
+        """While a group line read in this frame waits for its commit, the reading stops before
+        this byte (it stays queued for the next frame): a line end and ESC (each would end or drop
+        a line), and a '#' after a '#' of the line being read (it would end that '#''s entry, which
+        the firmware writes where the waiting group's entries are; also once the line has gone
+        bad, as the firmware does not look at that)."""
+        return byte in (CR, LF, ESC) or (byte == 35 and self.hashed)
 
     def _close_item(self) -> None:
         """The open item ends (at '#', at a letter that starts a word, at the line end)."""
@@ -637,19 +650,21 @@ class Session:
 
     def read(self, parser: LineParser, data: bytes, limit: int | None = None) -> tuple[bytes, int]:
         """This frame's reading from bytes: `data` (the bytes received, oldest first) goes to
-        `parser` byte by byte, each command to `line`, until a line that stops the reading has
-        ended, the bytes run out or `limit` bytes are read. Returns the replies and the number
-        of bytes read; the others wait for the next frame (pass them again after `frame()`).
-        Nothing is read when a line that stops the reading has already ended in this frame."""
-        if self.reading_stopped:
+        `parser` byte by byte, each command to `line`, until an offset, `PL` or (while a sequence
+        plays) `STOP` line has ended, or, after a group line, before a byte the parser `stalls` at;
+        or the bytes run out, or `limit` bytes are read. Returns the replies and the number of
+        bytes read; the others wait for the next frame (pass them again after `frame()`)."""
+        if self.reading_stopped and self.pending is None:
             return b"", 0
         out = []
         n = len(data) if limit is None else min(limit, len(data))
         for i in range(n):
+            if self.pending is not None and parser.stalls(data[i]):
+                return b"".join(out), i     # a group waits: the reading stops before this byte
             cmd = parser.feed(data[i])
             if cmd is not None:
                 out.append(self.line(cmd))
-            if self.reading_stopped:
+            if self.reading_stopped and self.pending is None:
                 return b"".join(out), i + 1
         return b"".join(out), n
 

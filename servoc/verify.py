@@ -591,7 +591,8 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     # `host`: each frame's reading read every byte that had come before it began, unless a line
     # that stops the reading was read (docs/host-protocol.md), or an answering line (Q, QP, VER)
     # whose answer has to wait for room, in this frame or before (HLINE bits 4 and 6, until host_step
-    # sends it), or it read as many as a frame's reading reads.
+    # sends it), or it read as many as a frame's reading reads. After a group line it stops only
+    # before a byte the parser stalls at (the next reading's first).
     if obs.hosts:
         from . import ssc32
         from .flow import host_passes
@@ -600,12 +601,18 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
             parser, waiting, held, played = ssc32.LineParser(), False, 0, False
-            for (cycle, _, got), ended in zip(h.frames, h.ends):
-                stopped = answered = False
+            readings = list(zip(h.frames, h.ends))
+            for k, ((cycle, _, got), ended) in enumerate(readings):
+                stopped = answered = grouped = False
                 for b in got:
                     cmd = parser.feed(b)
                     stopped = stopped or ssc32.stops_reading(cmd, servos, ended.playing)
+                    grouped = grouped or (isinstance(cmd, ssc32.Group) and ssc32.stops_reading(cmd, servos))
                     answered = answered or isinstance(cmd, (ssc32.Query, ssc32.QueryPulse, ssc32.Version))
+                after = readings[k + 1][0][2] if k + 1 < len(readings) else []
+                if grouped and ended.left and len(got) < passes and after and not parser.stalls(after[0]):
+                    bad(cycle, f"the host parser stopped reading at {when(cycle)} after a group line, before "
+                               f"{_show(after[0])}, a byte it reads on to")
                 stops = ended.hline & ~HLINE_QUEUING
                 waits = ended.hline & HLINE_WAITS
                 # a line that stops the reading while a sequence `PL` started plays waits, its bit

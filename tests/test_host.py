@@ -14,7 +14,8 @@ import re
 import pytest
 
 from conftest import build_text, front_end_text
-from servoc import ssc32
+from servoc import flow, ssc32
+from servoc.model import host_channel
 from test_verify_observes import problems, rebuilt, watch
 
 pytestmark = pytest.mark.toolchain
@@ -951,16 +952,18 @@ def test_q_lines_back_to_back_through_a_whole_sequence_keep_every_frame_exact(cl
     assert out == b"+" * out.count(b"+") + b"." * out.count(b".")     # '+' until the wave ends, then '.'
 
 
-@pytest.mark.parametrize("clock", ["11.0592MHz", "11.0592MHz mode 6T"])
-def test_a_byte_lost_to_a_full_queue_spoils_its_line_so_no_line_is_read_with_bytes_missing(clock):
-    """Single-servo lines back to back come faster than the arm's reading takes them: the receive
-    queue fills and bytes are lost. The serial handler makes the newest byte queued 0xFF when one
-    is lost, so every line the parser reads whole (without 0xFF) is a line the host sent: none is
-    spliced from two (`#0P1` and `00` would move the base to 500 us). verify passes the run."""
-    text = ARM.replace("clock 11.0592MHz", f"clock {clock}")
-    lines = [f"#0P{1001 + 7 * i}\r" for i in range(90)]
+@pytest.mark.parametrize("clock, baud", [("11.0592MHz", 9600), ("11.0592MHz mode 6T", 19200)])
+def test_a_byte_lost_to_a_full_queue_spoils_its_line_so_no_line_is_read_with_bytes_missing(clock, baud):
+    """Group lines shorter than a frame's bytes (5 bytes; at 19200 baud in 6T mode a frame brings
+    10) come faster than one a frame, as the arm commits them: the receive queue fills and bytes
+    are lost. The serial handler makes the newest byte queued 0xFF when one is lost, so every line
+    the parser reads whole (without 0xFF) is a line the host sent: none is spliced from two (each
+    line's channel and width go together, so `#0P` and `2` and CR would be no line sent). verify
+    passes the run."""
+    text = ARM.replace("clock 11.0592MHz", f"clock {clock}").replace("serial 9600", f"serial {baud}")
+    lines = [f"#{c}P{w}\r" for c, w in ((0, 1), (1, 2), (2, 3), (7, 4))] * 50
     scenario = "0.3s " + " ".join('"' + ln.replace("\r", "\\r") + '"' for ln in lines) + "\n"
-    b, trace, report = session(scenario, 260, text)
+    b, trace, report = session(scenario, round(1.6e6 / built(text).plan.period_us), text)
     read = b"".join(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames)
     assert 0xFF in read                                   # bytes were lost
     whole = [ln for ln in read.replace(b"\n", b"\r").split(b"\r")[:-1] if 0xFF not in ln]
@@ -1038,3 +1041,29 @@ def test_a_group_line_after_answers_that_wait_moves_within_2_p(clock):
     cr = 0.5 + len("VER\rVER\r#1P2000\r") * 10 / 9600
     moved = next(i for i in range(frame(0.45), len(shoulder)) if shoulder[i] != 122)
     assert frame(0.5) < moved <= frame(cr) + 2, (moved, frame(cr))
+
+
+@pytest.mark.parametrize("clock, baud, tail", [("11.0592MHz", 9600, ""), ("11.0592MHz mode 6T", 19200, "S10000T500")])
+def test_one_channel_lines_back_to_back_lose_no_byte(clock, baud, tail):
+    """One-channel group lines back to back, each longer than a frame brings (8 bytes at 9600
+    baud, where a frame brings 5.5; 18 at 19200 baud in 6T mode, where it brings 10.4) and than a
+    frame's reading takes (7 and 17 bytes). After a group line the reading goes on into the next
+    line, up to its CR, so every frame carries out a line and reads on: no byte is lost, every
+    byte is read, verify passes the run, and the last line's servo ends at its width. (When a
+    group line stopped the frame's reading, each line cost a frame's reading, and these lines
+    filled the receive queue.)"""
+    text = ARM.replace("clock 11.0592MHz", f"clock {clock}").replace("serial 9600", f"serial {baud}")
+    plan = built(text).plan
+    brings = plan.period_us * baud / 10 / 1e6 * 1.02
+    lines = [f"#{c}P{1000 + (97 * i) % 900}{tail}\r" for i, c in enumerate([0, 1, 2, 7] * 40)]
+    assert all(len(ln) > max(brings, flow.host_passes(plan)) for ln in lines), brings
+    scenario = '0.3s "' + "".join(ln.replace("\r", "\\r") for ln in lines) + '"\n'
+    b, trace, report = session(scenario, round((1.2 + len("".join(lines)) * 10 / baud) * 1e6 / plan.period_us), text)
+    read = b"".join(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames)
+    assert read == "".join(lines).encode()
+    assert not [w for w in report.warnings if "lost" in w]
+    # each line's move ends the one before where it is (verify checks every frame of them); the
+    # last line's servo, the grip (channel 7 on P1.3), goes all the way
+    s = next(c.servo for c in b.plan.channels if host_channel(c.servo) == 7)
+    servo = ssc32.Servo(7, *(s.limit or (0, 250)), s.reverse, s.trim, s.t_dav_us)
+    assert n_of(b, widths(b, trace, 1, 3)[-1]) == ssc32.target_n(servo, int(lines[-1][3:7]), 0)

@@ -582,13 +582,14 @@ def _two():
 def test_a_move_frame_by_frame_and_q():
     s = Session([Servo(0, t_dav_us=Fraction(2000))], P20, start={0: 0})
     p = LineParser()
-    # Q before the group sees no move; the group ends the frame's reading: the Q after it waits
-    assert s.read(p, b"Q\r#0P900\rQ\r") == (b".", 9)
+    # Q before the group sees no move; the group ends the frame's lines: the reading goes on into
+    # the Q after it and stops before its CR, which waits for the next frame
+    assert s.read(p, b"Q\r#0P900\rQ\r") == (b".", 10)
     assert s.pending == Group((Entry(0, 900, None),), None)
     # 0 -> 50 in F = 5: (100k + 5) // 10 = 10, 20, 30, 40, 50
     assert s.frame() == {0: 10}
     assert s.pending is None
-    assert s.read(p, b"Q\r") == (b"+", 2)
+    assert s.read(p, b"\r") == (b"+", 1)
     got = []
     for _ in range(4):
         got.append(s.frame()[0])
@@ -617,25 +618,26 @@ def test_each_group_line_is_read_in_a_frame_of_its_own():
     s = _two()
     p = LineParser()
     data = b"#0P900\r#1P1700T200\rQ\r#7P2500T5000\r#0P1000\rQ\r"
-    # the first group line ends the reading (7 bytes): #0 0 -> 50, F = ceil(50 / 10) = 5
-    assert s.read(p, data) == (b"", 7)
+    # the first group line ends the frame's lines: #0 0 -> 50, F = ceil(50 / 10) = 5; the
+    # reading goes on into the second line and stops before its CR (7 + 11 bytes)
+    assert s.read(p, data) == (b"", 18)
     assert s.pending == Group((Entry(0, 900, None),), None)
     assert s.frame() == {0: 10, 1: 250}
-    # the second (12 bytes), in the next frame: #1 250 -> 150, top 10, T200: (655,400 + 32768)
-    # >> 16 = 10: F = 10; it ends #0's move where frame 1 left it, at 10
-    data = data[7:]
-    assert s.read(p, data) == (b"", 12)
+    # the second's CR, in the next frame: #1 250 -> 150, top 10, T200: (655,400 + 32768)
+    # >> 16 = 10: F = 10; it ends #0's move where frame 1 left it, at 10; then Q up to its CR
+    data = data[18:]
+    assert s.read(p, data) == (b"", 2)
     assert s.pending == Group((Entry(1, 1700, None),), 200)
     assert s.frame() == {0: 10, 1: 240}
-    # Q (k = 1 < 10), #7 names no servo: it does not stop the reading, its T5000 counts for
-    # nothing; #0P1000 does (2 + 13 + 8 bytes)
-    data = data[12:]
+    # Q's CR (k = 1 < 10), #7 names no servo: it does not stop the reading, its T5000 counts for
+    # nothing; #0P1000 does, and the last Q is read up to its CR (1 + 13 + 8 + 1 bytes)
+    data = data[2:]
     assert s.read(p, data) == (b"+", 23)
     assert s.pending == Group((Entry(0, 1000, None),), None)
     # #0 10 -> (500 + 4) // 8 = 63, |d| 53: F = ceil(5.3) = 6; #1's move ends at 240
     # #0: 10 + (106k + 6) // 12 = 19, 28, 37, 45, 54, 63
     assert s.frame() == {0: 19, 1: 240}
-    assert s.read(p, data[23:]) == (b"+", 2)
+    assert s.read(p, data[23:]) == (b"+", 1)
     assert [s.frame() for _ in range(5)] == [{0: n, 1: 240} for n in (28, 37, 45, 54, 63)]
     assert _line(s, b"Q\r") == b"."
 
@@ -644,12 +646,12 @@ def test_each_group_line_has_its_own_t():
     s = Session([Servo(0, t_dav_us=FAST), Servo(1, t_dav_us=FAST)], P20, start={0: 0, 1: 0})
     p = LineParser()
     data = b"#0P900T400\r#1P900T100\r"
-    assert s.read(p, data) == (b"", 11)
+    assert s.read(p, data) == (b"", 21)       # the first line, the second up to its CR
     # T400: (1,310,800 + 32768) >> 16 = 20; #0 0 -> 50: (100 + 20) // 40 = 3
     assert s.frame() == {0: 3, 1: 0}
     # the next line's T100 alone: (327,700 + 32768) >> 16 = 5, not the longest of the two;
     # #0's move ends at 3; #1 0 -> 50: (100k + 5) // 10 = 10, 20, 30, 40, 50
-    assert s.read(p, data[11:]) == (b"", 11)
+    assert s.read(p, data[21:]) == (b"", 1)
     frames, _ = group_move(s.pending, s.by_channel, s.now, s.offsets, P20)
     assert frames == 5
     assert [s.frame()[1] for _ in range(5)] == [10, 20, 30, 40, 50]
@@ -661,10 +663,10 @@ def test_a_second_group_replaces_the_first_from_where_its_frame_left_the_servos(
     s = _two()
     p = LineParser()
     data = b"#0P900\r#0P1500S1000\r"
-    assert s.read(p, data) == (b"", 7)
+    assert s.read(p, data) == (b"", 19)
     # 0 -> 50 in 5
     assert s.frame() == {0: 10, 1: 250}
-    assert s.read(p, data[7:]) == (b"", 13)
+    assert s.read(p, data[19:]) == (b"", 1)
     # from 10, not 0: 10 -> 125, |d| 115: top ceil(11.5) = 12; S1000: 920 us at 1000 us/s:
     # 0.92 s, 46 frames: F = 46; 10 + (230k + 46) // 92: k = 1: 276 // 92 = 3
     assert s.frame() == {0: 13, 1: 250}
@@ -707,12 +709,12 @@ def test_stop_after_a_group_is_read_in_the_next_frame():
     s = _two()
     p = LineParser()
     data = b"#1P1700\rSTOP\rQ\r"
-    # the group ends the reading: the STOP after it cannot drop it
-    assert s.read(p, data) == (b"", 8)
+    # the group ends the frame's lines: the STOP after it is read up to its CR, and cannot drop it
+    assert s.read(p, data) == (b"", 12)
     # #1 250 -> 150 in 10
     assert s.frame() == {0: 0, 1: 240}
     # STOP, in the next frame, ends the move where frame 1 left #1; Q in the same frame sees it
-    assert s.read(p, data[8:]) == (b".", 7)
+    assert s.read(p, data[12:]) == (b".", 3)
     assert s.frame() == {0: 0, 1: 240}
     # STOP, then a group in the same frame: the group stays; #1 240 -> 250, |d| 10: F = 1
     assert s.read(p, b"STOP\r#1P2500\r") == (b"", 13)
@@ -724,10 +726,10 @@ def test_stop_c_after_a_group_is_read_in_the_next_frame():
     p = LineParser()
     data = b"#0P900#1P1700\rSTOP 1\r"
     # the group (14 bytes), F = 10: #0 (100k + 10) // 20, #1 250 - (200k + 10) // 20
-    assert s.read(p, data) == (b"", 14)
+    assert s.read(p, data) == (b"", 20)       # and STOP 1 up to its CR
     assert s.frame() == {0: 5, 1: 240}
     # STOP 1 in the next frame: #1 stops at 240, #0 goes on
-    assert s.read(p, data[14:]) == (b"", 7)
+    assert s.read(p, data[20:]) == (b"", 1)
     assert s.frame() == {0: 10, 1: 240}
     for _ in range(7):
         s.frame()
@@ -735,9 +737,9 @@ def test_stop_c_after_a_group_is_read_in_the_next_frame():
     assert s.frame() == {0: 50, 1: 240}
     assert _line(s, b"Q\r") == b"."
     # P0 then STOP 0: the P0 is read first, in a frame of its own: #0's pulses stop
-    assert s.read(p, b"#0P0\rSTOP 0\r") == (b"", 5)
+    assert s.read(p, b"#0P0\rSTOP 0\r") == (b"", 11)
     assert s.frame() == {0: None, 1: 240}
-    assert s.read(p, b"STOP 0\r") == (b"", 7)
+    assert s.read(p, b"\r") == (b"", 1)
     assert s.frame() == {0: None, 1: 240}
 
 
@@ -837,11 +839,11 @@ def test_an_offset_line_after_a_group_is_read_in_the_next_frame():
     p = LineParser()
     data = b"#0P1500\r#0PO40\r"
     # the group uses the offset before the line: 1500 -> 125
-    assert s.read(p, data) == (b"", 8)
+    assert s.read(p, data) == (b"", 14)       # and the offset line up to its CR
     assert s.frame() == {0: 125}
     assert s.offsets == {0: 0}
-    # then the offset line, alone in its frame: no move
-    assert s.read(p, data[8:]) == (b"", 7)
+    # then the offset line ends, alone in its frame: no move
+    assert s.read(p, data[14:]) == (b"", 1)
     assert s.pending_offsets == Offset((Entry(0, None, None, 40),))
     assert s.frame() == {0: 125}
     assert s.offsets == {0: 40} and s.pending_offsets is None
@@ -897,11 +899,11 @@ def test_play_after_a_group_is_read_in_the_next_frame():
     s = Session([Servo(0, t_dav_us=Fraction(2000))], P20, sequences=1, start={0: 0})
     p = LineParser()
     data = b"#0P900\rPL0SQ1\rPL0SQ0\rQ\r"
-    # the group (F = 5), then each PL line in a frame of its own
-    assert s.read(p, data) == (b"", 7)
+    # the group (F = 5) and the first PL line up to its CR, then each PL line in a frame of its own
+    assert s.read(p, data) == (b"", 13)
     assert s.frame() == {0: 10}
     # no sequence 1: nothing, but it ends the reading
-    assert s.read(p, data[7:]) == (b"", 7)
+    assert s.read(p, data[13:]) == (b"", 1)
     assert s.frame() == {0: 20}
     assert s.plays == []
     # sequence 0: the move ends, frame i + 1 repeats frame i
@@ -940,11 +942,12 @@ def test_esc_and_bad_lines_drop_only_their_own_line():
 def test_an_unfinished_line_does_nothing_yet():
     s = _two()
     p = LineParser()
-    # the first group line ends the frame's reading: the unfinished line after it is not read
-    assert s.read(p, b"#0P900\r#1P1700#2") == (b"", 7)
+    # the first group line ends the frame's lines: the unfinished line after it is read up to the
+    # '#' that would end its first entry
+    assert s.read(p, b"#0P900\r#1P1700#2") == (b"", 14)
     assert s.frame() == {0: 10, 1: 250}
-    # the next frame reads it: #1's entry has ended at the '#', its line has not: #0's move goes on
-    assert s.read(p, b"#1P1700#2") == (b"", 9)
+    # the next frame reads on: #1's entry has ended at the '#', its line has not: #0's move goes on
+    assert s.read(p, b"#2") == (b"", 2)
     assert s.pending is None
     assert s.frame() == {0: 20, 1: 250}
     # its line end, the next frame: a new move (#0's ends at 20); #1 250 -> 150, F = 10: 240
@@ -981,20 +984,20 @@ def test_lines_that_stop_the_reading():
 def test_read_frame_by_frame():
     s = _two()
     p = LineParser()
-    # up to the first group (2 + 7 bytes): a Q, the group; the LF, the second group wait
+    # up to the first group (2 + 7 bytes): a Q, the group; the LF after it, the second group wait
     data = b"Q\r#0P900\r\n#1P1700\rVER\rQ\r"
     assert s.read(p, data) == (b".", 9)
     # #0 0 -> 50: F = 5
     assert s.frame() == {0: 10, 1: 250}
-    # the LF (an empty line) and the second group (1 + 8 bytes): #1 250 -> 150, F = 10; #0
-    # stays at 10
+    # the LF (an empty line), the second group and VER up to its CR (1 + 8 + 3 bytes): #1 250 ->
+    # 150, F = 10; #0 stays at 10
     data = data[9:]
-    assert s.read(p, data) == (b"", 9)
+    assert s.read(p, data) == (b"", 12)
     assert s.frame() == {0: 10, 1: 240}
     # the VER and the Q after it (whose answer goes out after VER's, when there is room: the
     # firmware's timing)
-    data = data[9:]
-    assert s.read(p, data) == (VERSION_REPLY + b"+", 6)
+    data = data[12:]
+    assert s.read(p, data) == (VERSION_REPLY + b"+", 3)
     # #1: 250 - 10k
     assert s.frame() == {0: 10, 1: 230}
     assert s.frame() == {0: 10, 1: 220}
@@ -1063,10 +1066,14 @@ def test_group_lines_one_a_frame_land_on_their_targets(start, entries, t, lines)
         assert s.frame() == dict(enumerate(start))
         return
     now = dict(enumerate(start))
+    ahead = 0                           # bytes of `data` read ahead, after the group before
     for j, (chunk, g) in enumerate(chunks):
-        assert s.read(p, data) == (b"", len(chunk))
+        # and on into the next line, up to the byte that would end it or its first entry
+        upto = len(chunk) + _stall_at(data[len(chunk):])
+        assert s.read(p, data[ahead:]) == (b"", upto - ahead)
         assert s.pending == g
         data = data[len(chunk):]
+        ahead = upto - len(chunk)
         # its move, from where the frame before left the servos; every move under way ends
         frames, targets = group_move(g, s.by_channel, now, {}, P20)
         n0s = dict(now)
@@ -1078,12 +1085,23 @@ def test_group_lines_one_a_frame_land_on_their_targets(start, entries, t, lines)
             assert s.frame() == now
             if last:
                 if k == 1:              # the lines after it, that name no servo: nothing
-                    assert s.read(p, data) == (b"", len(data))
+                    assert s.read(p, data[ahead:]) == (b"", len(data) - ahead)
                 moving = any(n0s[ch] is not None and n1 is not None and n1 != n0s[ch] for ch, n1 in targets.items())
                 assert _line(s, b"Q\r") == (b"+" if k < frames and moving else b".")
     # a servo that no line names stays where it started
     named = {ch for _, g in chunks for ch in group_move(g, s.by_channel, {}, {}, P20)[1]}
     assert all(s.now[ch] == start[ch] for ch in range(3) if ch not in named)
+
+
+def _stall_at(rest: bytes) -> int:
+    """Where the reading stops in `rest` (lines with no ESC, LF or bad line) after a group line
+    has ended: before the first CR, or before a second '#' of the line it ends."""
+    cr = rest.find(b"\r")
+    if cr < 0:
+        return len(rest)
+    first = rest.find(b"#", 0, cr)
+    second = rest.find(b"#", first + 1, cr) if first >= 0 else -1
+    return second if second >= 0 else cr
 
 
 @settings(max_examples=300, deadline=None)
