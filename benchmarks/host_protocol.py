@@ -11,7 +11,8 @@
    channels (those without a servo are read and ignored), the 8 servos lines of 24 channels, and
    24 servos on three ports (an STC89C58RD+) lines naming all 24;
    every byte must be read by the parser, none dropped, and `servoc verify` must find every
-   pulse and reply exact.
+   pulse and reply exact. Then the arm gets one-channel lines (8 bytes) back to back, next to
+   the same firmware patched to stop the reading at a group line's end, as servoc did before.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host` (moved by bytes between their home and N 250, as far as a host
@@ -121,6 +122,36 @@ def sustained(seconds: float, channels: int, program: str, servos: tuple[int, ..
             f"pulses, {report.bytes_sent} bytes sent)"]
 
 
+def stop_after_group(firmware, reporter):
+    """The firmware with the reading stopping at a group line's end, as servoc built it before the
+    reading went on into the next line (the side-by-side row)."""
+    text = firmware.unit.text
+    for p in ("hp", "pr"):
+        text = text.replace(f"CJNE    A, #0x01, {p}_n", f"SJMP    {p}_n       ", 1)
+    assert text != firmware.unit.text
+    return api.assemble(dataclasses.replace(firmware.unit, text=text), reporter)
+
+
+def sustained_one_channel(seconds: float, program: str, what: str, patch=None) -> list[str]:
+    """One-channel group lines (`#c P w`, 8 bytes) back to back at 9600 baud, cycling through the
+    arm's channels: each longer than a frame brings, shorter than a line that sets every servo."""
+    fe, firmware, reporter = build(program)
+    if patch is not None:
+        firmware = patch(firmware, reporter)
+    plan = fe.plan
+    lines = [f"#{c}P{1000 + (97 * n) % 900}" for n, c in
+             enumerate([0, 1, 2, 7] * int(seconds * 960 / 8 / 4 + 1))]
+    text = "".join(line + "\\r" for line in lines)
+    frames = int((seconds + 1.5) * 1e6 / plan.period_us)
+    trace, report = run(fe, firmware, f'0.2s "{text}"\n', frames)
+    sent = len(lines) * 8
+    read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
+    lost = sum(1 for r in trace.observation.received if not r.queued)
+    return [f"sustained, {what}: {len(lines)} one-channel group lines of 8 bytes ({sent} bytes back to back at "
+            f"9600 baud, {sent * 10 / 9600:.1f} s, P = {plan.period_us} us): {read} bytes read by the parser, "
+            f"{lost} lost; verify {'OK' if report.ok else 'FAILED'}"]
+
+
 def periods() -> list[str]:
     out = ["| servos on P1 | clock, baud | P with `host` (us) | P without (us) |", "|---|---|---|---|"]
     for clock, baud in (("11.0592MHz", 9600), ("12MHz", 4800), ("22.1184MHz", 9600)):
@@ -171,7 +202,11 @@ def main() -> int:
                  + latency(TWENTY_FOUR, "24 servos on P1, P2, P0 (STC89C58RD+)")
                  + sustained(seconds, 4, arm, (0, 1, 2, 7)) + sustained(seconds, 24, arm, (0, 1, 2, 7))
                  + sustained(seconds, 24, EIGHT, tuple(range(8)))
-                 + sustained(seconds, 24, TWENTY_FOUR, tuple(range(24))) + periods() + capacity()):
+                 + sustained(seconds, 24, TWENTY_FOUR, tuple(range(24)))
+                 + sustained_one_channel(seconds, arm, "the arm")
+                 + sustained_one_channel(seconds, arm, "the same, stopping the reading at a group line's end "
+                                         "(as servoc did before)", stop_after_group)
+                 + periods() + capacity()):
         print(line)
     return 0
 
