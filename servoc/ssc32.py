@@ -86,7 +86,8 @@ The rules, as the document states them:
   and `PL` end its reading, the bytes after them are read in the next frame;
   after a group line the reading goes on into the next line, and stops
   before a byte that would end it, drop it or end one of its entries
-  (`LineParser.stalls`: CR, LF, ESC, and a '#' after a '#' of that line). So a frame reads at most one of them, as its last
+  (`LineParser.stalls`: the control bytes 0x08-0x0F and 0x18-0x1F, CR, LF
+  and ESC among them, and a '#' after a '#' of that line). So a frame reads at most one of them, as its last
   line: one group per frame (the group lines of one frame never merge; a
   second one's move replaces the first's from where frame i + 1 left the
   servos), and no `STOP`, `STOP c`, ESC or bad line comes after a group or
@@ -262,11 +263,12 @@ class LineParser:
 
     def stalls(self, byte: int) -> bool:
         """While a group line read in this frame waits for its commit, the reading stops before
-        this byte (it stays queued for the next frame): a line end and ESC (each would end or drop
-        a line), and a '#' after a '#' of the line being read (it would end that '#''s entry, which
-        the firmware writes where the waiting group's entries are; also once the line has gone
-        bad, as the firmware does not look at that)."""
-        return byte in (CR, LF, ESC) or (byte == 35 and self.hashed)
+        this byte (it stays queued for the next frame): a control byte 0x08-0x0F or 0x18-0x1F
+        (byte AND 0xE8 is 0x08, the firmware's one test): CR and LF end a line, ESC drops one, the
+        others make a line bad or are ignored (TAB); and a '#' after a '#' of the line being read
+        (it would end that '#''s entry, which the firmware writes where the waiting group's entries
+        are; also once the line has gone bad, as the firmware does not look at that)."""
+        return byte & 0xE8 == 0x08 or (byte == 35 and self.hashed)
 
     def _close_item(self) -> None:
         """The open item ends (at '#', at a letter that starts a word, at the line end)."""

@@ -603,8 +603,12 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
             parser, waiting, held, played = ssc32.LineParser(), False, 0, False
             readings = list(zip(h.frames, h.ends))
             for k, ((cycle, _, got), ended) in enumerate(readings):
-                stopped = answered = grouped = False
+                stopped = answered = grouped = overread = False
                 for b in got:
+                    if grouped and not overread and parser.stalls(b):
+                        overread = True
+                        bad(cycle, f"the host parser read {_show(b)} at {when(cycle)} after a group line in the "
+                                   "same frame, a byte the reading stops before while a group waits")
                     cmd = parser.feed(b)
                     stopped = stopped or ssc32.stops_reading(cmd, servos, ended.playing)
                     grouped = grouped or (isinstance(cmd, ssc32.Group) and ssc32.stops_reading(cmd, servos))

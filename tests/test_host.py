@@ -1128,3 +1128,32 @@ def test_the_serial_handler_changes_no_flag_before_it_saves_psw(text):
             work.append((code.target(ins), saved))
         work.append((i + 1, saved))
     assert seen and not found, found
+
+
+QUEUED = """\
+target stc89c52rc clock 11.0592MHz
+serial 9600
+host ssc32
+frame 20ms
+servo s0 = P1.0
+servo s1 = P1.1
+servo s2 = P1.2
+servo s3 = P1.3
+pose p { s0: 100, s1: 100, s2: 100, s3: 100 }
+home p
+main {
+  hold 200ms
+  host
+}
+"""
+
+
+def test_after_a_group_line_the_reading_stops_before_a_control_byte_or_a_second_entry():
+    """Lines queued before `host` runs: a group line, a TAB and a one-channel line, a line of two
+    entries. The first frame's reading stops after the group line, before the TAB (a control
+    byte); the second reads the TAB and the next group line, and on into the line after it, up
+    to the '#' of its second entry; the third reads the rest. As the model says (verify checks
+    it both ways)."""
+    b, trace, report = session('0.05s "#0P2000\\r\\t#1P900\\r#2P1400#3P1600\\r"\n', 30, QUEUED)
+    readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got]
+    assert readings == [b"#0P2000\r", b"\t#1P900\r#2P1400", b"#3P1600\r"], readings

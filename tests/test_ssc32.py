@@ -1139,3 +1139,21 @@ def test_the_firmware_form_of_output_n_is_output_n(a, b, reverse, trim):
     params = output_params(lo, hi, reverse, trim)
     assert 0 <= params[0] <= params[1] <= 250 and params[3] in (0, 0xFF)
     assert [output_by(params, n) for n in range(251)] == [output_n(n, lo, hi, reverse, trim) for n in range(251)]
+
+
+def test_the_bytes_the_reading_stops_before_while_a_group_waits():
+    """The firmware's one test, byte AND 0xE8 = 0x08: the control bytes 0x08-0x0F and 0x18-0x1F
+    (CR, LF and ESC among them); a '#' only once the line being read has had one, bad or not."""
+    p = LineParser()
+    assert {b for b in range(256) if p.stalls(b)} == set(range(0x08, 0x10)) | set(range(0x18, 0x20))
+    for text in (b"#", b"#0P15", b"#0P1500S100", b"#0P15X", b"#0P1500T5"):
+        p = LineParser()
+        for b in text:
+            p.feed(b)
+        assert p.stalls(ord("#")), text
+    for text in (b"", b"Q", b"QP 3", b"X#", b"PL0SQ"):
+        p = LineParser()
+        for b in text:
+            p.feed(b)
+        assert not p.stalls(ord("#")), text
+
