@@ -714,7 +714,8 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
         "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
-        "period": period_cycles,
+        "period": period_cycles, "t0_first": 65536 - period_cycles,     # no servo lines: Timer0 times a frame,
+        "t0_on": 65536 - period_cycles + T0_STILL, "t0_still": T0_STILL,  # and carries on with its count
         "ctime": "\n".join("        " + line for line in table + ctime),
         "ctime_kept": "\n".join("        " + line for line in ctime),     # where DPTR is ctab already
         "sorts": [{"s": n, "at": [layout.SORT_PAIR * i for i in range(n)],
@@ -835,6 +836,7 @@ HOST_WORDS = ("P", "PO", "S", "T", "Q", "QP", "V", "VE", "VER", "ST", "STO", "ST
 assert HOST_WORDS[:4] == ("P", "PO", "S", "T")      # host_item: the words below T are an entry's options
 
 
+T0_STILL = 8            # frame_irq.asm.j2, no servo lines: the cycles Timer0 stands still at a frame's end
 HOST_ANSWERS = 3        # answers (Q, QP, VER) that wait in HAQ while the reading goes on, where RAM allows (else 1)
 # The variables of host.asm.j2 (flow.HOST_VARS bytes) and its per-servo arrays (flow.HOST_PER_SERVO bytes a servo).
 HOST_VARS = (("HST", 1, "host parser: its flags"), ("HST2", 1, "host parser: more flags"),

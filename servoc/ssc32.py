@@ -87,11 +87,11 @@ The rules, as the document states them:
   after a group line the reading goes on into the next line, and stops
   before a byte that would end it, drop it or end one of its entries
   (`LineParser.stalls`: the control bytes 0x08-0x0F and 0x18-0x1F, CR, LF
-  and ESC among them, and a '#' after a '#' of that line). So a frame reads at most one of them, as its last
-  line: one group per frame (the group lines of one frame never merge; a
-  second one's move replaces the first's from where frame i + 1 left the
-  servos), and no `STOP`, `STOP c`, ESC or bad line comes after a group or
-  an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
+  and ESC among them, and a '#' after a '#' of that line). So a frame reads
+  at most one of them, as its last line: one group per frame (the group
+  lines of one frame never merge; a second one's move replaces the first's
+  from where frame i + 1 left the servos), and no `STOP`, `STOP c`, ESC or
+  bad line comes after a group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
   `STOP`, `STOP c`, a group line that names no servo, a line that does
   nothing, a bad line) do not end the reading, except that an answer that
   cannot be queued at its line end (the transmit queue full, or answers

@@ -471,13 +471,17 @@ def _isr_paths(text: str) -> tuple[list[list[str]], list[str]]:
     return runs
 
 
-@pytest.mark.parametrize("sends", [False, True])
-def test_the_serial_handler_s_run_that_takes_a_byte_changes_no_flag(sends):
+@pytest.mark.parametrize("sends, host", [(False, False), (True, False), (True, True)])
+def test_the_serial_handler_s_run_that_takes_a_byte_changes_no_flag(sends, host):
     """The handler saves PSW only in the run that sends: the run that takes a byte must change no
     flag (no arithmetic, no carry), since the background it interrupts may hold one; it is at its
-    vector (0x0023: no jump to it) and saves ACC and bank 0's R0 around what it uses."""
-    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\nservo a = P1.0\npose p { a: 10 }\n"
-            + ('main { move p; loop { wait "x"; send "y" } }\n' if sends else 'main { move p; loop { wait "x" } }\n'))
+    vector (0x0023: no jump to it) and saves ACC and bank 0's R0 around what it uses. With `host`
+    that run includes marking the newest byte 0xFF when the queue is full (a CJNE there once set
+    the carry of the move it interrupted)."""
+    text = ("target stc89c52rc clock 11.0592MHz\nserial 9600\n" + ("host ssc32\n" if host else "")
+            + "servo a = P1.0\npose p { a: 10 }\n"
+            + ('main { move p; host }\n' if host else
+               'main { move p; loop { wait "x"; send "y" } }\n' if sends else 'main { move p; loop { wait "x" } }\n'))
     unit = build_text(text).firmware.unit
     assert re.search(r"\.org\s+0x0023[^\n]*\n(;[^\n]*\n)*uart_isr:", unit.text)
     take = _isr_paths(unit.text)[0]
