@@ -16,10 +16,14 @@ How the bytes flow
     host --> pty slave --> pty master (here) --> rx.fifo --> ucsim's UART input
     ucsim's UART output --> tx.fifo --> here --> pty master --> pty slave --> host
 
-    The pseudo-terminal is made raw (termios: no echo, no CR/LF translation, 8 bits) and this
-    process keeps its slave open too, so a host may open and close it as often as it likes and
-    never sees a hang-up; bytes the firmware sends while no host reads wait in the pty (up to
-    `MAX_BACKLOG`, older bytes are dropped, as on a line nobody listens to).
+    The pseudo-terminal is made raw (termios: no echo, no CR/LF translation, 8 bits; the slave
+    keeps these settings while no host has it open) and its master is in packet mode (TIOCPKT).
+    A host may open and close the slave as often as it likes. Bytes the firmware sends while no
+    host has the slave open wait here (up to `MAX_BACKLOG`; older bytes are dropped, as on a line
+    nobody listens to): the master reports POLLHUP while the slave is closed. A host that has
+    just opened it usually empties its input (pyserial's open does, and so does `tty.setraw`),
+    which would drop what waits in the pty, so bytes wait here until the host has done that (a
+    TIOCPKT_FLUSHREAD packet), or has sent a byte, or `SETTLE` seconds after it opened the line.
 
 ucsim 0.6.4 (Debian's sdcc-ucsim), measured for this module with small scripts driving s51:
     * `-S in=FILE,out=FILE` opens FILE with fopen: a FIFO's open blocks until the other end is
@@ -66,6 +70,7 @@ import re
 import select
 import shutil
 import signal
+import struct
 import subprocess
 import tempfile
 import termios
@@ -85,6 +90,7 @@ MAX_BACKLOG = 1 << 16       # bytes kept for a host that does not read
 STARTUP_TIMEOUT = 15.0      # seconds for ucsim to load the image and answer
 QUIT_WAIT = 3.0             # seconds to wait for a last clock count when stopping
 POLL = 0.1                  # seconds: the longest the loop sleeps
+SETTLE = 0.5                # seconds a host that has opened the line has to set it up (see above)
 
 _SYNC = 2718299             # `expr` values this module asks for, to recognise the answers
 _STOP_LINE = b"expr 2718277\n"
@@ -198,9 +204,12 @@ class _Link:
         self.linked = False
         self.slave_path = ""
         # the host side
-        self.master = self.slave = self.rx = self.tx = -1
+        self.master = self.rx = self.tx = -1
         self.to_fifo = bytearray()          # host bytes not yet in rx.fifo
         self.to_host = bytearray()          # firmware bytes not yet in the pty
+        self.host = "closed"                # the slave: "closed", "settling" (just opened) or "open"
+        self.settle_until = 0.0
+        self.hup = select.poll()            # the master's POLLHUP: no host has the slave open
         # the console
         self.con = -1
         self.con_buf = bytearray()
@@ -273,11 +282,16 @@ class _Link:
         with open(os.path.join(self.tmp, "setup.cmd"), "w", encoding="ascii") as f:
             f.write(self._script(bool(stops)))
 
-        self.master, self.slave = os.openpty()
-        self._keep(self.master), self._keep(self.slave)
-        _raw(self.slave, s.baud)
+        self.master, slave = os.openpty()
+        self._keep(self.master)
+        try:
+            _raw(slave, s.baud)
+            self.slave_path = os.ttyname(slave)
+        finally:
+            os.close(slave)                 # a host's open ends the master's POLLHUP
         _nonblocking(self.master)
-        self.slave_path = os.ttyname(self.slave)
+        fcntl.ioctl(self.master, termios.TIOCPKT, struct.pack("i", 1))
+        self.hup.register(self.master, select.POLLIN)
         try:
             os.chmod(self.slave_path, 0o600)    # no `write`/`wall` messages into the serial line
         except OSError:
@@ -324,6 +338,9 @@ class _Link:
                 pass
         if self.tx >= 0 and self.master >= 0:   # what the firmware sent last, for a host still reading
             try:
+                self._watch_host(time.monotonic())
+                if self.host == "settling":     # the last chance to hand them over
+                    self.host = "open"
                 self._pump_tx()
                 self._pump_host_out()
             except OSError:
@@ -597,15 +614,34 @@ class _Link:
                 return
             del self.to_fifo[:n]
 
+    def _watch_host(self, now: float) -> None:
+        """Follow the slave's opens and closes (see the module docstring)."""
+        closed = any(ev & select.POLLHUP for _, ev in self.hup.poll(0))
+        if closed:
+            self.host = "closed"
+        elif self.host == "closed":
+            self.host, self.settle_until = "settling", now + SETTLE
+        elif self.host == "settling" and now >= self.settle_until:
+            self.host = "open"
+
     def _host_input(self) -> None:
         try:
-            data = os.read(self.master, 4096)
+            packet = os.read(self.master, 4097)
         except (BlockingIOError, InterruptedError):
             return
         except OSError as exc:
-            if exc.errno == errno.EIO:      # no slave open (cannot happen: the slave is kept open)
+            if exc.errno == errno.EIO:      # the host closed the slave just now
                 return
             raise
+        if not packet:
+            return
+        if packet[0] != termios.TIOCPKT_DATA:       # a status packet: a flush, flow control
+            if packet[0] & termios.TIOCPKT_FLUSHREAD and self.host == "settling":
+                self.host = "open"                  # the host has emptied its input: send on
+            return
+        data = packet[1:]
+        if self.host == "settling":
+            self.host = "open"
         if self.finished or (self.limit is not None and self.clks // CLOCKS_PER_CYCLE >= self.limit):
             return
         self.to_fifo += data
@@ -624,7 +660,7 @@ class _Link:
             del self.to_host[:len(self.to_host) - MAX_BACKLOG]
 
     def _pump_host_out(self) -> None:
-        while self.to_host:
+        while self.to_host and self.host == "open":
             try:
                 n = os.write(self.master, self.to_host)
             except BlockingIOError:
@@ -654,10 +690,14 @@ class _Link:
                 self._ask_stop()
             if self.proc.poll() is not None:
                 raise LinkError(self._failed("ended", bytes(self.con_buf) + "\n".join(self.chunk).encode()))
-            readers = [self.con, self.tx, self.master]
-            writers = ([self.rx] if self.to_fifo else []) + ([self.master] if self.to_host else [])
+            self._watch_host(now)
+            listen = self.host != "closed"     # a closed slave makes the master readable (EIO)
+            readers = [self.con, self.tx] + ([self.master] if listen else [])
+            writers = ([self.rx] if self.to_fifo else []) + ([self.master] if self.to_host and self.host == "open"
+                                                              else [])
+            wait = POLL if self.host != "settling" else max(0.0, min(POLL, self.settle_until - now))
             try:
-                ready_r, ready_w, _ = select.select(readers, writers, [], POLL)
+                ready_r, ready_w, _ = select.select(readers, writers, [], wait)
             except InterruptedError:
                 continue
             if self.con in ready_r:

@@ -233,6 +233,38 @@ def test_events_drive_the_inputs_and_send_bytes(tmp_path):
     assert rc == 0, err
 
 
+def test_bytes_sent_while_no_host_has_the_line_open_wait_for_the_next_host(tmp_path):
+    """What the firmware sends before a host opens the line (the power-up "R", a press's "P"), or
+    between two hosts, is read by the next host, although pyserial empties the input as it opens
+    the port. The speed lines say how far the simulation has run: each host opens only after the
+    bytes it must read were sent."""
+    serial = pytest.importorskip("serial")
+    prog = tmp_path / "button.servo"
+    prog.write_text(BUTTON)
+    events = tmp_path / "run.events"
+    events.write_text("300ms button active\n400ms button inactive\n12s button active\n12.1s button inactive\n")
+    sim = Sim([str(prog), "--events", str(events), "--seconds", "40"], tmp_path)
+    simulated = r"^speed: .*; (\d+\.\d+) s simulated in"
+    try:
+        path = sim.wait_line(r"^serial: (/dev/\S+)$").group(1)
+        while (at := float(sim.wait_line(simulated).group(1))) < 0.4:
+            pass
+        assert at < 11, "the simulation ran too far ahead for this test"
+        with serial.Serial(path, 4800, timeout=10) as port:
+            assert port.read(2) == b"RP"
+        while float(sim.wait_line(simulated).group(1)) < 12.1:
+            pass
+        with serial.Serial(path, 4800, timeout=10) as port:
+            assert port.read(1) == b"P"
+            port.write(b"z")
+            assert port.read(1) == b"?"
+        sim.proc.send_signal(signal.SIGTERM)
+        rc, _, err = sim.finish()
+    finally:
+        sim.kill()
+    assert rc == 0, err
+
+
 def run_cli(args: list[str], capsys) -> tuple[int, str, str]:
     rc = cli.main(args)
     out, err = capsys.readouterr()
