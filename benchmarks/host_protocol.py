@@ -12,7 +12,10 @@
    24 servos on three ports (an STC89C58RD+) lines naming all 24;
    every byte must be read by the parser, none dropped, and `servoc verify` must find every
    pulse and reply exact. Then the arm gets one-channel lines (8 bytes) back to back, next to
-   the same firmware patched to stop the reading at a group line's end, as servoc did before.
+   the same firmware patched to stop the reading at a group line's end, as servoc did before; and
+   24 servos get one-channel lines (8 or 9 bytes, a third of a frame's bytes) back to back, next to
+   the same firmware patched to stop before every line end after a group line (no joining), as
+   servoc did before.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host` (moved by bytes between their home and N 250, as far as a host
@@ -132,22 +135,35 @@ def stop_after_group(firmware, reporter):
     return api.assemble(dataclasses.replace(firmware.unit, text=text), reporter)
 
 
-def sustained_one_channel(seconds: float, program: str, what: str, patch=None) -> list[str]:
-    """One-channel group lines (`#c P w`, 8 bytes) back to back at 9600 baud, cycling through the
-    arm's channels: each longer than a frame brings, shorter than a line that sets every servo."""
+def stall_at_line_ends(firmware, reporter):
+    """The firmware with the reading stopping before every line end after a group line, as servoc
+    built it before group lines read in one frame joined (the side-by-side row)."""
+    text = firmware.unit.text
+    for p in ("hp", "pr"):
+        text = text.replace(f"{p}_j:  MOV     A, HST", f"{p}_j:  SJMP    {p}_n  ", 1)
+    assert text != firmware.unit.text
+    return api.assemble(dataclasses.replace(firmware.unit, text=text), reporter)
+
+
+def sustained_one_channel(seconds: float, program: str, what: str, patch=None,
+                          channels: tuple[int, ...] = (0, 1, 2, 7)) -> list[str]:
+    """One-channel group lines (`#c P w`, 8 bytes, 9 for channels past 9) back to back at 9600
+    baud, cycling through `channels`: at the arm each longer than a frame brings, shorter than a
+    line that sets every servo; at 24 servos about a third of what a frame brings."""
     fe, firmware, reporter = build(program)
     if patch is not None:
         firmware = patch(firmware, reporter)
     plan = fe.plan
-    lines = [f"#{c}P{1000 + (97 * n) % 900}" for n, c in
-             enumerate([0, 1, 2, 7] * int(seconds * 960 / 8 / 4 + 1))]
-    text = "".join(line + "\\r" for line in lines)
+    lines = [f"#{c}P{1000 + (97 * n) % 900}\r" for n, c in
+             enumerate(list(channels) * int(seconds * 960 / 8 / len(channels) + 1))]
+    text = "".join(lines).replace("\r", "\\r")
     frames = int((seconds + 1.5) * 1e6 / plan.period_us)
     trace, report = run(fe, firmware, f'0.2s "{text}"\n', frames)
-    sent = len(lines) * 8
+    sent = sum(len(line) for line in lines)
+    size = "8 bytes" if max(channels) < 10 else "8 or 9 bytes"
     read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
     lost = sum(1 for r in trace.observation.received if not r.queued)
-    return [f"sustained, {what}: {len(lines)} one-channel group lines of 8 bytes ({sent} bytes back to back at "
+    return [f"sustained, {what}: {len(lines)} one-channel group lines of {size} ({sent} bytes back to back at "
             f"9600 baud, {sent * 10 / 9600:.1f} s, P = {plan.period_us} us): {read} bytes read by the parser, "
             f"{lost} lost; verify {'OK' if report.ok else 'FAILED'}"]
 
@@ -206,6 +222,10 @@ def main() -> int:
                  + sustained_one_channel(seconds, arm, "the arm")
                  + sustained_one_channel(seconds, arm, "the same, stopping the reading at a group line's end "
                                          "(as servoc did before)", stop_after_group)
+                 + sustained_one_channel(seconds, TWENTY_FOUR, "24 servos", channels=tuple(range(24)))
+                 + sustained_one_channel(seconds, TWENTY_FOUR, "the same, stopping the reading before every "
+                                         "line end after a group line (as servoc did before)", stall_at_line_ends,
+                                         tuple(range(24)))
                  + periods() + capacity()):
         print(line)
     return 0

@@ -84,14 +84,16 @@ The rules, as the document states them:
 - A group line that names a servo, an offset line and `PL 0 SQ n` (any n)
   end the frame's lines (`stops_reading`, `Session.read`): an offset line
   and `PL` end its reading, the bytes after them are read in the next frame;
-  after a group line the reading goes on into the next line, and stops
-  before a byte that would end it, drop it or end one of its entries
-  (`LineParser.stalls`: the control bytes 0x08-0x0F and 0x18-0x1F, CR, LF
-  and ESC among them, and a '#' after a '#' of that line). So a frame reads
-  at most one of them, as its last line: one group per frame (the group
-  lines of one frame never merge; a second one's move replaces the first's
-  from where frame i + 1 left the servos), and no `STOP`, `STOP c`, ESC or
-  bad line comes after a group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
+  after a group line the reading goes on into the next lines, and stops
+  before a byte that would end a command or offset line, drop a line or
+  end an entry (`LineParser.stalls`: the CR or LF of a line that does not
+  `joins`, the other control bytes 0x08-0x0F and 0x18-0x1F, ESC among them,
+  and a '#' after a '#' of the line). A group line that names a servo and
+  ends in the same frame joins the group (`join`: one group per frame, its
+  entries in order, the last T given); a bad line there is dropped alone,
+  an empty one does nothing. So no `Q`, `QP`, `VER`, `STOP`, `STOP c`,
+  `PL` or offset line, and no ESC, comes after a group or an offset line in
+  its frame. The other lines (`Q`, `QP c`, `VER`,
   `STOP`, `STOP c`, a group line that names no servo, a line that does
   nothing, a bad line) do not end the reading, except that an answer that
   cannot be queued at its line end (the transmit queue full, or answers
@@ -263,12 +265,29 @@ class LineParser:
 
     def stalls(self, byte: int) -> bool:
         """While a group line read in this frame waits for its commit, the reading stops before
-        this byte (it stays queued for the next frame): a control byte 0x08-0x0F or 0x18-0x1F
-        (byte AND 0xE8 is 0x08, the firmware's one test): CR and LF end a line, ESC drops one, the
-        others make a line bad or are ignored (TAB); and a '#' after a '#' of the line being read
-        (it would end that '#''s entry, which the firmware writes where the waiting group's entries
-        are; also once the line has gone bad, as the firmware does not look at that)."""
-        return byte & 0xE8 == 0x08 or (byte == 35 and self.hashed)
+        this byte (it stays queued for the next frame): a '#' after a '#' of the line being read
+        (it would end that '#''s entry, which the firmware would write where the waiting group's
+        entries are before the line is known to be good; also once the line has gone bad, as the
+        firmware does not look at that); the CR or LF of a line that does not `joins` (a command
+        line, an offset line); and any other control byte 0x08-0x0F or 0x18-0x1F (byte AND 0xE8
+        is 0x08, the firmware's one test): ESC drops a line, the others make one bad or are
+        ignored (TAB)."""
+        if byte == 35:
+            return self.hashed
+        if byte in (CR, LF):
+            return not self.joins()
+        return byte & 0xE8 == 0x08
+
+    def joins(self) -> bool:
+        """A line end now would not end a command or offset line: the line is bad (dropped alone),
+        or has a '#' and no PO (while a group waits it has one entry at most, still open; a word
+        after PO makes the line bad), or has nothing (no '#', no word open). The firmware's test:
+        HST bit 5, or bit 0 or 4 and HW not PO, or neither and HW 0."""
+        if self.bad:
+            return True
+        if self.hashed:
+            return self.item != "PO"
+        return self.item is None
 
     def _close_item(self) -> None:
         """The open item ends (at '#', at a letter that starts a word, at the line end)."""
@@ -519,6 +538,12 @@ def group_move(group: Group, servos_by_channel: Mapping[int, Servo], now: Mappin
     return frames, targets
 
 
+def join(first: Group, later: Group) -> Group:
+    """Two group lines whose ends are read in one frame, carried out as one: the later line's
+    entries after the first's (a channel in both: the later entry), and the last T given."""
+    return Group(first.entries + later.entries, later.time_ms if later.time_ms is not None else first.time_ms)
+
+
 def frame_n(n0: int, n1: int, k: int, frames: int) -> int:
     """Frame k (0..F) of a move: N0 + sgn(delta) x floor(|delta| x k / F + 1/2)."""
     delta = n1 - n0
@@ -559,8 +584,9 @@ class Session:
     Between two `frame()` calls (frame i is the one `frame()` returned last, or the start),
     call `line(cmd)` for each command whose line end is read in that frame, in order; it
     returns the reply bytes (b"" for a command without one). A line that `stops_reading`
-    must be the frame's last: `line` raises RuntimeError for a command after it. So a frame
-    holds at most one group line that names a servo (`pending`) or one offset line
+    must be the frame's last but for group lines after a group line, which join it (`join`):
+    `line` raises RuntimeError for another command after it. So a frame holds at most one
+    group (`pending`, the group lines that name a servo, joined) or one offset line
     (`pending_offsets`), as its last line. `read` does all this from bytes. `frame()`
     computes frame i + 1: the group line read in frame i makes the move that starts there
     (or the offset line read in frame i sets its offsets), then the move under way advances
@@ -614,10 +640,14 @@ class Session:
         return stops_reading(cmd, self.by_channel, self.sequence_running)
 
     def line(self, cmd: Command) -> bytes:
-        if self.reading_stopped:
-            raise RuntimeError(f"{cmd!r} read after a line that ends the frame's reading")
         if not isinstance(cmd, (Group, Offset, Query, QueryPulse, Version, Stop, Play)):
             raise TypeError(f"not a command: {cmd!r}")
+        if self.pending is not None and isinstance(cmd, Group):
+            if names_a_servo(cmd, self.by_channel):     # it joins the group waiting (else does nothing)
+                self.pending = join(self.pending, cmd)
+            return b""
+        if self.reading_stopped:
+            raise RuntimeError(f"{cmd!r} read after a line that ends the frame's reading")
         self.reading_stopped = self.stops_reading(cmd)
         if self.sequence_running and self.reading_stopped and isinstance(cmd, (Group, Play)):
             self.replace_play = True

@@ -954,14 +954,17 @@ def test_q_lines_back_to_back_through_a_whole_sequence_keep_every_frame_exact(cl
 
 @pytest.mark.parametrize("clock, baud", [("11.0592MHz", 9600), ("11.0592MHz mode 6T", 19200)])
 def test_a_byte_lost_to_a_full_queue_spoils_its_line_so_no_line_is_read_with_bytes_missing(clock, baud):
-    """Group lines shorter than a frame's bytes (5 bytes; at 19200 baud in 6T mode a frame brings
-    10) come faster than one a frame, as the arm commits them: the receive queue fills and bytes
-    are lost. The serial handler makes the newest byte queued 0xFF when one is lost, so every line
-    the parser reads whole (without 0xFF) is a line the host sent: none is spliced from two (each
-    line's channel and width go together, so `#0P` and `2` and CR would be no line sent). verify
-    passes the run."""
-    text = ARM.replace("clock 11.0592MHz", f"clock {clock}").replace("serial 9600", f"serial {baud}")
-    lines = [f"#{c}P{w}\r" for c, w in ((0, 1), (1, 2), (2, 3), (7, 4))] * 50
+    """Group lines of two entries (9 bytes) back to back at `frame 12ms`, where a frame brings
+    11.5 bytes at 9600 baud (23 at 19200 baud in 6T mode): after a group line the reading stops
+    before the next line's second entry, so a frame reads one line, and the receive queue fills:
+    bytes are lost. The serial handler makes the newest byte queued 0xFF when one is lost, so
+    every line the parser reads whole (without 0xFF) is a line the host sent: none is spliced
+    from two (each line's channels and widths go together, so `#0P1#1P` and `4` and CR would be no
+    line sent). verify passes the run."""
+    text = (ARM.replace("clock 11.0592MHz", f"clock {clock}").replace("serial 9600", f"serial {baud}")
+            .replace("\nhost ssc32\n", "\nhost ssc32\nframe 12ms\n", 1))
+    assert "frame 12ms" in text
+    lines = ["#0P1#1P2\r", "#2P3#7P4\r"] * 100
     scenario = "0.3s " + " ".join('"' + ln.replace("\r", "\\r") + '"' for ln in lines) + "\n"
     b, trace, report = session(scenario, round(1.6e6 / built(text).plan.period_us), text)
     read = b"".join(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames)
@@ -1069,19 +1072,25 @@ def test_one_channel_lines_back_to_back_lose_no_byte(clock, baud, tail):
     assert n_of(b, widths(b, trace, 1, 3)[-1]) == ssc32.target_n(servo, int(lines[-1][3:7]), 0)
 
 
-def test_one_channel_lines_one_byte_longer_than_a_frame_brings_lose_none():
-    """The docs' bound: one-channel lines longer than b, the bytes a frame brings from a host 2 %
-    fast, lose nothing back to back; at the arm b is 5.5, so lines of 6 bytes (`#0P90` and CR, a
-    width clamped to 500 us) keep up, and lines of 5 fill the queue (the test above)."""
-    plan = built().plan
-    brings = plan.period_us * 9600 / 10 / 1e6 * 1.02
-    lines = [f"#{c}P{50 + (7 * i) % 50}\r" for i, c in enumerate([0, 1, 2, 7] * 50)]
-    assert {len(ln) for ln in lines} == {int(brings) + 1}, brings
+@pytest.mark.parametrize("clock, baud", [("11.0592MHz", 9600), ("11.0592MHz mode 6T", 19200)])
+def test_one_channel_lines_shorter_than_a_frame_brings_lose_none(clock, baud):
+    """One-channel lines back to back of 5 and 4 bytes (`#0P9` and CR: a width clamped to 500 us,
+    set at once; `#0P` and CR: P0, the pulses off), shorter than a frame brings (b, 5.4 at the arm
+    and 4.7 at 19200 baud in 6T mode): two lines end in some frames' reading, and the second
+    joins the first. No byte is lost, every byte is read, verify passes. (When
+    the reading stopped at the next line's end after a group line, such lines filled the receive
+    queue.)"""
+    text = ARM.replace("clock 11.0592MHz", f"clock {clock}").replace("serial 9600", f"serial {baud}")
+    plan = built(text).plan
+    brings = plan.period_us * baud / 10 / 1e6 * 1.02
+    lines = [f"#{c}P{'' if i % 3 == 2 else i % 10}\r" for i, c in enumerate([0, 1, 2, 7] * 60)]
+    assert max(len(ln) for ln in lines) < brings, brings
     scenario = '0.3s "' + "".join(ln.replace("\r", "\\r") for ln in lines) + '"\n'
-    b, trace, report = session(scenario, round((0.8 + len("".join(lines)) * 10 / 9600) * 1e6 / plan.period_us))
-    read = b"".join(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames)
-    assert read == "".join(lines).encode()
+    b, trace, report = session(scenario, round((0.8 + len("".join(lines)) * 10 / baud) * 1e6 / plan.period_us), text)
+    readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got]
+    assert b"".join(readings) == "".join(lines).encode()
     assert not [w for w in report.warnings if "lost" in w]
+    assert sum(1 for r in readings if r.count(b"\r") >= 2) >= 10      # frames whose lines joined
 
 
 OVERFLOWED = """\
@@ -1130,6 +1139,29 @@ main {
   host
 }
 """
+
+
+def test_group_lines_read_in_one_frame_join_into_one_move():
+    """Lines queued before `host` runs, so that the first frame's reading has them all: a group
+    line with T, a one-channel line with its own T, the LF of a CR LF, a bad line, and a
+    one-channel line; then a Q, whose CR waits for the next
+    frame. The group lines join: s0, s1 and s3 start in the same frame and arrive together, after
+    the last T given (T200: 10 frames at 20 ms), not the first (T600); the bad line drops nothing.
+    As the model says (verify checks every pulse)."""
+    lines = b"#0P1460T600\r#1P1140T200\r\n#2X\r#3P1500\rQ\r"        # 39 bytes: the queue holds 41
+    scenario = '0.05s "' + lines.decode().replace("\r", "\\r").replace("\n", "\\n") + '"\n'
+    b, trace, report = session(scenario, 30, QUEUED)
+    readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got]
+    assert readings[0] == lines[:-1] and readings[1] == b"\r", readings
+    assert sent(trace) == b"+"
+    n = {bit: [n_of(b, w) for w in widths(b, trace, 1, bit)] for bit in range(4)}
+    target = {0: 120, 1: 80, 3: 125}                   # (w - 500 + 4) // 8, from 100: the top
+                                                       # speed takes 4 frames at most
+    assert n[2] == [100] * len(n[2])
+    starts = {bit: next(k for k, v in enumerate(n[bit]) if v != 100) for bit in (0, 1, 3)}
+    ends = {bit: n[bit].index(target[bit]) for bit in (0, 1, 3)}
+    assert len(set(starts.values())) == 1 and len(set(ends.values())) == 1, (starts, ends)
+    assert ends[0] - starts[0] + 1 == 10, (starts, ends)
 
 
 def test_after_a_group_line_the_reading_stops_before_a_control_byte_or_a_second_entry():

@@ -185,6 +185,23 @@ def test_lines_that_set_all_24_servos_back_to_back_lose_no_byte():
     assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == 45 * 183
 
 
+
+def test_one_channel_lines_to_24_servos_back_to_back_lose_no_byte():
+    """What host libraries send: one line a servo (`#c P w` and CR, 8 or 9 bytes), back to back
+    for 3 s, with 24 servos, where a frame brings about 28 bytes: three lines end in a frame's
+    reading, and they join into one group. Every byte read, none lost, verify passes, and the
+    last servo named lands on its width."""
+    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
+    b = build_text(_program("stc89c58rd", pins, "main { host }"))
+    lines = [f"#{c}P{1000 + (n * 37 + c * 11) % 900}\\r" for n in range(14) for c in range(24)]
+    body = "".join(lines)
+    sent = len(body.replace("\\r", "\r"))
+    trace, report = watch(b, f'0.2s "{body}"\n', int((1.0 + sent * 10 / 9600) * 1e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == sent
+    joined = [got for h in trace.observation.hosts for _, _, got in h.frames if bytes(got).count(b"\r") >= 2]
+    assert len(joined) > 20
+
 def test_a_receive_queue_past_internal_ram_is_host_ram_with_the_frame_to_shorten():
     # with the host's state in XRAM, a long frame at a fast rate makes a receive queue internal RAM
     # cannot hold: host-ram counts it and points at the frame, where it used to be a ram-overflow

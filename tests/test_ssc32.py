@@ -614,59 +614,55 @@ def test_a_new_group_replaces_the_move_under_way():
     assert s.frame() == {0: 0, 1: 230}
 
 
-def test_each_group_line_is_read_in_a_frame_of_its_own():
+def test_group_lines_that_end_in_one_frame_join_into_one_group():
     s = _two()
     p = LineParser()
     data = b"#0P900\r#1P1700T200\rQ\r#7P2500T5000\r#0P1000\rQ\r"
-    # the first group line ends the frame's lines: #0 0 -> 50, F = ceil(50 / 10) = 5; the
-    # reading goes on into the second line and stops before its CR (7 + 11 bytes)
-    assert s.read(p, data) == (b"", 18)
-    assert s.pending == Group((Entry(0, 900, None),), None)
-    assert s.frame() == {0: 10, 1: 250}
-    # the second's CR, in the next frame: #1 250 -> 150, top 10, T200: (655,400 + 32768)
-    # >> 16 = 10: F = 10; it ends #0's move where frame 1 left it, at 10; then Q up to its CR
-    data = data[18:]
-    assert s.read(p, data) == (b"", 2)
-    assert s.pending == Group((Entry(1, 1700, None),), 200)
-    assert s.frame() == {0: 10, 1: 240}
+    # the first group line ends the frame's lines; the second ends in the same frame and joins it;
+    # the reading stops before the Q's CR (7 + 12 + 1 bytes)
+    assert s.read(p, data) == (b"", 20)
+    assert s.pending == Group((Entry(0, 900, None), Entry(1, 1700, None)), 200)
+    # one group: #0 0 -> 50, top 5; #1 250 -> 150, top 10; T200: (655,400 + 32768) >> 16 = 10:
+    # F = 10; #0: (100k + 10) // 20 = 5, #1: 250 - (200k + 10) // 20 = 240
+    assert s.frame() == {0: 5, 1: 240}
     # Q's CR (k = 1 < 10), #7 names no servo: it does not stop the reading, its T5000 counts for
     # nothing; #0P1000 does, and the last Q is read up to its CR (1 + 13 + 8 + 1 bytes)
-    data = data[2:]
+    data = data[20:]
     assert s.read(p, data) == (b"+", 23)
     assert s.pending == Group((Entry(0, 1000, None),), None)
-    # #0 10 -> (500 + 4) // 8 = 63, |d| 53: F = ceil(5.3) = 6; #1's move ends at 240
-    # #0: 10 + (106k + 6) // 12 = 19, 28, 37, 45, 54, 63
-    assert s.frame() == {0: 19, 1: 240}
+    # #0 5 -> (500 + 4) // 8 = 63, |d| 58: F = ceil(5.8) = 6; #1's move ends at 240
+    # #0: 5 + (116k + 6) // 12 = 15, 24, 34, 44, 53, 63
+    assert s.frame() == {0: 15, 1: 240}
     assert s.read(p, data[23:]) == (b"+", 1)
-    assert [s.frame() for _ in range(5)] == [{0: n, 1: 240} for n in (28, 37, 45, 54, 63)]
+    assert [s.frame() for _ in range(5)] == [{0: n, 1: 240} for n in (24, 34, 44, 53, 63)]
     assert _line(s, b"Q\r") == b"."
 
 
-def test_each_group_line_has_its_own_t():
+def test_a_joined_group_takes_the_last_t_given():
     s = Session([Servo(0, t_dav_us=FAST), Servo(1, t_dav_us=FAST)], P20, start={0: 0, 1: 0})
     p = LineParser()
     data = b"#0P900T400\r#1P900T100\r"
-    assert s.read(p, data) == (b"", 21)       # the first line, the second up to its CR
-    # T400: (1,310,800 + 32768) >> 16 = 20; #0 0 -> 50: (100 + 20) // 40 = 3
-    assert s.frame() == {0: 3, 1: 0}
-    # the next line's T100 alone: (327,700 + 32768) >> 16 = 5, not the longest of the two;
-    # #0's move ends at 3; #1 0 -> 50: (100k + 5) // 10 = 10, 20, 30, 40, 50
-    assert s.read(p, data[21:]) == (b"", 1)
+    assert s.read(p, data) == (b"", 22)
+    # T100, not the longest: (327,700 + 32768) >> 16 = 5; both 0 -> 50: (100k + 5) // 10
     frames, _ = group_move(s.pending, s.by_channel, s.now, s.offsets, P20)
     assert frames == 5
-    assert [s.frame()[1] for _ in range(5)] == [10, 20, 30, 40, 50]
-    assert s.now == {0: 3, 1: 50}
+    assert [s.frame() for _ in range(5)] == [{0: n, 1: n} for n in (10, 20, 30, 40, 50)]
+    # a line without T keeps the T of the lines before it: T400, (1,310,800 + 32768) >> 16 = 20;
+    # 50 -> 0: 50 - (100k + 20) // 40 = 47 first
+    assert s.read(p, b"#0P500T400\r#1P500\r") == (b"", 18)
+    assert s.pending.time_ms == 400
+    assert s.frame() == {0: 47, 1: 47}
+    assert [s.frame()[0] for _ in range(19)][-1] == 0
     assert _line(s, b"Q\r") == b"."
 
 
 def test_a_second_group_replaces_the_first_from_where_its_frame_left_the_servos():
     s = _two()
     p = LineParser()
-    data = b"#0P900\r#0P1500S1000\r"
-    assert s.read(p, data) == (b"", 19)
+    assert s.read(p, b"#0P900\r") == (b"", 7)
     # 0 -> 50 in 5
     assert s.frame() == {0: 10, 1: 250}
-    assert s.read(p, data[19:]) == (b"", 1)
+    assert s.read(p, b"#0P1500S1000\r") == (b"", 13)
     # from 10, not 0: 10 -> 125, |d| 115: top ceil(11.5) = 12; S1000: 920 us at 1000 us/s:
     # 0.92 s, 46 frames: F = 46; 10 + (230k + 46) // 92: k = 1: 276 // 92 = 3
     assert s.frame() == {0: 13, 1: 250}
@@ -984,29 +980,24 @@ def test_lines_that_stop_the_reading():
 def test_read_frame_by_frame():
     s = _two()
     p = LineParser()
-    # up to the first group (2 + 7 bytes): a Q, the group; the LF after it, the second group wait
+    # a Q, the first group; the LF after it (an empty line) and the second group join it; VER up
+    # to its CR, which waits (2 + 7 + 1 + 8 + 3 bytes)
     data = b"Q\r#0P900\r\n#1P1700\rVER\rQ\r"
-    assert s.read(p, data) == (b".", 9)
-    # #0 0 -> 50: F = 5
-    assert s.frame() == {0: 10, 1: 250}
-    # the LF (an empty line), the second group and VER up to its CR (1 + 8 + 3 bytes): #1 250 ->
-    # 150, F = 10; #0 stays at 10
-    data = data[9:]
-    assert s.read(p, data) == (b"", 12)
-    assert s.frame() == {0: 10, 1: 240}
+    assert s.read(p, data) == (b".", 21)
+    # #0 0 -> 50, top 5; #1 250 -> 150, top 10: F = 10; #0 (100k + 10) // 20, #1 250 - 10k
+    assert s.frame() == {0: 5, 1: 240}
     # the VER and the Q after it (whose answer goes out after VER's, when there is room: the
     # firmware's timing)
-    data = data[12:]
+    data = data[21:]
     assert s.read(p, data) == (VERSION_REPLY + b"+", 3)
-    # #1: 250 - 10k
     assert s.frame() == {0: 10, 1: 230}
-    assert s.frame() == {0: 10, 1: 220}
+    assert s.frame() == {0: 15, 1: 220}
     # an offset line stops the reading too
     assert s.read(p, b"#0PO5\rQ\r") == (b"", 6)
-    assert s.frame() == {0: 10, 1: 210}
+    assert s.frame() == {0: 20, 1: 210}
     # at most `limit` bytes; a line in pieces over frames
     assert s.read(p, b"QP1\r", limit=2) == (b"", 2)
-    assert s.frame() == {0: 10, 1: 200}
+    assert s.frame() == {0: 25, 1: 200}
     # #1 after 5 frames of 10: 200: (500 + 1600) // 10 = 210
     assert s.read(p, b"1\r") == (bytes([210]), 2)
 
@@ -1043,12 +1034,13 @@ def test_session_at_another_period():
 def test_group_lines_one_a_frame_land_on_their_targets(start, entries, t, lines):
     servos = [Servo(0), Servo(1, reverse=True, trim=3), Servo(2, lo=20, hi=200, t_dav_us=Fraction(900))]
     s = Session(servos, P20, start=dict(enumerate(start)))
-    # the entries over `lines` group lines, the T on the first, sent at once; a line that names
-    # no servo (channels 3 and 4 only) does nothing, its T included, and does not stop the reading
+    # the entries over `lines` group lines, the T on the first; a line that names no servo
+    # (channels 3 and 4 only) does nothing, its T included, and does not stop the reading
     cut = [k * len(entries) // lines for k in range(lines + 1)]
     texts = [b"".join(b"#%dP%dS%d" % e for e in entries[a:b]) + (b"T%d" % t if a == 0 else b"") + b"\r"
              for a, b in zip(cut, cut[1:]) if a < b]
-    # each frame reads up to the end of the next line that names a servo
+    # each frame reads up to the end of the next line that names a servo (sent after the frame
+    # before: lines that end in one frame join, test_one_entry_lines_read_in_one_frame_join)
     chunks: list[tuple[bytes, Group]] = []
     tail = b""
     for text in texts:
@@ -1066,14 +1058,9 @@ def test_group_lines_one_a_frame_land_on_their_targets(start, entries, t, lines)
         assert s.frame() == dict(enumerate(start))
         return
     now = dict(enumerate(start))
-    ahead = 0                           # bytes of `data` read ahead, after the group before
     for j, (chunk, g) in enumerate(chunks):
-        # and on into the next line, up to the byte that would end it or its first entry
-        upto = len(chunk) + _stall_at(data[len(chunk):])
-        assert s.read(p, data[ahead:]) == (b"", upto - ahead)
+        assert s.read(p, chunk) == (b"", len(chunk))
         assert s.pending == g
-        data = data[len(chunk):]
-        ahead = upto - len(chunk)
         # its move, from where the frame before left the servos; every move under way ends
         frames, targets = group_move(g, s.by_channel, now, {}, P20)
         n0s = dict(now)
@@ -1085,7 +1072,7 @@ def test_group_lines_one_a_frame_land_on_their_targets(start, entries, t, lines)
             assert s.frame() == now
             if last:
                 if k == 1:              # the lines after it, that name no servo: nothing
-                    assert s.read(p, data[ahead:]) == (b"", len(data) - ahead)
+                    assert s.read(p, tail) == (b"", len(tail))
                 moving = any(n0s[ch] is not None and n1 is not None and n1 != n0s[ch] for ch, n1 in targets.items())
                 assert _line(s, b"Q\r") == (b"+" if k < frames and moving else b".")
     # a servo that no line names stays where it started
@@ -1093,15 +1080,41 @@ def test_group_lines_one_a_frame_land_on_their_targets(start, entries, t, lines)
     assert all(s.now[ch] == start[ch] for ch in range(3) if ch not in named)
 
 
-def _stall_at(rest: bytes) -> int:
-    """Where the reading stops in `rest` (lines with no ESC, LF or bad line) after a group line
-    has ended: before the first CR, or before a second '#' of the line it ends."""
-    cr = rest.find(b"\r")
-    if cr < 0:
-        return len(rest)
-    first = rest.find(b"#", 0, cr)
-    second = rest.find(b"#", first + 1, cr) if first >= 0 else -1
-    return second if second >= 0 else cr
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.one_of(st.none(), st.integers(0, 250)), min_size=3, max_size=3),
+       st.tuples(st.integers(0, 2), st.integers(1, 3000), st.none() | st.integers(0, 500), st.none() | st.integers(0, 900)),
+       st.lists(st.one_of(st.tuples(st.integers(0, 4), st.integers(0, 3000), st.none() | st.integers(0, 500),
+                                    st.none() | st.integers(0, 900)),
+                          st.sampled_from([b"\n", b"\r", b"#1P15X\r", b"#2T100\r", b"  \r"])), max_size=8))
+def test_one_entry_lines_read_in_one_frame_join(start, first, more):
+    """Lines of one entry each, back to back after a group line: every one is read in the frame,
+    and those that name a servo join the group: their entries in order, the last T given. Empty
+    and bad lines in between do nothing."""
+    servos = [Servo(0), Servo(1, reverse=True, trim=3), Servo(2, lo=20, hi=200, t_dav_us=Fraction(900))]
+    s = Session(servos, P20, start=dict(enumerate(start)))
+
+    def text(ch, w, v, t):
+        return b"#%dP%d" % (ch, w) + (b"S%d" % v if v is not None else b"") + (b"T%d" % t if t is not None else b"") + b"\r"
+
+    data, entries, time = text(*first), [Entry(first[0], first[1], first[2])], first[3]
+    for line in more:
+        if isinstance(line, bytes):
+            data += line
+            continue
+        data += text(*line)
+        ch, w, v, t = line
+        if ch <= 2:                         # a servo's channel: it joins
+            entries.append(Entry(ch, w, v))
+            time = t if t is not None else time
+    p = LineParser()
+    assert s.read(p, data) == (b"", len(data))
+    assert s.pending == Group(tuple(entries), time)
+    frames, targets = group_move(s.pending, s.by_channel, dict(enumerate(start)), {}, P20)
+    want = dict(enumerate(start))
+    for ch, n1 in targets.items():
+        n0 = start[ch]
+        want[ch] = n1 if n1 is None or n0 is None else frame_n(n0, n1, 1, frames)
+    assert s.frame() == want
 
 
 @settings(max_examples=300, deadline=None)
@@ -1142,10 +1155,25 @@ def test_the_firmware_form_of_output_n_is_output_n(a, b, reverse, trim):
 
 
 def test_the_bytes_the_reading_stops_before_while_a_group_waits():
-    """The firmware's one test, byte AND 0xE8 = 0x08: the control bytes 0x08-0x0F and 0x18-0x1F
-    (CR, LF and ESC among them); a '#' only once the line being read has had one, bad or not."""
+    """The control bytes 0x08-0x0F and 0x18-0x1F (the firmware's one test, byte AND 0xE8 = 0x08:
+    ESC, TAB) but CR and LF; CR and LF only at the end of a command or offset line; a '#' only
+    once the line being read has had one, bad or not."""
     p = LineParser()
-    assert {b for b in range(256) if p.stalls(b)} == set(range(0x08, 0x10)) | set(range(0x18, 0x20))
+    controls = set(range(0x08, 0x10)) | set(range(0x18, 0x20))
+    assert {b for b in range(256) if p.stalls(b)} == controls - {0x0A, 0x0D}
+    # the end of a line that joins the group (entries with no PO), of a bad line (dropped alone),
+    # of an empty line is read; of a command, a T alone or an offset line it waits
+    for text, waits in ((b"", False), (b"  ", False), (b"#0P1500", False), (b"#0P1500S100T5", False),
+                        (b"#3", False), (b"#0 S10", False), (b"#0P15X", False), (b"Q#", False),
+                        (b"#0T100", False),
+                        (b"Q", True), (b"QP 3", True), (b"VER", True), (b"STOP", True), (b"STOP 3", True),
+                        (b"PL0SQ1", True), (b"T100", True), (b"#0PO5", True), (b"#0 PO", True), (b"#0PO-5", True),
+                        (b"#0P1500 PO5", True)):       # PO open: bad only once it ends
+        p = LineParser()
+        for b in text:
+            p.feed(b)
+        assert p.stalls(0x0D) == p.stalls(0x0A) == waits, text
+        assert p.stalls(0x1B) and p.stalls(0x09), text
     for text in (b"#", b"#0P15", b"#0P1500S100", b"#0P15X", b"#0P1500T5"):
         p = LineParser()
         for b in text:
