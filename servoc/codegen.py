@@ -456,7 +456,9 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         xat = 0
         if in_xram:
             ram.alloc("HGEN", 1, "the generation of the line being read: a pending entry is this line's "
-                                 "when its HTAG is HGEN (host_drop only counts it up)")
+                                 "when its HTAG is HGEN (host_drop counts it up, and each group line's end)")
+            ram.alloc("HGA", 1, "the generation of the waiting group's first line: the group's entries "
+                                "are those with HTAG from HGA to HGEN - 1")
         for name, size, what in HOST_ARRAYS + ((HOST_TAGS,) if in_xram else ()):
             if in_xram:       # in XRAM page 0, below the motion state
                 ram.xsymbols.append((name, xat, f"{what} (XRAM)"))
@@ -862,7 +864,8 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
     from . import ssc32
     from .model import host_channel
     period = plan.period_us
-    # a reading of host_passes bytes is counted in R7 and may count HGEN up once a byte (host_gen)
+    # a reading of host_passes bytes is counted in R7 and may count HGEN up once a byte, the commit
+    # once more (host_gen)
     assert host_passes(plan) <= 0xFE, "the host's reading is counted in one byte"
     st_q, st_e = ssc32.speed_t_parts(period)        # T(d) = d x Q + E(d): one page, not three
     assert st_q < 0x10000 and all(d * st_q + st_e[d] == ssc32.speed_t(d, period) for d in range(N_MAX + 1))
@@ -894,7 +897,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
                            "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
             "xram": host_xram(plan),
-            "gen_limit": 0xFF - host_passes(plan)}
+            "gen_limit": 0xFF - host_passes(plan) - 1}
 
 
 def _bytes(n: int) -> str:

@@ -146,7 +146,7 @@ def host_ram(plan: Plan, xram: bool | None = None) -> int:
     from . import costs
     if xram is None:
         xram = host_xram(plan)
-    return (host_vars(plan) + (1 if xram else HOST_PER_SERVO * len(plan.channels))     # in XRAM: HGEN stays
+    return (host_vars(plan) + (2 if xram else HOST_PER_SERVO * len(plan.channels))     # in XRAM: HGEN, HGA stay
             + host_queue(plan) - costs.QUEUE)
 
 

@@ -145,6 +145,7 @@ HLINE_BITS = (
     Bit("HANS", 4, "the answers waiting for room in the transmit queue fill HAQ"),
     Bit("STOP", 5, "STOP read while a sequence `PL` started plays"),
     Bit("VERQ", 6, "VER's answer being queued (the reading goes on)"),
+    Bit("DROP", 7, "a line dropped while a group waits: the reading stops until the group is committed"),
 )
 HLINE = {b.name: b for b in HLINE_BITS}
 HLINE_DROP = 0xFF ^ HLINE["GROUP"].mask ^ HLINE["OFFS"].mask    # clears what a dropped line may have set

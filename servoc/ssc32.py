@@ -85,15 +85,17 @@ The rules, as the document states them:
   end the frame's lines (`stops_reading`, `Session.read`): an offset line
   and `PL` end its reading, the bytes after them are read in the next frame;
   after a group line the reading goes on into the next lines, and stops
-  before a byte that would end a command or offset line, drop a line or
-  end an entry (`LineParser.stalls`: the CR or LF of a line that does not
-  `joins`, the other control bytes 0x08-0x0F and 0x18-0x1F, ESC among them,
-  and a '#' after a '#' of the line). A group line that names a servo and
-  ends in the same frame joins the group (`join`: one group per frame, its
-  entries in order, the last T given); a bad line there is dropped alone,
-  an empty one does nothing. So no `Q`, `QP`, `VER`, `STOP`, `STOP c`,
-  `PL` or offset line, and no ESC, comes after a group or an offset line in
-  its frame. The other lines (`Q`, `QP c`, `VER`,
+  before a byte that would end a command or offset line, drop a line with
+  ESC or write an entry over the group's (`LineParser.stalls`: the CR or LF
+  of a line that does not `joins`, the other control bytes 0x08-0x0F and
+  0x18-0x1F, ESC among them, and a '#' after a '#' of the line, or with the
+  host's state in XRAM a '#' that ends an entry for a channel the group
+  names). A group line that names a servo and ends in the same frame joins
+  the group (`join`: one group per frame, its entries in order, the last T
+  given); an empty one does nothing; a bad line's end drops it and stops
+  the reading until the next frame (`Session.dropped`). So no `Q`, `QP`,
+  `VER`, `STOP`, `STOP c`, `PL` or offset line, and no ESC, comes after a
+  group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
   `STOP`, `STOP c`, a group line that names no servo, a line that does
   nothing, a bad line) do not end the reading, except that an answer that
   cannot be queued at its line end (the transmit queue full, or answers
@@ -263,23 +265,30 @@ class LineParser:
             self.bad = True
         return None
 
-    def stalls(self, byte: int) -> bool:
+    def stalls(self, byte: int, waiting: frozenset[int] | None = None) -> bool:
         """While a group line read in this frame waits for its commit, the reading stops before
-        this byte (it stays queued for the next frame): a '#' after a '#' of the line being read
-        (it would end that '#''s entry, which the firmware would write where the waiting group's
-        entries are before the line is known to be good; also once the line has gone bad, as the
-        firmware does not look at that); the CR or LF of a line that does not `joins` (a command
-        line, an offset line); and any other control byte 0x08-0x0F or 0x18-0x1F (byte AND 0xE8
-        is 0x08, the firmware's one test): ESC drops a line, the others make one bad or are
-        ignored (TAB)."""
+        this byte (it stays queued for the next frame): a '#' that would write an entry where the
+        waiting group's are before its line is known to be good; the CR or LF of a line that does
+        not `joins` (a command line, an offset line); and any other control byte 0x08-0x0F or
+        0x18-0x1F (byte AND 0xE8 is 0x08, the firmware's one test): ESC drops a line, the others
+        make one bad or are ignored (TAB).
+
+        The '#': without `waiting` (the host's state in internal RAM), a '#' after a '#' of the
+        line being read (it would end that '#''s entry; also once the line has gone bad, as the
+        firmware does not look at that). With `waiting`, the channels (with a servo) the group
+        gives a width (the state in XRAM, where each entry keeps the generation of its line): a
+        '#' that ends an open entry of a line not gone bad for one of those channels (with P or
+        not)."""
         if byte == 35:
-            return self.hashed
+            if waiting is None:
+                return self.hashed
+            return not self.bad and self.entry is not None and self.entry["C"] in waiting
         if byte in (CR, LF):
             return not self.joins()
         return byte & 0xE8 == 0x08
 
     def joins(self) -> bool:
-        """A line end now would not end a command or offset line: the line is bad (dropped alone),
+        """A line end now would not end a command or offset line: the line is bad (dropped),
         or has a '#' and no PO (while a group waits it has one entry at most, still open; a word
         after PO makes the line bad), or has nothing (no '#', no word open). The firmware's test:
         HST bit 5, or bit 0 or 4 and HW not PO, or neither and HW 0."""
@@ -507,6 +516,12 @@ def names_a_servo(group: Group, servos_by_channel: Mapping[int, Servo]) -> bool:
     return bool(_widths(group, servos_by_channel))
 
 
+def named(group: Group, servos_by_channel: Mapping[int, Servo]) -> frozenset[int]:
+    """The channels with a servo that the group gives a width (its entries where the firmware keeps
+    them: `LineParser.stalls`' `waiting`)."""
+    return frozenset(_widths(group, servos_by_channel))
+
+
 def group_move(group: Group, servos_by_channel: Mapping[int, Servo], now: Mapping[int, int | None],
                offsets: Mapping[int, int], period_us: int | Fraction) -> tuple[int, dict[int, int | None]]:
     """F and the targets of a group line.
@@ -602,8 +617,9 @@ class Session:
     then the bytes after it wait more than a frame) and a receive queue that overflows."""
 
     def __init__(self, servos: Iterable[Servo], period_us: int | Fraction, sequences: int | Iterable[int] = 0,
-                 start: Mapping[int, int | None] | None = None) -> None:
+                 start: Mapping[int, int | None] | None = None, xram: bool = False) -> None:
         self.servos = tuple(servos)
+        self.xram = xram                      # the host's state in XRAM: `LineParser.stalls`' `waiting`
         self.period_us = _period(period_us)
         # the sequences `PL 0 SQ n` plays: n < a count, or the numbers given (a sequence that runs `host`
         # itself is not among them)
@@ -627,6 +643,7 @@ class Session:
         self.held: set[int] = set()           # channels STOP c holds where they are while a sequence plays
         self.frames = 0                       # frames computed so far
         self.reading_stopped = False          # a line that stops the reading was read in this frame
+        self.dropped = False                  # a line was dropped (a bad line's end) after the group
 
     def moving(self) -> bool:
         """A move has a frame still to come after frame i (k < F) and a servo still on its path, or
@@ -683,19 +700,26 @@ class Session:
     def read(self, parser: LineParser, data: bytes, limit: int | None = None) -> tuple[bytes, int]:
         """This frame's reading from bytes: `data` (the bytes received, oldest first) goes to
         `parser` byte by byte, each command to `line`, until an offset, `PL` or (while a sequence
-        plays) `STOP` line has ended, or, after a group line, before a byte the parser `stalls` at;
-        or the bytes run out, or `limit` bytes are read. Returns the replies and the number of
-        bytes read; the others wait for the next frame (pass them again after `frame()`)."""
-        if self.reading_stopped and self.pending is None:
+        plays) `STOP` line has ended, or, after a group line, before a byte the parser `stalls` at
+        (`waiting`: the group's channels, where the state is in XRAM) or after a line dropped (a
+        bad line's end); or the bytes run out, or `limit` bytes are read. Returns the replies and
+        the number of bytes read; the others wait for the next frame (pass them again after
+        `frame()`)."""
+        if (self.reading_stopped and self.pending is None) or self.dropped:
             return b"", 0
         out = []
         n = len(data) if limit is None else min(limit, len(data))
         for i in range(n):
-            if self.pending is not None and parser.stalls(data[i]):
-                return b"".join(out), i     # a group waits: the reading stops before this byte
+            if self.pending is not None:
+                waiting = named(self.pending, self.by_channel) if self.xram else None
+                if parser.stalls(data[i], waiting):
+                    return b"".join(out), i     # a group waits: the reading stops before this byte
             cmd = parser.feed(data[i])
             if cmd is not None:
                 out.append(self.line(cmd))
+            elif self.pending is not None and parser.dropped:
+                self.dropped = True             # the group stays; the reading stops until it is committed
+                return b"".join(out), i + 1
             if self.reading_stopped and self.pending is None:
                 return b"".join(out), i + 1
         return b"".join(out), n
@@ -731,6 +755,6 @@ class Session:
                 self.now[ch] = frame_n(n0, n1, m.k, m.frames)
             if m.k >= m.frames:
                 self.move = None
-        self.reading_stopped = False
+        self.reading_stopped = self.dropped = False
         self.frames += 1
         return dict(self.now)

@@ -595,26 +595,31 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     # before a byte the parser stalls at (the next reading's first).
     if obs.hosts:
         from . import ssc32
-        from .flow import host_passes
+        from .flow import host_passes, host_xram
         from .model import host_channel
         passes = host_passes(plan)
+        xram = host_xram(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
             parser, waiting, held, played = ssc32.LineParser(), False, 0, False
             readings = list(zip(h.frames, h.ends))
             for k, ((cycle, _, got), ended) in enumerate(readings):
-                stopped = answered = grouped = overread = False
+                stopped = answered = grouped = overread = dropped = False
+                named: frozenset[int] = frozenset()         # the channels the frame's group names
                 for b in got:
-                    if grouped and not overread and parser.stalls(b):
+                    if grouped and not overread and (dropped or parser.stalls(b, named if xram else None)):
                         overread = True
                         bad(cycle, f"the host parser read {_show(b)} at {when(cycle)} after a group line in the "
                                    "same frame, a byte the reading stops before while a group waits")
                     cmd = parser.feed(b)
                     stopped = stopped or ssc32.stops_reading(cmd, servos, ended.playing)
-                    grouped = grouped or (isinstance(cmd, ssc32.Group) and ssc32.stops_reading(cmd, servos))
+                    if isinstance(cmd, ssc32.Group) and ssc32.stops_reading(cmd, servos):
+                        grouped, named = True, named | ssc32.named(cmd, servos)
+                    dropped = dropped or (grouped and parser.dropped)
                     answered = answered or isinstance(cmd, (ssc32.Query, ssc32.QueryPulse, ssc32.Version))
                 after = readings[k + 1][0][2] if k + 1 < len(readings) else []
-                if grouped and ended.left and len(got) < passes and after and not parser.stalls(after[0]):
+                if (grouped and not dropped and ended.left and len(got) < passes and after
+                        and not parser.stalls(after[0], named if xram else None)):
                     bad(cycle, f"the host parser stopped reading at {when(cycle)} after a group line, before "
                                f"{_show(after[0])}, a byte it reads on to")
                 stops = ended.hline & ~HLINE_QUEUING

@@ -1143,12 +1143,12 @@ main {
 
 def test_group_lines_read_in_one_frame_join_into_one_move():
     """Lines queued before `host` runs, so that the first frame's reading has them all: a group
-    line with T, a one-channel line with its own T, the LF of a CR LF, a bad line, and a
-    one-channel line; then a Q, whose CR waits for the next
-    frame. The group lines join: s0, s1 and s3 start in the same frame and arrive together, after
-    the last T given (T200: 10 frames at 20 ms), not the first (T600); the bad line drops nothing.
-    As the model says (verify checks every pulse)."""
-    lines = b"#0P1460T600\r#1P1140T200\r\n#2X\r#3P1500\rQ\r"        # 39 bytes: the queue holds 41
+    line with T, a one-channel line with its own T, the LF of a CR LF, a line naming a channel
+    with no servo, and a one-channel line; then a Q, whose CR waits for the next frame. The group
+    lines join: s0, s1 and s3 start in the same frame and arrive together, after the last T given
+    (T200: 10 frames at 20 ms), not the first (T600). As the model says (verify checks every
+    pulse)."""
+    lines = b"#0P1460T600\r#1P1140T200\r\n#9P7\r#3P1500\rQ\r"        # 40 bytes: the queue holds 41
     scenario = '0.05s "' + lines.decode().replace("\r", "\\r").replace("\n", "\\n") + '"\n'
     b, trace, report = session(scenario, 30, QUEUED)
     readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got]
@@ -1162,6 +1162,25 @@ def test_group_lines_read_in_one_frame_join_into_one_move():
     ends = {bit: n[bit].index(target[bit]) for bit in (0, 1, 3)}
     assert len(set(starts.values())) == 1 and len(set(ends.values())) == 1, (starts, ends)
     assert ends[0] - starts[0] + 1 == 10, (starts, ends)
+
+
+
+@pytest.mark.parametrize("bad", [b"#2X\r", b"#2P1500 Q\r"])
+def test_a_bad_line_after_a_group_line_stops_the_reading_and_drops_nothing_of_it(bad):
+    """Lines queued before `host` runs: a group line, a bad line (bad before its CR, or only at
+    it), a group line. The bad line's end is read and drops it; the group stays and moves s0, and
+    the reading stops there until it is committed: the last line is read in the next frame, a
+    move of its own (s0 stops where it is)."""
+    lines = b"#0P1460T200\r" + bad + b"#3P1500\r"
+    scenario = '0.05s "' + lines.decode().replace("\r", "\\r") + '"\n'
+    b, trace, report = session(scenario, 30, QUEUED)
+    readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got]
+    assert readings == [b"#0P1460T200\r" + bad, b"#3P1500\r"], readings
+    n = {bit: [n_of(b, w) for w in widths(b, trace, 1, bit)] for bit in range(4)}
+    assert n[2] == [100] * len(n[2])
+    first0 = next(k for k, v in enumerate(n[0]) if v != 100)
+    first3 = next(k for k, v in enumerate(n[3]) if v != 100)
+    assert first3 == first0 + 1 and n[0][-1] == n[0][first0] and n[3][-1] == 125, (n[0][first0 - 1:first0 + 3], first0, first3)
 
 
 def test_after_a_group_line_the_reading_stops_before_a_control_byte_or_a_second_entry():
