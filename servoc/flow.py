@@ -93,13 +93,14 @@ def host_passes(plan: Plan) -> int:
     """The bytes the host parser reads in one frame at the most, p. With b the bytes a frame brings
     (from a host 2 % fast): at least one more than b, so that bytes left queued by a late frame are
     read in the frames after. And after a group line the reading stops before a line's second
-    entry, or the end of a line that does not join the group (the group waits for host_step): a
-    frame's reading may be cut short once a line, so for lines of L bytes back to back the frames
-    a line takes must read it and that frame too, p (L / b - 1) >= L: p >= b L / (L - b),
+    entry (with the state in XRAM: an entry for a servo the group names), or the end of a line
+    that does not join the group (the group waits for host_step): a frame's reading may be cut
+    short once a line, so for lines of L bytes back to back the frames a line takes must read it
+    and that frame too, p (L / b - 1) >= L: p >= b L / (L - b),
     for L the longer of a line that sets every servo (`full_line`) and two frames' bytes (so p is
-    at most 2 b). Shorter lines of several entries back to back may fill the receive queue; lines
-    of one entry never cut the reading (they join the group), so they keep up at any length
-    (docs/host-protocol.md)."""
+    at most 2 b). Shorter lines that cut the reading may fill the receive queue; lines of one
+    entry never do (they join the group), so they keep up at any length, and in XRAM neither do
+    lines that name other servos than the lines before them in the frame (docs/host-protocol.md)."""
     gap = _host_gap(plan)
     frame = plan.program.target.cycles(plan.period_us)
     b = Fraction(frame, gap)
