@@ -15,7 +15,8 @@
    the same firmware patched to stop the reading at a group line's end, as servoc did before; and
    24 servos get one-channel lines (8 or 9 bytes, a third of a frame's bytes) back to back, next to
    the same firmware patched to stop before every line end after a group line (no joining), as
-   servoc did before.
+   servoc did before; and lines that set 2 of the 24 servos each, next to the firmware patched to
+   wait before every entry of a servo after a group line, as servoc did before.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host` (moved by bytes between their home and N 250, as far as a host
@@ -125,24 +126,51 @@ def sustained(seconds: float, channels: int, program: str, servos: tuple[int, ..
             f"pulses, {report.bytes_sent} bytes sent)"]
 
 
+def _patched(firmware, reporter, edits: list[tuple[str, str]]):
+    """The firmware with each (old, new) text of its assembly that it has (one at least) replaced
+    once, assembled again (a program without sequences has no reading while one plays)."""
+    text = firmware.unit.text
+    for old, new in edits:
+        text = text.replace(old, new, 1)
+    assert text != firmware.unit.text
+    return api.assemble(dataclasses.replace(firmware.unit, text=text), reporter)
+
+
 def stop_after_group(firmware, reporter):
     """The firmware with the reading stopping at a group line's end, as servoc built it before the
     reading went on into the next line (the side-by-side row)."""
-    text = firmware.unit.text
-    for p in ("hp", "pr"):
-        text = text.replace(f"CJNE    A, #0x01, {p}_n", f"SJMP    {p}_n       ", 1)
-    assert text != firmware.unit.text
-    return api.assemble(dataclasses.replace(firmware.unit, text=text), reporter)
+    return _patched(firmware, reporter, [(f"CJNE    A, #0x01, {p}_n", f"SJMP    {p}_n       ") for p in ("hp", "pr")])
 
 
 def stall_at_line_ends(firmware, reporter):
     """The firmware with the reading stopping before every line end after a group line, as servoc
     built it before group lines read in one frame joined (the side-by-side row)."""
-    text = firmware.unit.text
-    for p in ("hp", "pr"):
-        text = text.replace(f"{p}_j:  MOV     A, HST", f"{p}_j:  SJMP    {p}_n  ", 1)
-    assert text != firmware.unit.text
-    return api.assemble(dataclasses.replace(firmware.unit, text=text), reporter)
+    return _patched(firmware, reporter, [(f"{p}_j:  MOV     A, HST", f"{p}_j:  SJMP    {p}_n  ") for p in ("hp", "pr")])
+
+
+def wait_every_entry(firmware, reporter):
+    """The firmware with the reading in XRAM waiting before the '#' that ends any entry for a servo
+    after a group line, as servoc built it before a line's entries kept their own generation (the
+    side-by-side row)."""
+    return _patched(firmware, reporter, [("hk_s:   ADD     A, #HTAG", "hk_s:   SETB    C\n        RET\n        ADD     A, #HTAG")])
+
+
+def sustained_few(seconds: float, program: str, what: str, size: int, patch=None) -> list[str]:
+    """Group lines that set `size` servos each, the servos in turn, back to back at 9600 baud."""
+    fe, firmware, reporter = build(program)
+    if patch is not None:
+        firmware = patch(firmware, reporter)
+    plan = fe.plan
+    lines = ["".join(f"#{c % 24}P{1000 + (n * 37 + c * 11) % 900}" for c in range(n * size, n * size + size)) + "\r"
+             for n in range(int(seconds * 960 / (8 * size)))]
+    text = "".join(lines).replace("\r", "\\r")
+    trace, report = run(fe, firmware, f'0.2s "{text}"\n', int((seconds + 1.5) * 1e6 / plan.period_us))
+    sent = sum(len(line) for line in lines)
+    read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
+    lost = sum(1 for r in trace.observation.received if not r.queued)
+    return [f"sustained, {what}: {len(lines)} group lines of {size} servos ({sent} bytes back to back at 9600 baud, "
+            f"{sent * 10 / 9600:.1f} s, P = {plan.period_us} us): {read} bytes read by the parser, {lost} lost; "
+            f"verify {'OK' if report.ok else 'FAILED'}"]
 
 
 def sustained_one_channel(seconds: float, program: str, what: str, patch=None,
@@ -226,6 +254,9 @@ def main() -> int:
                  + sustained_one_channel(seconds, TWENTY_FOUR, "the same, stopping the reading before every "
                                          "line end after a group line (as servoc did before)", stall_at_line_ends,
                                          tuple(range(24)))
+                 + sustained_few(seconds, TWENTY_FOUR, "24 servos", 2)
+                 + sustained_few(seconds, TWENTY_FOUR, "the same, waiting before every entry of a servo after a "
+                                 "group line (as servoc did before)", 2, wait_every_entry)
                  + periods() + capacity()):
         print(line)
     return 0
