@@ -528,7 +528,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
-                  ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, hl_drop=layout.HLINE_DROP, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2, playh_bit=framed_bit + 3,
+                  ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2, playh_bit=framed_bit + 3,
                   byte_maps=list(ctx.byte_maps.values()),
                   end_bit=layout.RECORD_FLAGS[-1].bit, chans=chans, e=e, hold=_hold(hold_off),
                   handler_bank=layout.HANDLER_BANK, cur_base=layout.CUR_BASE,

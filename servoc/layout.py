@@ -148,7 +148,6 @@ HLINE_BITS = (
     Bit("DROP", 7, "a line dropped while a group waits: the reading stops until the group is committed"),
 )
 HLINE = {b.name: b for b in HLINE_BITS}
-HLINE_DROP = 0xFF ^ HLINE["GROUP"].mask ^ HLINE["OFFS"].mask    # clears what a dropped line may have set
 
 
 # ----------------------------------------------------------------- errors

@@ -154,8 +154,8 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
         shared = "play_read" in labels and labels["play_read"] == labels.get("host_read")
         if shared:
             ram[HOST_END] += (equ["HPLAY"],)
-        for lab, kind in (("host_run", HOST_START), ("host_read", HOST_FRAME), ("hb_in", HOST_BYTE), ("hb_chr", HOST_BYTE),
-                          ("hb_eol", HOST_BYTE),
+        for lab, kind in (("host_run", HOST_START), ("host_read", HOST_FRAME), ("hb_in", HOST_BYTE),
+                          ("hb_chr", HOST_BYTE), ("hb_eol", HOST_BYTE),
                           ("hp_end", HOST_END), ("play_read", PLAY_FRAME), ("pr_end", PLAY_END),
                           ("host_plays", PLAY_START), ("pc_go", PLAY_CUT)):
             if shared and kind in (PLAY_FRAME, PLAY_END):

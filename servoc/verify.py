@@ -592,7 +592,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     # that stops the reading was read (docs/host-protocol.md), or an answering line (Q, QP, VER)
     # whose answer has to wait for room, in this frame or before (HLINE bits 4 and 6, until host_step
     # sends it), or it read as many as a frame's reading reads. After a group line it stops only
-    # before a byte the parser stalls at (the next reading's first).
+    # before a byte the parser stalls at (the next reading's first), or after a line dropped.
     if obs.hosts:
         from . import ssc32
         from .flow import host_passes, host_xram
@@ -609,8 +609,10 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                 for b in got:
                     if grouped and not overread and (dropped or parser.stalls(b, named if xram else None)):
                         overread = True
-                        bad(cycle, f"the host parser read {_show(b)} at {when(cycle)} after a group line in the "
-                                   "same frame, a byte the reading stops before while a group waits")
+                        why = ("after a line dropped after a group line in the same frame" if dropped else
+                               "after a group line in the same frame, a byte the reading stops before while a group "
+                               "waits")
+                        bad(cycle, f"the host parser read {_show(b)} at {when(cycle)} {why}")
                     cmd = parser.feed(b)
                     stopped = stopped or ssc32.stops_reading(cmd, servos, ended.playing)
                     if isinstance(cmd, ssc32.Group) and ssc32.stops_reading(cmd, servos):
