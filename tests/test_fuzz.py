@@ -652,7 +652,7 @@ def mutated_programs(draw) -> bytes:
 
 # ============================================================ the campaign
 
-@settings(max_examples=120, **FUZZ)
+@settings(max_examples=70, **FUZZ)
 @given(valid_programs())
 def test_valid_programs_lint_clean(text):
     diags = exercise(text.encode("utf-8"), emit=("ast", "model", "plan"))
@@ -660,7 +660,7 @@ def test_valid_programs_lint_clean(text):
     assert not errors, f"a valid program has errors: {errors}\n--- source:\n{text}"
 
 
-@settings(max_examples=350, **FUZZ)
+@settings(max_examples=220, **FUZZ)
 @given(mutated_programs(), st.sampled_from(["ast", "model", "plan"]))
 def test_mutated_programs(data, form):
     exercise(data, emit=(form,))

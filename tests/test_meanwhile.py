@@ -240,7 +240,7 @@ def _cut_programs(draw):
     return "\n".join(lines) + "\n", lines.index(f"    on button {{ move p3 in {branch_ms}ms }}") + 1
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(_cut_programs())
 def test_the_interruption_check_flags_exactly_the_moves_too_fast_from_some_frame(case):
     """Brute force: cut the body after each of its frames (and before the first, and while the

@@ -186,14 +186,14 @@ def _first_difference(got: list[int], want: list[int]) -> str:
 
 # ============================================================ the programs
 
-@settings(max_examples=3, **SAFE)
+@settings(max_examples=2, **SAFE)
 @given(valid_programs(min_servos=3))
 def test_long_runs_of_programs_with_every_construct(text):
     """Groups, `with` poses, limits, trims, reversed servos, eased moves, sequences, loops."""
     check_long_run(text)
 
 
-@settings(max_examples=3, **SAFE)
+@settings(max_examples=2, **SAFE)
 @given(programs().filter(lambda prog: len(prog.servos) >= 3))
 def test_long_runs_at_the_shortest_frame_period(prog):
     """Moves whose F is found at run time, nested repeats and plays, at (or near) the minimum P."""

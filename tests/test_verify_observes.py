@@ -417,7 +417,7 @@ def _late_look(asm: str) -> str:
     return re.sub(r"(\n\s+LCALL   (sel\d+)_ev\s+; a look as it is reached)", rf"\n        LCALL   {fcall}\1", asm, count=1)
 
 
-@settings(max_examples=6, deadline=None, suppress_health_check=list(HealthCheck), derandomize=True,
+@settings(max_examples=4, deadline=None, suppress_health_check=list(HealthCheck), derandomize=True,
           phases=[Phase.explicit, Phase.generate])
 @given(programs())
 def test_generated_programs_right_firmware_passes_wrong_firmware_fails(case):
