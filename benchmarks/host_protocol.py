@@ -29,6 +29,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 import sys
 from pathlib import Path
 
@@ -149,26 +150,42 @@ def stall_at_line_ends(firmware, reporter):
 
 
 def wait_every_entry(firmware, reporter):
-    """The firmware with the reading in XRAM waiting before the '#' that ends any entry for a servo
-    after a group line, as servoc built it before a line's entries kept their own generation (the
-    side-by-side row)."""
-    return _patched(firmware, reporter, [("hk_s:   ADD     A, #HTAG", "hk_s:   SETB    C\n        RET\n        ADD     A, #HTAG")])
+    """The firmware with the reading in XRAM waiting before the '#' that ends any entry of a line
+    not gone bad after a group line, as servoc built it before a line's entries kept their own
+    generation (the side-by-side row)."""
+    edits = [(m.group(0), f"SJMP    {m.group(1)}_n\n        NOP\n        NOP")
+             for m in re.finditer(r"MOV     A, HHP\n        CJNE    A, #HHO\+\d+, (\w+)_th", firmware.unit.text)]
+    return _patched(firmware, reporter, edits)
 
 
-def sustained_few(seconds: float, program: str, what: str, size: int, patch=None) -> list[str]:
-    """Group lines that set `size` servos each, the servos in turn, back to back at 9600 baud."""
+def without_holds(fe, reporter):
+    """(front end, firmware) built without the holds (`Plan.holds`), as servoc built it before: a
+    '#' that ends an entry for a servo of the group waiting waits for the commit (the side-by-side
+    row)."""
+    plan = dataclasses.replace(fe.plan, holds=False)
+    return dataclasses.replace(fe, plan=plan), api.assemble(api.codegen.generate(plan), reporter)
+
+
+def sustained_few(seconds: float, program: str, what: str, size: int, patch=None, same: bool = False,
+                  holds: bool = True) -> list[str]:
+    """Group lines that set `size` servos each, the servos in turn (`same`: the first `size` in every
+    line), back to back at 9600 baud; `holds` False: built without them (`without_holds`)."""
     fe, firmware, reporter = build(program)
+    if not holds:
+        fe, firmware = without_holds(fe, reporter)
     if patch is not None:
         firmware = patch(firmware, reporter)
     plan = fe.plan
-    lines = ["".join(f"#{c % 24}P{1000 + (n * 37 + c * 11) % 900}" for c in range(n * size, n * size + size)) + "\r"
+    first = (lambda n: 0) if same else (lambda n: n * size)
+    lines = ["".join(f"#{c % 24}P{1000 + (n * 37 + c * 11) % 900}" for c in range(first(n), first(n) + size)) + "\r"
              for n in range(int(seconds * 960 / (8 * size)))]
     text = "".join(lines).replace("\r", "\\r")
     trace, report = run(fe, firmware, f'0.2s "{text}"\n', int((seconds + 1.5) * 1e6 / plan.period_us))
     sent = sum(len(line) for line in lines)
     read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
     lost = sum(1 for r in trace.observation.received if not r.queued)
-    return [f"sustained, {what}: {len(lines)} group lines of {size} servos ({sent} bytes back to back at 9600 baud, "
+    return [f"sustained, {what}: {len(lines)} group lines of {size} servos{' (the same ones)' if same else ''} "
+            f"({sent} bytes back to back at 9600 baud, "
             f"{sent * 10 / 9600:.1f} s, P = {plan.period_us} us): {read} bytes read by the parser, {lost} lost; "
             f"verify {'OK' if report.ok else 'FAILED'}"]
 
@@ -257,6 +274,10 @@ def main() -> int:
                  + sustained_few(seconds, TWENTY_FOUR, "24 servos", 2)
                  + sustained_few(seconds, TWENTY_FOUR, "the same, waiting before every entry of a servo after a "
                                  "group line (as servoc did before)", 2, wait_every_entry)
+                 + sustained_few(seconds, TWENTY_FOUR, "24 servos", 2, same=True)
+                 + sustained_few(seconds, TWENTY_FOUR, "the same, built without holds (as servoc did before)", 2,
+                                 same=True, holds=False)
+                 + sustained_few(seconds, TWENTY_FOUR, "24 servos", 3, same=True)
                  + periods() + capacity()):
         print(line)
     return 0

@@ -28,7 +28,7 @@ from . import sim as _sim
 from . import verify as _verify
 from .diagnostics import Reporter, limit_diagnostic
 from .source import NO_SPAN, SourceFile, Span
-from .flow import hosted
+from .flow import host_holds, hosted
 from .steps import MoveStep, Plan, steps
 from .units import round_half_up
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
@@ -118,6 +118,10 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:
             over = _overflow(result)       # built for size, still too big: lint says so, as compile
+            if over and host_holds(result):     # without the host's holds, if that fits
+                smaller = _periods(program, dataclasses.replace(first, compact=True, holds=False))
+                if smaller.firmware_limit is None and not _overflow(smaller):
+                    result, over = smaller, None
             if over:
                 result = dataclasses.replace(result, firmware_limit=(("rom-overflow", *over, NO_SPAN, ()),))
     if least and decide and result.firmware_limit is None and result.min_period_us < result.period_us and _eased(result):
@@ -142,7 +146,7 @@ def _least_fitting(program, first: Plan, at: Plan) -> int:
     byte a frame): the least P, from `at`'s shortest on, at which `frame P` builds (for speed or
     for size) and holds P. `at` (its own P) builds; between the two, by bisection."""
     def builds(p: int) -> bool:
-        asked = dataclasses.replace(_plan_at(program, p), compact=first.compact, period_is_default=False)
+        asked = dataclasses.replace(_plan_at(program, p), compact=first.compact, holds=first.holds, period_is_default=False)
         got = choose_period(program, asked, least=False)
         return got.firmware_limit is None and got.min_period_us <= p
 
@@ -228,7 +232,7 @@ def _periods(program, first: Plan) -> Plan:
             break
         seen.add(result.period_us)
         period = max(want, result.period_us) if len(seen) > 4 else want
-        result = _budgeted(dataclasses.replace(_plan.plan(program, None, period), compact=first.compact))
+        result = _budgeted(dataclasses.replace(_plan.plan(program, None, period), compact=first.compact, holds=first.holds))
     least = _least_period(program, result)
     return result if least == result.min_period_us else dataclasses.replace(result, min_period_us=least)
 
@@ -250,7 +254,7 @@ def _least_period(program, at: Plan) -> int:
 
     def need(p: int) -> int:            # the shortest period of the code built for p (p + 1: none)
         if p not in known:
-            got = _budgeted(dataclasses.replace(_plan_at(program, p), compact=at.compact))
+            got = _budgeted(dataclasses.replace(_plan_at(program, p), compact=at.compact, holds=at.holds))
             known[p] = p + 1 if got.firmware_limit is not None else got.min_period_us
         return known[p]
 

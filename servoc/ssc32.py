@@ -198,11 +198,18 @@ class LineParser:
     that is no line end); after it, `dropped` is True when the byte was an ESC or a bad
     line's end (the firmware then drops the entries of the line read so far). The state
     carries over from one call to the next, so a line may come in pieces (over several
-    frames)."""
+    frames).
 
-    def __init__(self) -> None:
+    `holds` (K, `flow.host_holds`): where the host's state is in XRAM, while a group waits an
+    entry that a '#' ends for a servo the group names is held (`feed`'s `waiting`) rather than
+    written over the group's, K at most until the commit (`commit`); `held` counts those taken,
+    `joined` those of lines that have ended (a line dropped gives back its own)."""
+
+    def __init__(self, holds: int = 0) -> None:
         self._reset()
         self.dropped = False
+        self.holds = holds
+        self.held = self.joined = 0
 
     def _reset(self) -> None:
         self.bad = False                # the line is ignored up to its end
@@ -214,19 +221,34 @@ class LineParser:
         self.items = 0                  # items closed so far in the line
         self.kind: str | None = None    # "group" once a P or S is read, "offset" once a PO is
         self.entry: dict[str, int] | None = None   # the open entry: "C", and "P", "S", "PO"
+        self.channel: int | None = None # the open entry's channel until the next '#' or the line end, a T
+                                        # read or not (the firmware's HST bit 4 and HCH)
         self.entries: list[Entry] = []
         self.time: int | None = None    # T's number, once T's item has ended
         self.cmd: str | None = None     # the command word (SQ once it follows PL)
         self.arg: int | None = None
 
-    def feed(self, byte: int) -> Command | None:
+    def commit(self) -> None:
+        """The group is committed: the entries held are written, every hold is free."""
+        self.held = self.joined = 0
+
+    def feed(self, byte: int, waiting: frozenset[int] | None = None) -> Command | None:
+        """`waiting`: while a group waits, its channels where the state is in XRAM (the entry a '#'
+        ends is held if it is for one of them and writes a width or an offset)."""
+        hold = waiting is not None and byte == 35 and self.clashes(waiting)
+        n = len(self.entries)
         if byte in (CR, LF):
             cmd = self._end()
             self.dropped = self.bad
+            if self.dropped:
+                self.held = self.joined
+            else:
+                self.joined = self.held
             self._reset()
             return cmd
         self.dropped = byte == ESC
         if byte == ESC:
+            self.held = self.joined
             self._reset()
             return None
         if byte in (SPACE, TAB) or self.bad:
@@ -245,6 +267,9 @@ class LineParser:
             if not self.bad:
                 self._close_entry()
                 self.item = "#"
+            if hold and len(self.entries) > n:
+                self.held += 1
+            self.channel = None
         elif byte in (43, 45):                          # '+' '-': once, right after PO
             if self.item == "PO" and not self.digits and not self.sign:
                 self.sign = -1 if byte == 45 else 1
@@ -276,16 +301,24 @@ class LineParser:
         The '#': without `waiting` (the host's state in internal RAM), a '#' after a '#' of the
         line being read (it would end that '#''s entry; also once the line has gone bad, as the
         firmware does not look at that). With `waiting`, the channels (with a servo) the group
-        gives a width (the state in XRAM, where each entry keeps the generation of its line): a
-        '#' that ends an open entry of a line not gone bad for one of those channels (with P or
-        not)."""
+        gives a width (the state in XRAM, where each entry keeps the generation of its line):
+        without holds, a '#' that `clashes`; with holds (`holds`), once every hold is taken, a
+        '#' that ends an open entry of a line not gone bad (the firmware's test: HST bit 4 and
+        not 5), whatever its servo."""
         if byte == 35:
             if waiting is None:
                 return self.hashed
-            return not self.bad and self.entry is not None and self.entry["C"] in waiting
+            if self.holds:
+                return self.held >= self.holds and not self.bad and self.channel is not None
+            return self.clashes(waiting)
         if byte in (CR, LF):
             return not self.joins()
         return byte & 0xE8 == 0x08
+
+    def clashes(self, waiting: frozenset[int]) -> bool:
+        """An open entry of a line not gone bad for a channel of `waiting` (with P or not): the
+        entry a '#' or line end now ends would be written over one of the group's."""
+        return not self.bad and self.channel is not None and self.channel in waiting
 
     def joins(self) -> bool:
         """A line end now would not end a command or offset line: the line is bad (dropped),
@@ -308,6 +341,7 @@ class LineParser:
         self.items += 1
         if item == "#":
             self.entry = {"C": n}
+            self.channel = n
             return
         if item not in WORDS or self.time is not None:  # an unfinished word; anything after T
             self.bad = True
@@ -705,16 +739,19 @@ class Session:
         bad line's end); or the bytes run out, or `limit` bytes are read. Returns the replies and
         the number of bytes read; the others wait for the next frame (pass them again after
         `frame()`)."""
+        if self.pending is None:
+            parser.commit()                     # no group waits: no entry is held
         if (self.reading_stopped and self.pending is None) or self.dropped:
             return b"", 0
         out = []
         n = len(data) if limit is None else min(limit, len(data))
         for i in range(n):
+            waiting = None
             if self.pending is not None:
                 waiting = named(self.pending, self.by_channel) if self.xram else None
                 if parser.stalls(data[i], waiting):
                     return b"".join(out), i     # a group waits: the reading stops before this byte
-            cmd = parser.feed(data[i])
+            cmd = parser.feed(data[i], waiting)
             if cmd is not None:
                 out.append(self.line(cmd))
             elif self.pending is not None and parser.dropped:

@@ -595,17 +595,18 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     # before a byte the parser stalls at (the next reading's first), or after a line dropped.
     if obs.hosts:
         from . import ssc32
-        from .flow import host_passes, host_xram
+        from .flow import host_holds, host_passes, host_xram
         from .model import host_channel
         passes = host_passes(plan)
         xram = host_xram(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
-            parser, waiting, held, played = ssc32.LineParser(), False, 0, False
+            parser, waiting, held, played = ssc32.LineParser(host_holds(plan)), False, 0, False
             readings = list(zip(h.frames, h.ends))
             for k, ((cycle, _, got), ended) in enumerate(readings):
                 stopped = answered = grouped = overread = dropped = False
                 named: frozenset[int] = frozenset()         # the channels the frame's group names
+                parser.commit()                             # a reading starts with no group waiting
                 for b in got:
                     if grouped and not overread and (dropped or parser.stalls(b, named if xram else None)):
                         overread = True
@@ -613,7 +614,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                                "after a group line in the same frame, a byte the reading stops before while a group "
                                "waits")
                         bad(cycle, f"the host parser read {_show(b)} at {when(cycle)} {why}")
-                    cmd = parser.feed(b)
+                    cmd = parser.feed(b, named if grouped and xram else None)
                     stopped = stopped or ssc32.stops_reading(cmd, servos, ended.playing)
                     if isinstance(cmd, ssc32.Group) and ssc32.stops_reading(cmd, servos):
                         grouped, named = True, named | ssc32.named(cmd, servos)

@@ -954,17 +954,17 @@ def test_q_lines_back_to_back_through_a_whole_sequence_keep_every_frame_exact(cl
 
 @pytest.mark.parametrize("clock, baud", [("11.0592MHz", 9600), ("11.0592MHz mode 6T", 19200)])
 def test_a_byte_lost_to_a_full_queue_spoils_its_line_so_no_line_is_read_with_bytes_missing(clock, baud):
-    """Group lines of two entries (9 bytes) back to back at `frame 12ms`, where a frame brings
-    11.5 bytes at 9600 baud (23 at 19200 baud in 6T mode): after a group line the reading stops
-    before the next line's second entry, so a frame reads one line, and the receive queue fills:
-    bytes are lost. The serial handler makes the newest byte queued 0xFF when one is lost, so
+    """Group lines of two entries (9 bytes), each followed by `Q`, back to back at `frame 12ms`,
+    where a frame brings 11.5 bytes at 9600 baud (23 at 19200 baud in 6T mode, where the host's
+    state is in XRAM): after a group line the reading stops before the end of the `Q` line, so a
+    frame reads one group line, and the receive queue fills: bytes are lost. The serial handler makes the newest byte queued 0xFF when one is lost, so
     every line the parser reads whole (without 0xFF) is a line the host sent: none is spliced
     from two (each line's channels and widths go together, so `#0P1#1P` and `4` and CR would be no
     line sent). verify passes the run."""
     text = (ARM.replace("clock 11.0592MHz", f"clock {clock}").replace("serial 9600", f"serial {baud}")
             .replace("\nhost ssc32\n", "\nhost ssc32\nframe 12ms\n", 1))
     assert "frame 12ms" in text
-    lines = ["#0P1#1P2\r", "#2P3#7P4\r"] * 100
+    lines = ["#0P1#1P2\r", "Q\r", "#2P3#7P4\r", "Q\r"] * 60
     scenario = "0.3s " + " ".join('"' + ln.replace("\r", "\\r") + '"' for ln in lines) + "\n"
     b, trace, report = session(scenario, round(1.6e6 / built(text).plan.period_us), text)
     read = b"".join(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames)

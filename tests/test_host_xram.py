@@ -119,7 +119,8 @@ def test_the_state_in_xram_is_what_the_firmware_reads_and_lint_reports_its_room(
     pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
     b = build_text(_program("stc89c58rd", pins))
     text = b.firmware.unit.text
-    assert flow.host_xram(b.plan) and b.firmware.unit.xram_bytes == 24 * 6 + 96
+    assert flow.host_xram(b.plan) and flow.host_holds(b.plan) == 2
+    assert b.firmware.unit.xram_bytes == 24 * 6 + 2 * flow.HOLD_BYTES + 96
     assert re.search(r"^XSTATE\s+= 0xA0", text, re.M) and not re.search(r"^STATE\s+=", text, re.M)
     assert "MOVX    @R" not in text and "MOVX    A, @R" not in text      # never paged by P2
     # the same 24 servos with a select nested in the program: the allocation says too-deep or
@@ -127,6 +128,21 @@ def test_the_state_in_xram_is_what_the_firmware_reads_and_lint_reports_its_room(
     deep = _program("stc89c58rd", pins, "main {\n" + "  repeat 2 {\n" * 20 + "  host\n" + "  }\n" * 20 + "}")
     _, diags = front_end_text(deep)
     assert {d.code for d in diags if d.is_error} <= {"too-deep", "host-ram"} and any(d.is_error for d in diags)
+
+
+def test_a_build_for_size_that_fits_only_without_the_holds_is_built_without_them():
+    # 24 servos with `host` and a sequence on the STC89C52RC: built for size, the holds' code does
+    # not fit its 8 KB, so it is built without (K = 0) and fits; without the sequence it keeps them;
+    # on the STC89C58RD+ (32 KB) the same program keeps them, built for speed
+    pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
+    text = _program("stc89c52rc", pins)
+    b = build_text(text)
+    assert b.plan.compact and not b.plan.holds and flow.host_holds(b.plan) == 0
+    assert "HHO" not in b.firmware.unit.text and b.firmware.rom_bytes <= 8192
+    plain = build_text(re.sub(r"sequence wave \{[^}]*\}\n", "", text))
+    assert plain.plan.compact and flow.host_holds(plain.plan) == 2 and "host_flush:" in plain.firmware.unit.text
+    big = build_text(text.replace("stc89c52rc", "stc89c58rd"))
+    assert not big.plan.compact and flow.host_holds(big.plan) == 2
 
 
 def test_a_program_past_the_stc89c52rcs_code_memory_is_told_the_chip_with_xram_and_more():
@@ -220,6 +236,62 @@ def test_lines_of_a_few_servos_to_24_servos_back_to_back_lose_no_byte(size):
     trace, report = watch(b, f'0.2s "{body}"\n', int((1.0 + sent * 10 / 9600) * 1e6 / b.plan.period_us))
     assert report.ok, problems(report)
     assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == sent
+
+
+@pytest.mark.parametrize("chip, size", [("stc89c58rd", 2), ("stc89c58rd", 3), ("stc89c52rc", 2)])
+def test_lines_that_set_the_same_servos_back_to_back_lose_no_byte(chip, size):
+    """The same 2 or 3 servos set by every line, back to back for 3 s, with 24 servos: each line
+    after the first in a frame names servos the group waiting gives a width. Its entries that a
+    '#' ends are held (flow.host_holds) rather than written over the group's, so the reading
+    goes on into the next line. Every byte read, none lost, verify passes (with the reading
+    stopped before each such entry until the commit, 873 of 3840 bytes of 2-servo lines were
+    lost). Built for speed (STC89C58RD+) and for size (STC89C52RC, without the sequence that
+    leaves no room for the holds' code there)."""
+    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
+    b = build_text(re.sub(r"sequence wave \{[^}]*\}\n", "", _program(chip, pins, "main { host }")))
+    assert flow.host_holds(b.plan) >= size - 1
+    lines = ["".join(f"#{c}P{1000 + (n * 37 + c * 11) % 900}" for c in range(size)) + "\\r"
+             for n in range(3 * 960 // (8 * size))]
+    body = "".join(lines)
+    sent = len(body.replace("\\r", "\r"))
+    trace, report = watch(b, f'0.2s "{body}"\n', int((1.0 + sent * 10 / 9600) * 1e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == sent
+    held = [got for h in trace.observation.hosts for _, _, got in h.frames if bytes(got).count(b"\r") >= 2]
+    assert len(held) > 20           # lines that named the group's servos were read in one frame
+
+
+@pytest.mark.parametrize("lines, want", [
+    # channel 0's entry held in the second line; the third line's, written at its end, is later
+    ("#0P1000\\r#0P2000#1P1300\\r#0P1500\\r", {0: 1500, 1: 1300}),
+    # two entries for channel 0 held in one line: the later wins
+    ("#0P1000\\r#0P1300#0P1800#1P900\\r", {0: 1800, 1: 900}),
+    # channel 0's entry held, then its line goes bad: it is given back (the reading stops there)
+    ("#0P1000\\r#0P2000#1x\\r", {0: 1000}),
+])
+def test_held_entries_keep_the_order_of_their_lines(lines, want):
+    """Lines queued before `host` runs, so that one frame's reading has them: after a group line
+    for channel 0, a line naming it again holds that entry (flow.host_holds). A later line's
+    entry for the same channel written at its line's end wins over the held one (host_flush
+    leaves it); a held entry of a line that goes bad is given back. The servos settle where the
+    lines say (widths from the pins, not from the model), and verify agrees frame by frame."""
+    from servoc import ssc32
+    from servoc.model import host_channel
+    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
+    b = build_text(_program("stc89c58rd", pins, "main {\n  hold 300ms\n  host\n}"))
+    assert flow.host_holds(b.plan)
+    trace, report = watch(b, f'0.02s "{lines}"\n', int(1.4e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    first = next(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got)
+    assert first == lines.replace("\\r", "\r").encode(), first         # one reading has them all
+    target = b.plan.program.target
+    for ch, width in want.items():
+        servo = next(c.servo for c in b.plan.channels if host_channel(c.servo) == ch)
+        n = ssc32.output_n((width - 500 + 4) // 8, 0, 250, servo.reverse, servo.trim)
+        edges = trace.pin_edges(servo.port, servo.bit)
+        last = [fall - rise for (rise, up), (fall, _) in zip(edges, edges[1:]) if up == 1][-1]
+        assert last == target.width_cycles(n), (ch, last, target.width_cycles(n))
+
 
 def test_a_receive_queue_past_internal_ram_is_host_ram_with_the_frame_to_shorten():
     # with the host's state in XRAM, a long frame at a fast rate makes a receive queue internal RAM
