@@ -28,7 +28,7 @@ from . import sim as _sim
 from . import verify as _verify
 from .diagnostics import Reporter, limit_diagnostic
 from .source import NO_SPAN, SourceFile, Span
-from .flow import host_holds, hosted
+from .flow import hosted
 from .steps import MoveStep, Plan, steps
 from .units import round_half_up
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
@@ -118,7 +118,7 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:
             over = _overflow(result)       # built for size, still too big: lint says so, as compile
-            if over and host_holds(result):     # without the host's holds, if that fits
+            if over and layout.host_holds(result):     # without the host's holds, if that fits
                 smaller = _periods(program, dataclasses.replace(first, compact=True, holds=False))
                 if smaller.firmware_limit is None and not _overflow(smaller):
                     result, over = smaller, None

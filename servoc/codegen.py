@@ -31,7 +31,7 @@ from . import costs
 from . import flow as flow_mod, walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
-from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_holds, host_passes, host_queue, host_watchers,
+from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
                    host_xram, hosted, move_starts,
                    port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
 from .source import SourceFile
@@ -459,7 +459,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                                  "when its HTAG is HGEN (host_drop counts it up, and each group line's end)")
             ram.alloc("HGA", 1, "the generation of the waiting group's first line: the group's entries "
                                 "are those with HTAG from HGA to HGEN - 1")
-            if host_holds(plan, True):
+            if layout.host_holds(plan, True):
                 ram.alloc("HHP", 1, "the next free hold (XRAM): the entries held while a group waits end here")
                 ram.alloc("HHJ", 1, "the end of the holds of lines that joined the group (those after: "
                                     "the line being read's)")
@@ -469,11 +469,11 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                 xat += size * len(plan.channels)
             else:
                 ram.alloc(name, size * len(plan.channels), what, direct=False)
-        holds = host_holds(plan, in_xram)
+        holds = layout.host_holds(plan, in_xram)
         if holds:
-            ram.xsymbols.append(("HHO", xat, f"{holds} holds of {flow_mod.HOLD_BYTES} bytes: a servo, its width or "
+            ram.xsymbols.append(("HHO", xat, f"{holds} holds of {layout.HOLD_BYTES} bytes: a servo, its width or "
                                               "offset, its S (XRAM)"))
-            xat += holds * flow_mod.HOLD_BYTES
+            xat += holds * layout.HOLD_BYTES
         assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
@@ -625,7 +625,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                    budget, work_from,
                    shortest,
                    target, plan.compact, tuple(ctx.selects), period_holds,
-                   (flow_mod.HOST_XRAM_PER_SERVO * len(plan.channels) + flow_mod.HOLD_BYTES * host_holds(plan, in_xram)
+                   (flow_mod.HOST_XRAM_PER_SERVO * len(plan.channels) + layout.HOLD_BYTES * layout.host_holds(plan, in_xram)
                     + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0)
 
 
@@ -906,7 +906,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "play_list": [{"n": [q.name for q in plan.program.sequences].index(name), "name": name,
                            "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
-            "xram": host_xram(plan), "holds": host_holds(plan), "hold_bytes": flow_mod.HOLD_BYTES,
+            "xram": host_xram(plan), "holds": layout.host_holds(plan), "hold_bytes": layout.HOLD_BYTES,
             "gen_limit": 0xFF - host_passes(plan) - 1}
 
 

@@ -89,41 +89,18 @@ HOST_PER_SERVO = 5      # per servo: its pending width or offset (2), its pendin
 HOST_XRAM_PER_SERVO = HOST_PER_SERVO + 1    # in XRAM (host_xram) also its pending entry's generation
 
 
-HOLD_BYTES = 6          # a held entry (host_xram): its line's generation, its servo, its S (2), its width or offset (2)
-HOLDS_MOST = 3          # the entries held in one frame at the most (host_holds)
-
-
-def host_holds(plan: Plan, xram: bool | None = None) -> int:
-    """Where the host's state is in XRAM (`host_xram`; `xram` given: as if it were so or not), the
-    entries a frame can hold, K: while a group waits, an entry that a '#' ends for a servo the
-    group names is held (HOLD_BYTES of XRAM, between the host's arrays and the motion state)
-    rather than written over the group's before its line is known to be good, until the commit
-    (its line joined the group: before the group's entries are converted; its line still being
-    read: after). HOLDS_MOST, or what XRAM page 0 has room for; 0 in internal RAM, and in a build
-    for size that fits the chip's code memory only without them (`Plan.holds`, `api.choose_period`).
-    Once the K are
-    taken, the reading stops before a '#' that ends an open entry."""
-    if xram is None:
-        xram = host_xram(plan)
-    if not (hosted(plan) and xram and plan.holds):
-        return 0
-    from . import layout
-    room = layout.state_at(len(plan.ports)) - HOST_XRAM_PER_SERVO * len(plan.channels)
-    return min(HOLDS_MOST, room // HOLD_BYTES)
-
-
 def host_passes(plan: Plan) -> int:
     """The bytes the host parser reads in one frame at the most, p. With b the bytes a frame brings
     (from a host 2 % fast): at least one more than b, so that bytes left queued by a late frame are
     read in the frames after. And after a group line the reading stops before a line's second
-    entry (with the state in XRAM: an entry for a servo the group names), or the end of a line
+    entry (with the state in XRAM: an entry that ends once the holds are taken, `layout.host_holds`), or the end of a line
     that does not join the group (the group waits for host_step): a frame's reading may be cut
     short once a line, so for lines of L bytes back to back the frames a line takes must read it
     and that frame too, p (L / b - 1) >= L: p >= b L / (L - b),
     for L the longer of a line that sets every servo (`full_line`) and two frames' bytes (so p is
     at most 2 b). Shorter lines that cut the reading may fill the receive queue; lines of one
     entry never do (they join the group), so they keep up at any length, and in XRAM neither do
-    lines that name other servos than the lines before them in the frame (docs/host-protocol.md)."""
+    lines whose entries for the group's servos the holds take (docs/host-protocol.md)."""
     gap = _host_gap(plan)
     frame = plan.program.target.cycles(plan.period_us)
     b = Fraction(frame, gap)
@@ -170,7 +147,7 @@ def host_ram(plan: Plan, xram: bool | None = None) -> int:
     from . import costs
     if xram is None:
         xram = host_xram(plan)
-    holds = 2 if host_holds(plan, xram) else 0          # HHP, HHJ: the holds taken, those of lines ended
+    holds = 2 if plan.holds else 0      # HHP, HHJ (layout.host_holds is 2 at least wherever the state is in XRAM)
     return (host_vars(plan) + (2 + holds if xram else HOST_PER_SERVO * len(plan.channels))  # in XRAM: HGEN, HGA stay
             + host_queue(plan) - costs.QUEUE)
 

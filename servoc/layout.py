@@ -58,6 +58,29 @@ def state_at(ports: int) -> int:
     return RAM_SIZE - 8 * ports * STATE_BYTES
 
 
+HOLD_BYTES = 6          # a held entry (host_xram): its line's generation, its servo, its S (2), its width or offset (2)
+HOLDS_MOST = 3          # the entries held in one frame at the most (host_holds)
+
+
+def host_holds(plan, xram: bool | None = None) -> int:
+    """Where the host's state is in XRAM (`host_xram`; `xram` given: as if it were so or not), the
+    entries a frame can hold, K: while a group waits, an entry that a '#' ends for a servo the
+    group names is held (HOLD_BYTES of XRAM, between the host's arrays and the motion state)
+    rather than written over the group's before its line is known to be good, until the commit
+    (its line joined the group: before the group's entries are converted; its line still being
+    read: after). HOLDS_MOST, or what XRAM page 0 has room for (2 at least: 16 bytes with 24
+    servos); 0 in internal RAM, and in a build for size that fits the chip's code memory only
+    without them (`Plan.holds`, `api.choose_period`). Once the K are taken, the reading stops
+    before a '#' that ends an open entry."""
+    from .flow import HOST_XRAM_PER_SERVO, hosted, host_xram
+    if xram is None:
+        xram = host_xram(plan)
+    if not (hosted(plan) and xram and plan.holds):
+        return 0
+    room = state_at(len(plan.ports)) - HOST_XRAM_PER_SERVO * len(plan.channels)
+    return min(HOLDS_MOST, room // HOLD_BYTES)
+
+
 def state_base(ports: int, xram: bool = False) -> int:
     """Where the motion state starts in internal RAM (the stack ends there): RAM_SIZE, none,
     where it is kept in XRAM (`xram`)."""

@@ -200,7 +200,7 @@ class LineParser:
     carries over from one call to the next, so a line may come in pieces (over several
     frames).
 
-    `holds` (K, `flow.host_holds`): where the host's state is in XRAM, while a group waits an
+    `holds` (K, `layout.host_holds`): where the host's state is in XRAM, while a group waits an
     entry that a '#' ends for a servo the group names is held (`feed`'s `waiting`) rather than
     written over the group's, K at most until the commit (`commit`); `held` counts those taken,
     `joined` those of lines that have ended (a line dropped gives back its own)."""

@@ -297,7 +297,7 @@ class Plan:
     compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
                                             # does not fit the code memory): loops where the fast one is unrolled
     period_holds: bool = True               # the code generated holds P itself (below min_period_us it may not)
-    holds: bool = True                      # where `host`'s state is in XRAM, it holds entries (flow.host_holds);
+    holds: bool = True                      # where `host`'s state is in XRAM, it holds entries (layout.host_holds);
                                             # False: built for size without them, when that alone fits the chip
     rise_offsets: tuple[int, ...] = ()      # per port, cycles from the first port's rise to its own, as the code
                                             # generated has them (costs.fit_spans; empty: not generated yet)

@@ -595,13 +595,13 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     # before a byte the parser stalls at (the next reading's first), or after a line dropped.
     if obs.hosts:
         from . import ssc32
-        from .flow import host_holds, host_passes, host_xram
+        from .flow import host_passes, host_xram
         from .model import host_channel
         passes = host_passes(plan)
         xram = host_xram(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
-            parser, waiting, held, played = ssc32.LineParser(host_holds(plan)), False, 0, False
+            parser, waiting, held, played = ssc32.LineParser(layout.host_holds(plan)), False, 0, False
             readings = list(zip(h.frames, h.ends))
             for k, ((cycle, _, got), ended) in enumerate(readings):
                 stopped = answered = grouped = overread = dropped = False

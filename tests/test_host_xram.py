@@ -12,7 +12,7 @@ from fractions import Fraction
 import pytest
 
 from conftest import build_text, front_end_text
-from servoc import flow
+from servoc import flow, layout
 from test_verify_observes import problems, watch
 
 pytestmark = pytest.mark.toolchain
@@ -119,8 +119,8 @@ def test_the_state_in_xram_is_what_the_firmware_reads_and_lint_reports_its_room(
     pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
     b = build_text(_program("stc89c58rd", pins))
     text = b.firmware.unit.text
-    assert flow.host_xram(b.plan) and flow.host_holds(b.plan) == 2
-    assert b.firmware.unit.xram_bytes == 24 * 6 + 2 * flow.HOLD_BYTES + 96
+    assert flow.host_xram(b.plan) and layout.host_holds(b.plan) == 2
+    assert b.firmware.unit.xram_bytes == 24 * 6 + 2 * layout.HOLD_BYTES + 96
     assert re.search(r"^XSTATE\s+= 0xA0", text, re.M) and not re.search(r"^STATE\s+=", text, re.M)
     assert "MOVX    @R" not in text and "MOVX    A, @R" not in text      # never paged by P2
     # the same 24 servos with a select nested in the program: the allocation says too-deep or
@@ -137,12 +137,12 @@ def test_a_build_for_size_that_fits_only_without_the_holds_is_built_without_them
     pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
     text = _program("stc89c52rc", pins)
     b = build_text(text)
-    assert b.plan.compact and not b.plan.holds and flow.host_holds(b.plan) == 0
+    assert b.plan.compact and not b.plan.holds and layout.host_holds(b.plan) == 0
     assert "HHO" not in b.firmware.unit.text and b.firmware.rom_bytes <= 8192
     plain = build_text(re.sub(r"sequence wave \{[^}]*\}\n", "", text))
-    assert plain.plan.compact and flow.host_holds(plain.plan) == 2 and "host_flush:" in plain.firmware.unit.text
+    assert plain.plan.compact and layout.host_holds(plain.plan) == 2 and "host_flush:" in plain.firmware.unit.text
     big = build_text(text.replace("stc89c52rc", "stc89c58rd"))
-    assert not big.plan.compact and flow.host_holds(big.plan) == 2
+    assert not big.plan.compact and layout.host_holds(big.plan) == 2
 
 
 def test_a_program_past_the_stc89c52rcs_code_memory_is_told_the_chip_with_xram_and_more():
@@ -228,37 +228,37 @@ def test_lines_of_a_few_servos_to_24_servos_back_to_back_lose_no_byte(size):
     comes in one frame. Every byte read, none lost, verify passes. (Stopping before every second
     entry after a group line, the reading fell behind with these lines and lost bytes.)"""
     pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
-    b = build_text(_program("stc89c58rd", pins, "main { host }"))
-    lines = ["".join(f"#{c % 24}P{1000 + (n * 37 + c * 11) % 900}" for c in range(n * size, n * size + size)) + "\\r"
+    _lines_back_to_back(build_text(_program("stc89c58rd", pins, "main { host }")), size, lambda n: n * size)
+
+
+def _lines_back_to_back(b, size: int, first) -> list:
+    """Lines that set `size` servos each, channels `first(n)` on for line n, back to back for 3 s at
+    9600 baud: verify passes and every byte is read, none lost. The readings."""
+    lines = ["".join(f"#{c % 24}P{1000 + (n * 37 + c * 11) % 900}" for c in range(first(n), first(n) + size)) + "\\r"
              for n in range(3 * 960 // (8 * size))]
     body = "".join(lines)
     sent = len(body.replace("\\r", "\r"))
     trace, report = watch(b, f'0.2s "{body}"\n', int((1.0 + sent * 10 / 9600) * 1e6 / b.plan.period_us))
     assert report.ok, problems(report)
     assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == sent
+    return [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames]
 
 
 @pytest.mark.parametrize("chip, size", [("stc89c58rd", 2), ("stc89c58rd", 3), ("stc89c52rc", 2)])
 def test_lines_that_set_the_same_servos_back_to_back_lose_no_byte(chip, size):
     """The same 2 or 3 servos set by every line, back to back for 3 s, with 24 servos: each line
     after the first in a frame names servos the group waiting gives a width. Its entries that a
-    '#' ends are held (flow.host_holds) rather than written over the group's, so the reading
+    '#' ends are held (layout.host_holds) rather than written over the group's, so the reading
     goes on into the next line. Every byte read, none lost, verify passes (with the reading
     stopped before each such entry until the commit, 873 of 3840 bytes of 2-servo lines were
     lost). Built for speed (STC89C58RD+) and for size (STC89C52RC, without the sequence that
     leaves no room for the holds' code there)."""
     pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
     b = build_text(re.sub(r"sequence wave \{[^}]*\}\n", "", _program(chip, pins, "main { host }")))
-    assert flow.host_holds(b.plan) >= size - 1
-    lines = ["".join(f"#{c}P{1000 + (n * 37 + c * 11) % 900}" for c in range(size)) + "\\r"
-             for n in range(3 * 960 // (8 * size))]
-    body = "".join(lines)
-    sent = len(body.replace("\\r", "\r"))
-    trace, report = watch(b, f'0.2s "{body}"\n', int((1.0 + sent * 10 / 9600) * 1e6 / b.plan.period_us))
-    assert report.ok, problems(report)
-    assert all(r.queued for r in trace.observation.received) and len(trace.observation.received) == sent
-    held = [got for h in trace.observation.hosts for _, _, got in h.frames if bytes(got).count(b"\r") >= 2]
-    assert len(held) > 20           # lines that named the group's servos were read in one frame
+    assert layout.host_holds(b.plan) >= size - 1
+    readings = _lines_back_to_back(b, size, lambda n: 0)
+    assert sum(1 for got in readings if got.count(b"\r") >= 2) > 20    # lines naming the group's servos
+                                                                        # were read in one frame
 
 
 @pytest.mark.parametrize("lines, want", [
@@ -271,7 +271,7 @@ def test_lines_that_set_the_same_servos_back_to_back_lose_no_byte(chip, size):
 ])
 def test_held_entries_keep_the_order_of_their_lines(lines, want):
     """Lines queued before `host` runs, so that one frame's reading has them: after a group line
-    for channel 0, a line naming it again holds that entry (flow.host_holds). A later line's
+    for channel 0, a line naming it again holds that entry (layout.host_holds). A later line's
     entry for the same channel written at its line's end wins over the held one (host_flush
     leaves it); a held entry of a line that goes bad is given back. The servos settle where the
     lines say (widths from the pins, not from the model), and verify agrees frame by frame."""
@@ -279,7 +279,7 @@ def test_held_entries_keep_the_order_of_their_lines(lines, want):
     from servoc.model import host_channel
     pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
     b = build_text(_program("stc89c58rd", pins, "main {\n  hold 300ms\n  host\n}"))
-    assert flow.host_holds(b.plan)
+    assert layout.host_holds(b.plan)
     trace, report = watch(b, f'0.02s "{lines}"\n', int(1.4e6 / b.plan.period_us))
     assert report.ok, problems(report)
     first = next(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got)

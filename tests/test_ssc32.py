@@ -1158,7 +1158,7 @@ def test_where_the_state_is_in_xram_a_second_entry_waits_only_for_a_channel_of_t
 
 
 def test_with_holds_entries_for_the_groups_servos_are_held_until_the_holds_are_taken():
-    # K holds (flow.host_holds): an entry a '#' ends for a servo of the group waiting is held, so
+    # K holds (layout.host_holds): an entry a '#' ends for a servo of the group waiting is held, so
     # the reading goes on; once K are taken, a '#' that ends an open entry (of any servo) waits
     servos = [Servo(c, t_dav_us=Fraction(2000)) for c in range(3)]
     s = Session(servos, P20, start={0: 0, 1: 250, 2: 100}, xram=True)
