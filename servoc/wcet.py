@@ -52,6 +52,7 @@ one frame, so a call of `run_list` always reaches a frame before it returns.
 
 from __future__ import annotations
 
+import functools
 import re
 import sys
 from dataclasses import dataclass
@@ -113,6 +114,54 @@ class Instr:
 _LABEL = re.compile(r"^([A-Za-z_.$][\w.$]*)::?\s*(.*)$")
 
 
+def same_cycles(a: str, b: str) -> bool:
+    """Whether two assembly texts surely take the same cycles on every path: line for line the
+    same but for comments and the values of immediates (`#...`), none of them a `MOV Rn,#k`
+    (a counted or pad loop's count). False says nothing: measure both."""
+    lines_a, lines_b = a.splitlines(), b.splitlines()
+    if len(lines_a) != len(lines_b):
+        return False
+    for x, y in zip(lines_a, lines_b):
+        x, y = x.split(";", 1)[0], y.split(";", 1)[0]
+        if x == y:
+            continue
+        if _IMMEDIATE.sub("#", x) != _IMMEDIATE.sub("#", y) or _COUNT.match(x) or x.lstrip().startswith("."):
+            return False
+    return True
+
+
+_IMMEDIATE = re.compile(r"#[^,\s]+")
+_COUNT = re.compile(r"\s*(\w+:\s*)?MOV\s+R[0-7]\s*,", re.I)
+
+
+@functools.lru_cache(maxsize=4)
+def _parse(text: str) -> tuple[tuple[Instr, ...], dict[str, int]]:
+    """The instructions of an assembly text, in order, and its code labels (the index of the
+    instruction each names); the same text is read once for the analyses of one code generation."""
+    instrs: list[Instr] = []
+    labels: dict[str, int] = {}
+    pending: list[str] = []
+    for lineno, raw in enumerate(text.splitlines(), start=1):
+        code = raw.split(";", 1)[0].strip()
+        m = _LABEL.match(code)
+        if m and not code.startswith("."):
+            pending.append(m.group(1))
+            code = m.group(2).strip()
+        if not code or code.startswith(".") or "=" in code.split(None, 1)[0] or (
+                len(code.split()) > 1 and code.split()[1] == "="):
+            if code.startswith(".org") or code.startswith(".db") or code.startswith(".bndry"):
+                pending = []        # labels on data are not code labels
+            continue
+        parts = code.split(None, 1)
+        op = parts[0].upper()
+        args = tuple(a.strip() for a in parts[1].split(",")) if len(parts) > 1 else ()
+        for lab in pending:
+            labels[lab] = len(instrs)
+        pending = []
+        instrs.append(Instr(len(instrs), op, args, cycles_of(op, args), lineno))
+    return tuple(instrs), labels
+
+
 class Code:
     """The instructions of one assembly text, with their labels."""
 
@@ -123,27 +172,9 @@ class Code:
         self.flag_bits = flag_bits
         self.state_bits = state_bits    # bits of other bytes a path learns the same way, which a write
                                         # of the flag byte leaves known
-        self.instrs: list[Instr] = []
-        self.labels: dict[str, int] = {}
-        pending: list[str] = []
-        for lineno, raw in enumerate(text.splitlines(), start=1):
-            code = raw.split(";", 1)[0].strip()
-            m = _LABEL.match(code)
-            if m and not code.startswith("."):
-                pending.append(m.group(1))
-                code = m.group(2).strip()
-            if not code or code.startswith(".") or "=" in code.split(None, 1)[0] or (
-                    len(code.split()) > 1 and code.split()[1] == "="):
-                if code.startswith(".org") or code.startswith(".db") or code.startswith(".bndry"):
-                    pending = []        # labels on data are not code labels
-                continue
-            parts = code.split(None, 1)
-            op = parts[0].upper()
-            args = tuple(a.strip() for a in parts[1].split(",")) if len(parts) > 1 else ()
-            for lab in pending:
-                self.labels[lab] = len(self.instrs)
-            pending = []
-            self.instrs.append(Instr(len(self.instrs), op, args, cycles_of(op, args), lineno))
+        instrs, labels = _parse(text)
+        self.instrs: tuple[Instr, ...] = instrs     # (shared by the Codes of one text: read only)
+        self.labels: dict[str, int] = labels
         # (bit, ranges): while the state bit is known set, a RET never returns behind a call in one of
         # the ranges (from label to label): a fact of code generation (codegen.frame_budget)
         self._barred_bit = barred[0] if barred else None

@@ -195,3 +195,14 @@ def test_a_state_bit_stays_known_through_the_flag_byte_and_bars_returns():
     barred = wcet.Code(PLAYED, "FLAGS", frozenset(), frozenset({"PLAY"}), ("PLAY", (("main", "seq"),)))
     # PLAY set: fr returns behind seq's call only (19 + 3); PLAY clear: behind main's (4 + 22)
     assert barred.between_frames()[0] == 4 + 22
+
+
+def test_same_cycles_vouches_only_for_immediates_that_no_loop_counts():
+    """`wcet.same_cycles` lets code generation skip measuring the code laid out again for its
+    spans: it must hold only where the cycles surely do not change."""
+    text = "loop:   MOV     A, #<24445          ; a rise\n        MOV     R7, #3\n        DJNZ    R7, .\n        RET\n"
+    assert wcet.same_cycles(text, text.replace("24445", "26875").replace("a rise", "another"))
+    assert not wcet.same_cycles(text, text.replace("#3", "#4"))             # a pad loop's count
+    assert not wcet.same_cycles(text, text.replace("MOV     A, #<", "ADD     A, #<"))
+    assert not wcet.same_cycles(text, text + "        NOP\n")
+    assert [i.cycles for i in wcet.Code(text).instrs] == [i.cycles for i in wcet.Code(text.replace("24445", "1")).instrs]
