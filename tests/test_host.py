@@ -499,6 +499,17 @@ def test_q_is_answered_while_a_sequence_plays_and_an_offset_line_counts_after_it
     assert base[-1] == 183                                   # (1960 - 500 + 4) >> 3
 
 
+def test_answers_waiting_go_on_in_the_frame_before_a_sequence_pl_starts():
+    """Two `VER` lines while a sequence `PL` started plays (the second's answer waits), then two `PL`
+    lines, each read in a frame of the sequence, each starting it again: the frame before the
+    sequence's first frame reads nothing, and it used to send nothing either, so the second
+    answer came more than 2 P after the first (verify: "more than 2 P"). In 6T mode at 19200
+    baud, where a frame brings 5 bytes."""
+    text = ARM.replace("clock 11.0592MHz", "clock 11.0592MHz mode 6T").replace("serial 9600", "serial 19200")
+    _, trace, _ = session('0.2s "PL 0 SQ 0\\r"\n0.3s "VER\\nVER\\r"\n0.312s "PL 0 SQ 0\\nPL 0 SQ 0\\r"\n', 120, text)
+    assert sent(trace) == 2 * ssc32.VERSION_REPLY
+
+
 @pytest.mark.parametrize("clock", ["11.0592MHz", "11.0592MHz mode 6T", "22.1184MHz"])
 def test_a_group_or_pl_line_read_while_a_sequence_plays_replaces_it(clock):
     # the wave (tuck, then rest: the shoulder 90deg -> 40deg -> 90deg) from 0.2 s; a group for the
