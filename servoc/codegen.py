@@ -471,8 +471,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                 ram.alloc(name, size * len(plan.channels), what, direct=False)
         holds = layout.host_holds(plan, in_xram)
         if holds:
-            ram.xsymbols.append(("HHO", xat, f"{holds} holds of {layout.HOLD_BYTES} bytes: a servo, its width or "
-                                              "offset, its S (XRAM)"))
+            ram.xsymbols.append(("HHO", xat, f"{holds} holds of {layout.HOLD_BYTES} bytes: its line's generation, "
+                                              "a servo, its S, its width or offset (XRAM)"))
             xat += holds * layout.HOLD_BYTES
         assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
