@@ -107,20 +107,23 @@ def _group(n: int, channels: int, servos: tuple[int, ...]) -> str:
                    for c in chans) + "T90"
 
 
+def _stream(fe, firmware, lines: list[str], seconds: float):
+    """`lines` (each with its CR) sent back to back from 0.2 s, run `seconds` and 1.5 s more:
+    (report, bytes sent, bytes the parser read, bytes lost to a full receive queue)."""
+    text = "".join(lines).replace("\r", "\\r")
+    trace, report = run(fe, firmware, f'0.2s "{text}"\n', int((seconds + 1.5) * 1e6 / fe.plan.period_us))
+    read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
+    lost = sum(1 for r in trace.observation.received if not r.queued)
+    return report, sum(len(line) for line in lines), read, lost
+
+
 def sustained(seconds: float, channels: int, program: str, servos: tuple[int, ...]) -> list[str]:
     fe, firmware, _ = build(program)
-    plan = fe.plan
-    n, size, text = 0, 0, ""
-    while size * 10 / 9600 < seconds:      # group lines back to back
-        line = _group(n, channels, servos)
-        text += line + "\\r"
-        size += len(line) + 1
-        n += 1
-    frames = int((seconds + 1.5) * 1e6 / plan.period_us)
-    trace, report = run(fe, firmware, f'0.2s "{text}"\n', frames)
-    sent = len(bytes(text, "ascii").decode("unicode_escape"))
-    read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
-    dropped = sum(1 for r in trace.observation.received if not r.queued)
+    lines: list[str] = []
+    while sum(map(len, lines)) * 10 / 9600 < seconds:      # group lines back to back
+        lines.append(_group(len(lines), channels, servos) + "\r")
+    report, sent, read, dropped = _stream(fe, firmware, lines, seconds)
+    n = len(lines)
     return [f"sustained: {n} group lines of {channels} channels, {len(servos)} of them servos, with S and T ({sent} bytes, "
             f"back to back at 9600 baud, {sent * 10 / 9600:.1f} s): {read} bytes read by the parser, {dropped} "
             f"dropped; verify {'OK' if report.ok else 'FAILED'} over {report.frames} frames ({report.pulses} "
@@ -179,11 +182,7 @@ def sustained_few(seconds: float, program: str, what: str, size: int, patch=None
     first = (lambda n: 0) if same else (lambda n: n * size)
     lines = ["".join(f"#{c % 24}P{1000 + (n * 37 + c * 11) % 900}" for c in range(first(n), first(n) + size)) + "\r"
              for n in range(int(seconds * 960 / (8 * size)))]
-    text = "".join(lines).replace("\r", "\\r")
-    trace, report = run(fe, firmware, f'0.2s "{text}"\n', int((seconds + 1.5) * 1e6 / plan.period_us))
-    sent = sum(len(line) for line in lines)
-    read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
-    lost = sum(1 for r in trace.observation.received if not r.queued)
+    report, sent, read, lost = _stream(fe, firmware, lines, seconds)
     return [f"sustained, {what}: {len(lines)} group lines of {size} servos{' (the same ones)' if same else ''} "
             f"({sent} bytes back to back at 9600 baud, "
             f"{sent * 10 / 9600:.1f} s, P = {plan.period_us} us): {read} bytes read by the parser, {lost} lost; "
@@ -201,13 +200,8 @@ def sustained_one_channel(seconds: float, program: str, what: str, patch=None,
     plan = fe.plan
     lines = [f"#{c}P{1000 + (97 * n) % 900}\r" for n, c in
              enumerate(list(channels) * int(seconds * 960 / 8 / len(channels) + 1))]
-    text = "".join(lines).replace("\r", "\\r")
-    frames = int((seconds + 1.5) * 1e6 / plan.period_us)
-    trace, report = run(fe, firmware, f'0.2s "{text}"\n', frames)
-    sent = sum(len(line) for line in lines)
+    report, sent, read, lost = _stream(fe, firmware, lines, seconds)
     size = "8 bytes" if max(channels) < 10 else "8 or 9 bytes"
-    read = sum(len(got) for h in trace.observation.hosts for _, _, got in h.frames)
-    lost = sum(1 for r in trace.observation.received if not r.queued)
     return [f"sustained, {what}: {len(lines)} one-channel group lines of {size} ({sent} bytes back to back at "
             f"9600 baud, {sent * 10 / 9600:.1f} s, P = {plan.period_us} us): {read} bytes read by the parser, "
             f"{lost} lost; verify {'OK' if report.ok else 'FAILED'}"]
