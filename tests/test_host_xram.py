@@ -181,6 +181,30 @@ def test_the_generations_of_dropped_lines_come_round_again_and_drop_nothing_else
     assert c1[-1] > c1[0] and c3[-1] != c3[0]     # channels 1 and 3 did
 
 
+def test_held_entries_keep_their_order_when_the_generations_come_round_again():
+    # each group line's end counts HGEN up; 80 runs of three lines back to back (a group line for
+    # channels 1 and 2, a line that holds channel 1's entry, a line that holds channel 2's and
+    # whose last entry, written at its end, is channel 1's again) count it past host_gen's limit in
+    # a frame whose reading held entries: host_gen renumbers the holds' generations with the
+    # entries', in order, so that the commit still writes the latest width of each (verify's model
+    # checks every pulse; with the holds' generations left as they were, verify fails)
+    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
+    b = build_text(_program("stc89c58rd", pins, "main { host }"))
+    assert layout.host_holds(b.plan) and 3 * 80 > 255 - flow.host_passes(b.plan)
+    body = "".join(f"#1P{1000 + 7 * n}#2P{1100 + n}\\r#1P{1500 + 5 * n}#2P{900 + n}\\r#2P{1300 + n}#1P{2000 - 3 * n}\\r"
+                   for n in range(80))
+    trace, report = watch(b, f'0.2s "{body}"\n', int(5.0e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    assert all(r.queued for r in trace.observation.received)
+    from servoc import ssc32
+    from servoc.model import host_channel
+    servo = next(c.servo for c in b.plan.channels if host_channel(c.servo) == 1)
+    n = ssc32.output_n((2000 - 3 * 79 - 500 + 4) // 8, 0, 250, servo.reverse, servo.trim)
+    edges = trace.pin_edges(1, 1)
+    last = [fall - rise for (rise, up), (fall, _) in zip(edges, edges[1:]) if up == 1][-1]
+    assert (servo.port, servo.bit) == (1, 1) and last == b.plan.program.target.width_cycles(n), last
+
+
 def test_lines_that_set_all_24_servos_back_to_back_lose_no_byte():
     # a group line stops the frame's reading, so each frame reads enough more than a frame brings
     # to catch up within the next line (flow.host_passes): 24-servo lines of the shortest kind
