@@ -105,15 +105,25 @@ def plan(program, reporter: Reporter) -> Plan:
     return choose_period(program, _plan.plan(program, reporter))
 
 
+RAM_LIMITS = frozenset({"ram-overflow", "too-deep", "host-ram"})     # a firmware the internal RAM cannot hold
+
+
 def choose_period(program, first: Plan, decide: bool = True, least: bool = True) -> Plan:
     """The period stage: the plan with `min_period_us`, the shortest period the code generated for
     it holds (costs.py, read by wcet.py). Without `frame`, P is the default: the plan is made again
     at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
     depends on P. It also decides the build once for every command: when the firmware built for
-    speed does not fit the chip's code memory, the plan is the one built for size (`compact`).
+    speed does not fit the chip's code memory, the plan is the one built for size (`compact`);
+    with the host's state in XRAM, where the firmware fits internal RAM or code memory only without
+    the host's holds (`layout.host_holds`), it is built without them (`Plan.holds`).
     `decide` False: the build `first` asks for, whether it fits or not. `least` False: no search
     below the code's own shortest period for one at which the firmware still fits (eased moves)."""
     result = _periods(program, first)
+    if result.firmware_limit is not None and layout.host_holds(result) and \
+            {limit[0] for limit in result.firmware_limit} <= RAM_LIMITS:
+        smaller = _periods(program, dataclasses.replace(first, holds=False))      # the holds' 2 bytes of
+        if smaller.firmware_limit is None:                                        # internal RAM were short
+            result = smaller
     if decide and not result.compact and result.firmware_limit is None and _overflow(result):
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:

@@ -69,8 +69,8 @@ def host_holds(plan, xram: bool | None = None) -> int:
     rather than written over the group's before its line is known to be good, until the commit
     (its line joined the group: before the group's entries are converted; its line still being
     read: after). HOLDS_MOST, or what XRAM page 0 has room for (2 at least: 16 bytes with 24
-    servos); 0 in internal RAM, and in a build for size that fits the chip's code memory only
-    without them (`Plan.holds`, `api.choose_period`). Once the K are taken, the reading stops
+    servos); 0 in internal RAM, and in a build that fits the chip's internal RAM (their 2 bytes)
+    or, built for size, its code memory only without them (`Plan.holds`, `api.choose_period`). Once the K are taken, the reading stops
     before a '#' that ends an open entry."""
     from .flow import HOST_XRAM_PER_SERVO, hosted, host_xram
     if xram is None:

@@ -145,6 +145,27 @@ def test_a_build_for_size_that_fits_only_without_the_holds_is_built_without_them
     assert not big.plan.compact and layout.host_holds(big.plan) == 2
 
 
+def test_a_program_whose_internal_ram_holds_no_holds_is_built_without_them():
+    # `host` nested in repeats as deep as the stack allows with 24 servos: the deepest that fit
+    # without the holds' 2 bytes of internal RAM are built without them (lint accepts, compile
+    # builds, a session verifies), one deeper is too-deep, and shallower ones keep the holds
+    pins = [(p, b) for b in range(8) for p in (0, 1, 2)]
+    nest = lambda d: _program("stc89c58rd", pins, "main {\n" + "  repeat 2 {\n" * d + "  host\n" + "  }\n" * d + "}")  # noqa: E731
+    plans = {}
+    for d in range(8, 14):
+        fe, diags = front_end_text(nest(d))
+        plans[d] = (fe.plan, [x.code for x in diags if x.is_error])
+    kept = [d for d, (p, errors) in plans.items() if not errors and layout.host_holds(p)]
+    without = [d for d, (p, errors) in plans.items() if not errors and not p.holds]
+    refused = [d for d, (p, errors) in plans.items() if errors]
+    assert kept and without and refused and max(kept) < min(without) <= max(without) < min(refused), plans
+    assert all(plans[d][1] == ["too-deep"] for d in refused)
+    b = build_text(nest(max(without)))
+    assert not b.plan.holds and "HHO" not in b.firmware.unit.text
+    trace, report = watch(b, '0.5s "#0P1000#1P1200\\r#0P1100#1P900\\r"\n', int(1.5e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+
+
 def test_a_program_past_the_stc89c52rcs_code_memory_is_told_the_chip_with_xram_and_more():
     # 24 servos with `host` and many sequences: rom-overflow names the STC89C58RD+, not the
     # AT89C55WD (more code memory, but no XRAM for the host's state)
