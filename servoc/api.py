@@ -119,7 +119,7 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
     `decide` False: the build `first` asks for, whether it fits or not. `least` False: no search
     below the code's own shortest period for one at which the firmware still fits (eased moves)."""
     result = _periods(program, first)
-    if result.firmware_limit is not None and layout.host_holds(result) and \
+    if decide and result.firmware_limit is not None and layout.host_holds(result) and \
             {limit[0] for limit in result.firmware_limit} <= RAM_LIMITS:
         smaller = _periods(program, dataclasses.replace(first, holds=False))      # the holds' 2 bytes of
         if smaller.firmware_limit is None:                                        # internal RAM were short
