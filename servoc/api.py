@@ -115,15 +115,17 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
     depends on P. It also decides the build once for every command: when the firmware built for
     speed does not fit the chip's code memory, the plan is the one built for size (`compact`);
     with the host's state in XRAM, where the firmware fits internal RAM or code memory only without
-    the host's holds (`layout.host_holds`), it is built without them (`Plan.holds`).
+    the host's holds (`layout.host_holds`), it is built without them (`Plan.holds`; where it fits
+    internal RAM neither way, the build without them says how short it is).
     `decide` False: the build `first` asks for, whether it fits or not. `least` False: no search
     below the code's own shortest period for one at which the firmware still fits (eased moves)."""
     result = _periods(program, first)
     if decide and result.firmware_limit is not None and layout.host_holds(result) and \
             {limit[0] for limit in result.firmware_limit} <= RAM_LIMITS:
-        smaller = _periods(program, dataclasses.replace(first, holds=False))      # the holds' 2 bytes of
-        if smaller.firmware_limit is None:                                        # internal RAM were short
-            result = smaller
+        smaller = _periods(program, dataclasses.replace(first, holds=False))      # the holds' bytes of
+        if smaller.firmware_limit is None or \
+                {limit[0] for limit in smaller.firmware_limit} <= RAM_LIMITS:    # internal RAM were short (or
+            result = smaller                                                      # more: say the least short)
     if decide and not result.compact and result.firmware_limit is None and _overflow(result):
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:

@@ -454,26 +454,29 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
             ram.alloc("HFRZ", nports, "while a sequence `PL` started plays: per port in use, the lines `STOP c` "
                                       "holds where they are until it ends")
         xat = 0
+        holds = layout.host_holds(plan, in_xram)
+        if holds:
+            ram.alloc("HHP", 1, "the next free hold: the entries held while a group waits end here")
+            ram.alloc("HHJ", 1, "the end of the holds of lines that joined the group (those after: "
+                                "the line being read's)")
         if in_xram:
             ram.alloc("HGEN", 1, "the generation of the line being read: a pending entry is this line's "
                                  "when its HTAG is HGEN (host_drop counts it up, and each group line's end)")
             ram.alloc("HGA", 1, "the generation of the waiting group's first line: the group's entries "
                                 "are those with HTAG from HGA to HGEN - 1")
-            if layout.host_holds(plan, True):
-                ram.alloc("HHP", 1, "the next free hold (XRAM): the entries held while a group waits end here")
-                ram.alloc("HHJ", 1, "the end of the holds of lines that joined the group (those after: "
-                                    "the line being read's)")
         for name, size, what in HOST_ARRAYS + ((HOST_TAGS,) if in_xram else ()):
             if in_xram:       # in XRAM page 0, below the motion state
                 ram.xsymbols.append((name, xat, f"{what} (XRAM)"))
                 xat += size * len(plan.channels)
             else:
                 ram.alloc(name, size * len(plan.channels), what, direct=False)
-        holds = layout.host_holds(plan, in_xram)
-        if holds:
+        if holds and in_xram:
             ram.xsymbols.append(("HHO", xat, f"{holds} holds of {layout.HOLD_BYTES} bytes: its line's generation, "
                                               "a servo, its S, its width or offset (XRAM)"))
             xat += holds * layout.HOLD_BYTES
+        elif holds:
+            ram.alloc("HHO", holds * layout.HOLD_BYTES_IRAM, f"{holds} holds of {layout.HOLD_BYTES_IRAM} bytes: a "
+                      "servo, its S, its width or offset", direct=False)
         assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
@@ -906,7 +909,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
             "play_list": [{"n": [q.name for q in plan.program.sequences].index(name), "name": name,
                            "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
-            "xram": host_xram(plan), "holds": layout.host_holds(plan), "hold_bytes": layout.HOLD_BYTES,
+            "xram": host_xram(plan), "holds": layout.host_holds(plan), "hold_bytes": layout.hold_bytes(host_xram(plan)),
             "gen_limit": 0xFF - host_passes(plan) - 1}
 
 

@@ -11,6 +11,7 @@ looked at once.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from fractions import Fraction
@@ -101,11 +102,18 @@ def host_passes(plan: Plan) -> int:
     at most 2 b). Shorter lines that cut the reading may fill the receive queue; lines of one
     entry never do (they join the group), so they keep up at any length, and in XRAM neither do
     lines whose entries for the group's servos the holds take (docs/host-protocol.md)."""
-    gap = _host_gap(plan)
-    frame = plan.program.target.cycles(plan.period_us)
-    b = Fraction(frame, gap)
+    b = frame_bytes(plan)
     line = max(Fraction(full_line(plan)), 2 * b)
     return max(math.ceil(b) + 1, math.ceil(b * line / (line - b)))
+
+
+def frame_bytes(plan: Plan) -> Fraction:
+    """The bytes a frame brings from a host at the declared rate (2 % fast), b."""
+    return Fraction(plan.program.target.cycles(plan.period_us), _host_gap(plan))
+
+
+CUT_LINE = len(b"#0P0#1P0\r")     # the shortest line that does something and that the reading may stop in
+                                  # (before its second '#') while a group waits
 
 
 def full_line(plan: Plan) -> int:
@@ -147,9 +155,13 @@ def host_ram(plan: Plan, xram: bool | None = None) -> int:
     from . import costs
     if xram is None:
         xram = host_xram(plan)
-    holds = 2 if plan.holds else 0      # HHP, HHJ (layout.host_holds is 2 at least wherever the state is in XRAM)
-    return (host_vars(plan) + (2 + holds if xram else HOST_PER_SERVO * len(plan.channels))  # in XRAM: HGEN, HGA stay
-            + host_queue(plan) - costs.QUEUE)
+    from .layout import HOLD_BYTES_IRAM, host_holds
+    holds = 2 if host_holds(plan, xram) else 0          # HHP, HHJ
+    if xram:        # HGEN, HGA; the per-servo state and the holds are in XRAM
+        state = 2
+    else:
+        state = HOST_PER_SERVO * len(plan.channels) + HOLD_BYTES_IRAM * host_holds(plan, False)
+    return host_vars(plan) + holds + state + host_queue(plan) - costs.QUEUE
 
 
 def host_short(plan: Plan, xram: bool | None = None) -> int:
@@ -173,7 +185,7 @@ def host_xram(plan: Plan) -> bool:
     in the chip's XRAM (the STC89's, MOVX @DPTR in page 0): only where the chip has it and internal
     RAM alone is short (`host_short`). Internal RAM then keeps no STATE (layout.state_base)."""
     return (hosted(plan) and plan.program.target.chip.xram_bytes >= XRAM_NEED
-            and host_short(plan, False) > 0)
+            and host_short(dataclasses.replace(plan, holds=False), False) > 0)
 
 
 def host_ram_text(plan: Plan, short: int) -> tuple[str, str]:

@@ -58,25 +58,39 @@ def state_at(ports: int) -> int:
     return RAM_SIZE - 8 * ports * STATE_BYTES
 
 
-HOLD_BYTES = 6          # a held entry (host_xram): its line's generation, its servo, its S (2), its width or offset (2)
-HOLDS_MOST = 3          # the entries held in one frame at the most (host_holds)
+HOLD_BYTES = 6          # a held entry in XRAM (host_xram): its line's generation, its servo, its S (2), its width or offset (2)
+HOLD_BYTES_IRAM = 5     # in internal RAM: its servo, its S (2), its width or offset (2) (no generations there)
+HOLDS_MOST = 3          # the entries held in one frame at the most, in XRAM (host_holds)
+HOLDS_IRAM = 2          # in internal RAM
+
+
+def hold_bytes(xram: bool) -> int:
+    """The bytes of one hold (`host_holds`)."""
+    return HOLD_BYTES if xram else HOLD_BYTES_IRAM
 
 
 def host_holds(plan, xram: bool | None = None) -> int:
-    """Where the host's state is in XRAM (`host_xram`; `xram` given: as if it were so or not), the
-    entries a frame can hold, K: while a group waits, an entry that a '#' ends for a servo the
-    group names is held (HOLD_BYTES of XRAM, between the host's arrays and the motion state)
-    rather than written over the group's before its line is known to be good, until the commit
-    (its line joined the group: before the group's entries are converted; its line still being
-    read: after). HOLDS_MOST, or what XRAM page 0 has room for (2 at least: 16 bytes with 24
-    servos); 0 in internal RAM, and in a build that fits the chip's internal RAM (their 2 bytes)
-    or, built for size, its code memory only without them (`Plan.holds`, `api.choose_period`). Once the K are taken, the reading stops
-    before a '#' that ends an open entry."""
-    from .flow import HOST_XRAM_PER_SERVO, hosted, host_xram
+    """The entries a frame can hold with `host`, K (`xram` given: as if the host's state were in
+    XRAM, `host_xram`, or not): while a group waits, an entry that a '#' ends is held rather than
+    written over the group's before its line is known to be good, until the commit (its line
+    joined the group: before the group's entries are converted; its line still being read:
+    after). In XRAM, where each entry keeps its line's generation, only those for a servo the
+    group names are held (HOLD_BYTES, between the host's arrays and the motion state): HOLDS_MOST,
+    or what XRAM page 0 has room for (2 at least: 16 bytes with 24 servos). In internal RAM, every
+    one is held, and while any is, so is a line's last entry, at its end: HOLDS_IRAM of
+    HOLD_BYTES_IRAM, where a frame brings more bytes than `flow.CUT_LINE` (without holds, the
+    reading gets through a line a frame at least, as many bytes as a frame brings when no line is
+    shorter than that, so the holds' cycles would buy nothing). 0 in a build that fits the chip's internal RAM or, built for size, its code
+    memory only without them (`Plan.holds`, `api.choose_period`). Once the K are taken, the
+    reading stops before a '#' that ends an open entry (in internal RAM also before the end of
+    a line of entries)."""
+    from .flow import CUT_LINE, HOST_XRAM_PER_SERVO, frame_bytes, hosted, host_xram
+    if not (hosted(plan) and plan.holds):
+        return 0
     if xram is None:
         xram = host_xram(plan)
-    if not (hosted(plan) and xram and plan.holds):
-        return 0
+    if not xram:
+        return HOLDS_IRAM if frame_bytes(plan) > CUT_LINE else 0
     room = state_at(len(plan.ports)) - HOST_XRAM_PER_SERVO * len(plan.channels)
     return min(HOLDS_MOST, room // HOLD_BYTES)
 

@@ -200,15 +200,18 @@ class LineParser:
     carries over from one call to the next, so a line may come in pieces (over several
     frames).
 
-    `holds` (K, `layout.host_holds`): where the host's state is in XRAM, while a group waits an
-    entry that a '#' ends for a servo the group names is held (`feed`'s `waiting`) rather than
-    written over the group's, K at most until the commit (`commit`); `held` counts those taken,
-    `joined` those of lines that have ended (a line dropped gives back its own)."""
+    `holds` (K, `layout.host_holds`): while a group waits, an entry that a '#' ends for a channel
+    of `feed`'s `waiting` (where the host's state is in XRAM, the channels the group names; in
+    internal RAM, `iram`, every channel with a servo) is held rather than written over the
+    group's, K at most until the commit (`commit`); in internal RAM, while an entry is held, so
+    is a line's last entry at its end. `held` counts those taken, `joined` those of lines that
+    have ended (a line dropped gives back its own)."""
 
-    def __init__(self, holds: int = 0) -> None:
+    def __init__(self, holds: int = 0, iram: bool = False) -> None:
         self._reset()
         self.dropped = False
         self.holds = holds
+        self.iram = iram                # the host's state is in internal RAM (`waiting`)
         self.held = self.joined = 0
 
     def _reset(self) -> None:
@@ -238,11 +241,13 @@ class LineParser:
         hold = waiting is not None and byte == 35 and self.clashes(waiting)
         n = len(self.entries)
         if byte in (CR, LF):
+            last = waiting is not None and self.iram and self.held > 0 and self.clashes(waiting)
             cmd = self._end()
             self.dropped = self.bad
             if self.dropped:
                 self.held = self.joined
             else:
+                self.held += last and len(self.entries) > n
                 self.joined = self.held
             self._reset()
             return cmd
@@ -294,25 +299,27 @@ class LineParser:
         """While a group line read in this frame waits for its commit, the reading stops before
         this byte (it stays queued for the next frame): a '#' that would write an entry where the
         waiting group's are before its line is known to be good; the CR or LF of a line that does
-        not `joins` (a command line, an offset line); and any other control byte 0x08-0x0F or
-        0x18-0x1F (byte AND 0xE8 is 0x08, the firmware's one test): ESC drops a line, the others
-        make one bad or are ignored (TAB).
+        not `joins` (a command line, an offset line), and in internal RAM with holds (`iram`) the
+        end of a line of entries not gone bad once every hold is taken (its last entry would be
+        held); and any other control byte 0x08-0x0F or 0x18-0x1F (byte AND 0xE8 is 0x08, the
+        firmware's one test): ESC drops a line, the others make one bad or are ignored (TAB).
 
-        The '#': without `waiting` (the host's state in internal RAM), a '#' after a '#' of the
-        line being read (it would end that '#''s entry; also once the line has gone bad, as the
-        firmware does not look at that). With `waiting`, the channels (with a servo) the group
-        gives a width (the state in XRAM, where each entry keeps the generation of its line):
-        without holds, a '#' that `clashes`; with holds (`holds`), once every hold is taken, a
-        '#' that ends an open entry of a line not gone bad (the firmware's test: HST bit 4 and
-        not 5), whatever its servo."""
+        The '#': with holds (`holds`), once every hold is taken, a '#' that ends an open entry of
+        a line not gone bad (the firmware's test: HST bit 4 and not 5), whatever its servo.
+        Without holds: without `waiting` (the host's state in internal RAM), a '#' after a '#' of
+        the line being read (it would end that '#''s entry; also once the line has gone bad, as
+        the firmware does not look at that); with `waiting`, the channels (with a servo) the
+        group gives a width (the state in XRAM, where each entry keeps the generation of its
+        line), a '#' that `clashes`."""
+        full = self.held >= self.holds and not self.bad
         if byte == 35:
+            if self.holds:
+                return full and self.channel is not None
             if waiting is None:
                 return self.hashed
-            if self.holds:
-                return self.held >= self.holds and not self.bad and self.channel is not None
             return self.clashes(waiting)
         if byte in (CR, LF):
-            return not self.joins()
+            return not self.joins() or (self.iram and self.holds > 0 and full and self.hashed)
         return byte & 0xE8 == 0x08
 
     def clashes(self, waiting: frozenset[int]) -> bool:
@@ -405,6 +412,15 @@ class LineParser:
         if self.kind == "group" and self.entries:
             return Group(tuple(self.entries), self.time)
         return None                                     # empty line, `#c` only, entries with S only
+
+
+def group_waiting(named: frozenset[int], servos: Iterable[int], xram: bool, holds: int) -> frozenset[int] | None:
+    """`LineParser.feed`'s and `stalls`' `waiting` while a group waits: `named` (the channels it
+    names) where the host's state is in XRAM; in internal RAM, with holds, every channel with a
+    servo (`servos`: every entry is held), else None."""
+    if xram:
+        return named
+    return frozenset(servos) if holds else None
 
 
 def parse_lines(data: bytes) -> list[Command]:
@@ -748,7 +764,10 @@ class Session:
         for i in range(n):
             waiting = None
             if self.pending is not None:
-                waiting = named(self.pending, self.by_channel) if self.xram else None
+                if parser.holds and parser.iram == self.xram:
+                    raise ValueError("the parser's holds are for the host's state in the other RAM")
+                waiting = group_waiting(named(self.pending, self.by_channel), self.by_channel, self.xram,
+                                        parser.holds)
                 if parser.stalls(data[i], waiting):
                     return b"".join(out), i     # a group waits: the reading stops before this byte
             cmd = parser.feed(data[i], waiting)

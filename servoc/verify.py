@@ -601,20 +601,21 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
         xram = host_xram(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
-            parser, waiting, held, played = ssc32.LineParser(layout.host_holds(plan)), False, 0, False
+            parser, waiting, held, played = ssc32.LineParser(layout.host_holds(plan), not xram), False, 0, False
             readings = list(zip(h.frames, h.ends))
             for k, ((cycle, _, got), ended) in enumerate(readings):
                 stopped = answered = grouped = overread = dropped = False
                 named: frozenset[int] = frozenset()         # the channels the frame's group names
                 parser.commit()                             # a reading starts with no group waiting
                 for b in got:
-                    if grouped and not overread and (dropped or parser.stalls(b, named if xram else None)):
+                    watch = ssc32.group_waiting(named, servos, xram, parser.holds)
+                    if grouped and not overread and (dropped or parser.stalls(b, watch)):
                         overread = True
                         why = ("after a line dropped after a group line in the same frame" if dropped else
                                "after a group line in the same frame, a byte the reading stops before while a group "
                                "waits")
                         bad(cycle, f"the host parser read {_show(b)} at {when(cycle)} {why}")
-                    cmd = parser.feed(b, named if grouped and xram else None)
+                    cmd = parser.feed(b, watch if grouped else None)
                     stopped = stopped or ssc32.stops_reading(cmd, servos, ended.playing)
                     if isinstance(cmd, ssc32.Group) and ssc32.stops_reading(cmd, servos):
                         grouped, named = True, named | ssc32.named(cmd, servos)
@@ -622,7 +623,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                     answered = answered or isinstance(cmd, (ssc32.Query, ssc32.QueryPulse, ssc32.Version))
                 after = readings[k + 1][0][2] if k + 1 < len(readings) else []
                 if (grouped and not dropped and ended.left and len(got) < passes and after
-                        and not parser.stalls(after[0], named if xram else None)):
+                        and not parser.stalls(after[0], ssc32.group_waiting(named, servos, xram, parser.holds))):
                     bad(cycle, f"the host parser stopped reading at {when(cycle)} after a group line, before "
                                f"{_show(after[0])}, a byte it reads on to")
                 stops = ended.hline & ~HLINE_QUEUING

@@ -1194,12 +1194,93 @@ def test_a_bad_line_after_a_group_line_stops_the_reading_and_drops_nothing_of_it
     assert first3 == first0 + 1 and n[0][-1] == n[0][first0] and n[3][-1] == 125, (n[0][first0 - 1:first0 + 3], first0, first3)
 
 
-def test_after_a_group_line_the_reading_stops_before_a_control_byte_or_a_second_entry():
+@pytest.mark.parametrize("holds", [True, False])
+def test_after_a_group_line_the_reading_stops_before_a_control_byte_or_a_second_entry(holds, monkeypatch):
     """Lines queued before `host` runs: a group line, a TAB and a one-channel line, a line of two
     entries. The first frame's reading stops after the group line, before the TAB (a control
-    byte); the second reads the TAB and the next group line, and on into the line after it, up
-    to the '#' of its second entry; the third reads the rest. As the model says (verify checks
-    it both ways)."""
-    b, trace, report = session('0.05s "#0P2000\\r\\t#1P900\\r#2P1400#3P1600\\r"\n', 30, QUEUED)
+    byte); the second reads the TAB and the next group line, and on into the line after it:
+    with the holds (a frame of 20 ms brings 19 bytes) to its end, its first entry held at the
+    '#' of its second and that at its end; without them up to that '#', and the third reads the
+    rest. As the model says (verify checks it both ways)."""
+    from servoc import layout
+    if not holds:
+        monkeypatch.setattr(layout, "HOLDS_IRAM", 0)
+    b = build_text(QUEUED)
+    assert bool(layout.host_holds(b.plan)) == holds
+    trace, report = watch(b, '0.05s "#0P2000\\r\\t#1P900\\r#2P1400#3P1600\\r"\n', 30)
+    assert report.ok, problems(report)
     readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got]
-    assert readings == [b"#0P2000\r", b"\t#1P900\r#2P1400", b"#3P1600\r"], readings
+    if holds:
+        assert readings == [b"#0P2000\r", b"\t#1P900\r#2P1400#3P1600\r"], readings
+    else:
+        assert readings == [b"#0P2000\r", b"\t#1P900\r#2P1400", b"#3P1600\r"], readings
+
+
+@pytest.mark.parametrize("clock, baud, frame", [("11.0592MHz", 9600, "20ms"), ("11.0592MHz mode 6T", 19200, "10ms"),
+                                                ("22.1184MHz", 19200, "8ms")])
+def test_in_internal_ram_two_servo_lines_back_to_back_at_a_long_frame_lose_no_byte(clock, baud, frame, monkeypatch):
+    """The arm with its state in internal RAM, at a frame that brings more bytes than a two-entry
+    line (`#0P1234#1P1234` and CR, 15 bytes): lines that set two servos, back to back for 3 s.
+    After a group line the reading holds each entry a '#' ends (and, while one is held, a line's
+    last) rather than stopping before the line's second entry (layout.host_holds): every byte
+    read, none lost, verify passes. Built without the holds, the reading gets through a line a
+    frame and the same lines lose bytes (at 20 ms, 9600 baud)."""
+    from servoc import layout
+    text = ARM.replace("clock 11.0592MHz", f"clock {clock}").replace("serial 9600", f"serial {baud}\nframe {frame}")
+    chans = (0, 1, 2, 7)
+    lines = "".join(f"#{chans[n % 4]}P{1000 + n * 37 % 900}#{chans[(n + 1) % 4]}P{1100 + n * 53 % 900}\\r"
+                    for n in range(3 * baud // 150))
+    sent = len(lines.replace("\\r", "\r"))
+
+    def run(b):
+        trace, report = watch(b, f'0.2s "{lines}"\n', int((1.0 + sent * 10 / baud) * 1e6 / b.plan.period_us))
+        assert report.ok, problems(report)
+        readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames]
+        return sent - sum(1 for r in trace.observation.received if r.queued), readings
+
+    b = build_text(text)
+    assert layout.host_holds(b.plan) == layout.HOLDS_IRAM and not flow.host_xram(b.plan)
+    lost, readings = run(b)
+    assert lost == 0
+    assert sum(1 for got in readings if got.count(b"\r") >= 2) > 5         # a line joined a group
+    if frame == "20ms":
+        monkeypatch.setattr(layout, "HOLDS_IRAM", 0)
+        b = build_text(text)
+        assert not layout.host_holds(b.plan)
+        assert run(b)[0] > 100
+
+
+def test_in_internal_ram_the_holds_are_built_only_where_a_frame_brings_more_than_a_two_entry_line():
+    """Without holds the reading gets through a line a frame at least, so it keeps up with lines no
+    shorter than a frame's bytes: where no line that does something is shorter (flow.CUT_LINE),
+    the holds' cycles would buy nothing, and the firmware has none (the arm at its own period).
+    At a frame that brings more, it has them, and its shortest period is longer by their cost."""
+    from servoc import layout
+    b = built()
+    assert flow.frame_bytes(b.plan) <= flow.CUT_LINE and not layout.host_holds(b.plan)
+    assert "HHO" not in b.firmware.unit.text
+    long = build_text(ARM.replace("serial 9600", "serial 9600\nframe 12ms"))
+    assert flow.frame_bytes(long.plan) > flow.CUT_LINE and layout.host_holds(long.plan) == layout.HOLDS_IRAM
+    assert "HHO" in long.firmware.unit.text and long.plan.min_period_us > b.plan.min_period_us
+
+
+def test_in_internal_ram_a_program_short_only_by_the_holds_is_built_without_them():
+    # servos on P1 of an AT89C52 at `frame 20ms` (the holds wanted: 19 bytes a frame): up to 6
+    # they fit with the holds' 12 bytes, 7 fit only without them (lint accepts, compile builds,
+    # a session verifies), 8 are host-ram either way
+    from servoc import layout
+
+    def prog(n: int) -> str:
+        return ("target at89c52 clock 11.0592MHz\nserial 9600\nframe 20ms\nhost ssc32\n"
+                + "".join(f"servo s{b} = P1.{b}\n" for b in range(n)) + "main { host }\n")
+    plans = {}
+    for n in (6, 7, 8):
+        fe, diags = front_end_text(prog(n))
+        plans[n] = (fe.plan, [x.code for x in diags if x.is_error])
+    assert not plans[6][1] and layout.host_holds(plans[6][0]) == layout.HOLDS_IRAM
+    assert not plans[7][1] and not plans[7][0].holds and not layout.host_holds(plans[7][0])
+    assert plans[8][1] == ["host-ram"] and not plans[8][0].holds    # (it says what is short without them)
+    b = build_text(prog(7))
+    assert "HHO" not in b.firmware.unit.text
+    trace, report = watch(b, '0.5s "#0P1000#1P1200\\r#0P1100#1P900\\r"\n', int(1.5e6 / b.plan.period_us))
+    assert report.ok, problems(report)

@@ -310,25 +310,36 @@ def test_lines_that_set_the_same_servos_back_to_back_lose_no_byte(chip, size, cl
                                                                         # were read in one frame
 
 
-@pytest.mark.parametrize("lines, want", [
+@pytest.mark.parametrize("ram, lines, want", [
     # channel 0's entry held in the second line; the third line's, written at its end, is later
-    ("#0P1000\\r#0P2000#1P1300\\r#0P1500\\r", {0: 1500, 1: 1300}),
+    ("xram", "#0P1000\\r#0P2000#1P1300\\r#0P1500\\r", {0: 1500, 1: 1300}),
     # two entries for channel 0 held in one line: the later wins
-    ("#0P1000\\r#0P1300#0P1800#1P900\\r", {0: 1800, 1: 900}),
+    ("xram", "#0P1000\\r#0P1300#0P1800#1P900\\r", {0: 1800, 1: 900}),
     # channel 0's entry held, then its line goes bad: it is given back (the reading stops there)
-    ("#0P1000\\r#0P2000#1x\\r", {0: 1000}),
+    ("xram", "#0P1000\\r#0P2000#1x\\r", {0: 1000}),
+    # in internal RAM every entry a '#' ends is held, and a line's last while one is: the first
+    # held is written first, so the later wins
+    ("iram", "#0P1000\\r#0P1300#0P1800\\r", {0: 1800}),
+    ("iram", "#0P1000\\r#0P2000#1x\\r", {0: 1000}),
+    # a one-entry line with nothing held is written in place at its end; the holds after it win
+    ("iram", "#0P1000\\r#1P1200\\r#0P1500#1P900\\r", {0: 1500, 1: 900}),
 ])
-def test_held_entries_keep_the_order_of_their_lines(lines, want):
+def test_held_entries_keep_the_order_of_their_lines(ram, lines, want):
     """Lines queued before `host` runs, so that one frame's reading has them: after a group line
     for channel 0, a line naming it again holds that entry (layout.host_holds). A later line's
     entry for the same channel written at its line's end wins over the held one (host_flush
     leaves it); a held entry of a line that goes bad is given back. The servos settle where the
-    lines say (widths from the pins, not from the model), and verify agrees frame by frame."""
+    lines say (widths from the pins, not from the model), and verify agrees frame by frame. With
+    the state in XRAM (24 servos on an STC89C58RD+), and in internal RAM (2 servos at `frame
+    20ms`, where a frame brings more bytes than a two-entry line)."""
     from servoc import ssc32
     from servoc.model import host_channel
-    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
-    b = build_text(_program("stc89c58rd", pins, "main {\n  hold 300ms\n  host\n}"))
-    assert layout.host_holds(b.plan)
+    main = "main {\n  hold 300ms\n  host\n}"
+    if ram == "xram":
+        b = build_text(_program("stc89c58rd", [(p, b) for p in (1, 2, 0) for b in range(8)], main))
+    else:
+        b = build_text(_program("stc89c52rc", [(1, 0), (1, 1)], main).replace("host ssc32\n", "host ssc32\nframe 20ms\n"))
+    assert layout.host_holds(b.plan) and flow.host_xram(b.plan) == (ram == "xram")
     trace, report = watch(b, f'0.02s "{lines}"\n', int(1.4e6 / b.plan.period_us))
     assert report.ok, problems(report)
     first = next(bytes(got) for h in trace.observation.hosts for _, _, got in h.frames if got)

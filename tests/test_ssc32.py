@@ -1185,6 +1185,42 @@ def test_with_holds_entries_for_the_groups_servos_are_held_until_the_holds_are_t
     assert p.held == 0
 
 
+def test_in_internal_ram_with_holds_every_entry_is_held_and_a_lines_last_while_one_is():
+    # no generations in internal RAM: while a group waits every entry a '#' ends is held, and,
+    # while one is held, a line's last entry at its end (so that the holds keep the lines' order);
+    # once the K are taken the reading waits before such a '#' or line end
+    servos = [Servo(c, t_dav_us=Fraction(2000)) for c in range(3)]
+    s = Session(servos, P20, start={0: 0, 1: 250, 2: 100})
+    p = LineParser(holds=2, iram=True)
+    data = b"#0P900#1P1000\r#2P1100#1P1200\r#0P1300#1P1400\r"
+    # line 2 holds channel 2's entry at its '#1' and its last at its end; line 3's '#1' would end
+    # an entry with both holds taken (14 + 15 + 7 bytes)
+    assert s.read(p, data) == (b"", 36)
+    assert (p.held, p.joined) == (2, 2)
+    assert s.pending.entries[2:] == (Entry(2, 1100, None), Entry(1, 1200, None))
+    s.frame()
+    assert s.read(p, data[36:]) == (b"", len(data) - 36)       # the commit wrote them: none waits
+    # a one-entry line with nothing held is written in place at its end (no hold); with a hold
+    # taken, a line's end waits once both are
+    s = Session(servos, P20, start={0: 0, 1: 250, 2: 100})
+    p = LineParser(holds=2, iram=True)
+    assert s.read(p, b"#0P900\r#1P1000\r#2P1\r") == (b"", 20) and p.held == 0
+    s.frame()
+    assert s.read(p, b"#0P900\r#1P1000#2P1100\r#0P1200\r") == (b"", 29)
+    assert (p.held, p.joined) == (2, 2)
+    # a line that goes bad gives back what it held; an entry for a channel with no servo holds nothing
+    s = Session(servos, P20, start={0: 0, 1: 250, 2: 100})
+    p = LineParser(holds=2, iram=True)
+    assert s.read(p, b"#0P900\r#9P5#1P1000\r") == (b"", 19) and (p.held, p.joined) == (0, 0)
+    s.frame()
+    assert s.read(p, b"#0P900\r#1P1000#2x\r") == (b"", 18) and (p.held, s.dropped) == (0, True)
+    # without holds a '#' after a '#' waits; a parser's holds must be for the session's RAM
+    s = Session(servos, P20, start={0: 0, 1: 250, 2: 100})
+    assert s.read(LineParser(), b"#0P900\r#1P1000#2P1\r") == (b"", 14)
+    with pytest.raises(ValueError):
+        Session(servos, P20, xram=True).read(LineParser(holds=2, iram=True), b"#0P900\r#1P1\r")
+
+
 @settings(max_examples=300, deadline=None)
 @given(st.lists(st.sampled_from(TOKENS), max_size=40))
 def test_read_takes_every_line_and_stops_after_the_stopping_ones(tokens):
