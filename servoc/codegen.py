@@ -475,7 +475,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                                               "a servo, its S, its width or offset (XRAM)"))
             xat += holds * layout.HOLD_BYTES
         elif holds:
-            ram.alloc("HHO", holds * layout.HOLD_BYTES_IRAM, f"{holds} holds of {layout.HOLD_BYTES_IRAM} bytes: a "
+            ram.alloc("HHO", holds * layout.hold_bytes(False), f"{holds} holds of {layout.hold_bytes(False)} bytes: a "
                       "servo, its S, its width or offset", direct=False)
         assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM

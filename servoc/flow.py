@@ -155,13 +155,24 @@ def host_ram(plan: Plan, xram: bool | None = None) -> int:
     from . import costs
     if xram is None:
         xram = host_xram(plan)
-    from .layout import HOLD_BYTES_IRAM, host_holds
-    holds = 2 if host_holds(plan, xram) else 0          # HHP, HHJ
-    if xram:        # HGEN, HGA; the per-servo state and the holds are in XRAM
-        state = 2
-    else:
-        state = HOST_PER_SERVO * len(plan.channels) + HOLD_BYTES_IRAM * host_holds(plan, False)
-    return host_vars(plan) + holds + state + host_queue(plan) - costs.QUEUE
+    if xram:        # HGEN, HGA, HHP, HHJ (layout.host_holds is 2 at least there); the rest in XRAM
+        state = 2 + (2 if plan.holds else 0)
+    else:           # the per-servo state, the holds and HHP, HHJ
+        k = iram_holds(plan)
+        state = HOST_PER_SERVO * len(plan.channels) + HOLD_BYTES_IRAM * k + (2 if k else 0)
+    return host_vars(plan) + state + host_queue(plan) - costs.QUEUE
+
+
+HOLDS_IRAM = 2          # the entries held in one frame where the host's state is in internal RAM
+HOLD_BYTES_IRAM = 5     # a hold there: its servo, its S (2), its width or offset (2) (no generations)
+
+
+def iram_holds(plan: Plan) -> int:
+    """The holds where the host's state is in internal RAM (layout.host_holds): HOLDS_IRAM where a
+    frame brings more bytes than CUT_LINE (without holds the reading gets through a line a frame
+    at least, as many bytes as a frame brings when no line is shorter than that, so the holds'
+    cycles would buy nothing), and the build has them (`Plan.holds`); else 0."""
+    return HOLDS_IRAM if hosted(plan) and plan.holds and frame_bytes(plan) > CUT_LINE else 0
 
 
 def host_short(plan: Plan, xram: bool | None = None) -> int:

@@ -59,13 +59,12 @@ def state_at(ports: int) -> int:
 
 
 HOLD_BYTES = 6          # a held entry in XRAM (host_xram): its line's generation, its servo, its S (2), its width or offset (2)
-HOLD_BYTES_IRAM = 5     # in internal RAM: its servo, its S (2), its width or offset (2) (no generations there)
 HOLDS_MOST = 3          # the entries held in one frame at the most, in XRAM (host_holds)
-HOLDS_IRAM = 2          # in internal RAM
 
 
 def hold_bytes(xram: bool) -> int:
-    """The bytes of one hold (`host_holds`)."""
+    """The bytes of one hold (`host_holds`; in internal RAM `flow.HOLD_BYTES_IRAM`)."""
+    from .flow import HOLD_BYTES_IRAM
     return HOLD_BYTES if xram else HOLD_BYTES_IRAM
 
 
@@ -77,20 +76,18 @@ def host_holds(plan, xram: bool | None = None) -> int:
     after). In XRAM, where each entry keeps its line's generation, only those for a servo the
     group names are held (HOLD_BYTES, between the host's arrays and the motion state): HOLDS_MOST,
     or what XRAM page 0 has room for (2 at least: 16 bytes with 24 servos). In internal RAM, every
-    one is held, and while any is, so is a line's last entry, at its end: HOLDS_IRAM of
-    HOLD_BYTES_IRAM, where a frame brings more bytes than `flow.CUT_LINE` (without holds, the
-    reading gets through a line a frame at least, as many bytes as a frame brings when no line is
-    shorter than that, so the holds' cycles would buy nothing). 0 in a build that fits the chip's internal RAM or, built for size, its code
+    one is held, and while any is, so is a line's last entry, at its end (`flow.iram_holds`:
+    where a frame brings more bytes than the shortest line of two entries). 0 in a build that fits the chip's internal RAM or, built for size, its code
     memory only without them (`Plan.holds`, `api.choose_period`). Once the K are taken, the
     reading stops before a '#' that ends an open entry (in internal RAM also before the end of
     a line of entries)."""
-    from .flow import CUT_LINE, HOST_XRAM_PER_SERVO, frame_bytes, hosted, host_xram
+    from .flow import HOST_XRAM_PER_SERVO, hosted, host_xram, iram_holds
     if not (hosted(plan) and plan.holds):
         return 0
     if xram is None:
         xram = host_xram(plan)
     if not xram:
-        return HOLDS_IRAM if frame_bytes(plan) > CUT_LINE else 0
+        return iram_holds(plan)
     room = state_at(len(plan.ports)) - HOST_XRAM_PER_SERVO * len(plan.channels)
     return min(HOLDS_MOST, room // HOLD_BYTES)
 

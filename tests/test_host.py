@@ -1204,7 +1204,7 @@ def test_after_a_group_line_the_reading_stops_before_a_control_byte_or_a_second_
     rest. As the model says (verify checks it both ways)."""
     from servoc import layout
     if not holds:
-        monkeypatch.setattr(layout, "HOLDS_IRAM", 0)
+        monkeypatch.setattr(flow, "HOLDS_IRAM", 0)
     b = build_text(QUEUED)
     assert bool(layout.host_holds(b.plan)) == holds
     trace, report = watch(b, '0.05s "#0P2000\\r\\t#1P900\\r#2P1400#3P1600\\r"\n', 30)
@@ -1239,12 +1239,12 @@ def test_in_internal_ram_two_servo_lines_back_to_back_at_a_long_frame_lose_no_by
         return sent - sum(1 for r in trace.observation.received if r.queued), readings
 
     b = build_text(text)
-    assert layout.host_holds(b.plan) == layout.HOLDS_IRAM and not flow.host_xram(b.plan)
+    assert layout.host_holds(b.plan) == flow.HOLDS_IRAM and not flow.host_xram(b.plan)
     lost, readings = run(b)
     assert lost == 0
     assert sum(1 for got in readings if got.count(b"\r") >= 2) > 5         # a line joined a group
     if frame == "20ms":
-        monkeypatch.setattr(layout, "HOLDS_IRAM", 0)
+        monkeypatch.setattr(flow, "HOLDS_IRAM", 0)
         b = build_text(text)
         assert not layout.host_holds(b.plan)
         assert run(b)[0] > 100
@@ -1260,7 +1260,7 @@ def test_in_internal_ram_the_holds_are_built_only_where_a_frame_brings_more_than
     assert flow.frame_bytes(b.plan) <= flow.CUT_LINE and not layout.host_holds(b.plan)
     assert "HHO" not in b.firmware.unit.text
     long = build_text(ARM.replace("serial 9600", "serial 9600\nframe 12ms"))
-    assert flow.frame_bytes(long.plan) > flow.CUT_LINE and layout.host_holds(long.plan) == layout.HOLDS_IRAM
+    assert flow.frame_bytes(long.plan) > flow.CUT_LINE and layout.host_holds(long.plan) == flow.HOLDS_IRAM
     assert "HHO" in long.firmware.unit.text and long.plan.min_period_us > b.plan.min_period_us
 
 
@@ -1277,7 +1277,7 @@ def test_in_internal_ram_a_program_short_only_by_the_holds_is_built_without_them
     for n in (6, 7, 8):
         fe, diags = front_end_text(prog(n))
         plans[n] = (fe.plan, [x.code for x in diags if x.is_error])
-    assert not plans[6][1] and layout.host_holds(plans[6][0]) == layout.HOLDS_IRAM
+    assert not plans[6][1] and layout.host_holds(plans[6][0]) == flow.HOLDS_IRAM
     assert not plans[7][1] and not plans[7][0].holds and not layout.host_holds(plans[7][0])
     assert plans[8][1] == ["host-ram"] and not plans[8][0].holds    # (it says what is short without them)
     b = build_text(prog(7))
