@@ -365,3 +365,21 @@ def test_a_receive_queue_past_internal_ram_is_host_ram_with_the_frame_to_shorten
     assert "a receive queue of" in errors[0].message and "XRAM" in errors[0].message
     assert "shorter frame" in errors[0].help
     assert flow.host_xram(build_text(text.replace("frame 60ms\n", "")).plan)     # at its own period it builds
+
+
+def test_ver_answers_back_to_back_follow_each_other_within_a_frame():
+    """Group lines each followed by a `VER` line, back to back, with 24 servos (a frame is about 28
+    byte times): the answers wait in HAQ, and each goes out as the transmit queue has room; the
+    next VER's answer starts in the frame after the last byte of the one before goes in, never
+    two frames later. verify allows a byte 2 P from the end of the byte before it: when the end
+    of an answer was found a frame after its last byte went in, and the next VER's was taken a
+    frame after that, its first byte came more than 2 P late."""
+    from servoc import ssc32
+    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
+    b = build_text(re.sub(r"sequence wave \{[^}]*\}\n", "", _program("stc89c58rd", pins, "main { host }")))
+    assert flow.host_xram(b.plan)
+    body = "".join(f"#{n % 24}P{1000 + n * 37 % 900}\\rVER\\r" for n in range(40))
+    trace, report = watch(b, f'0.2s "{body}"\n', int(3.0e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    sent = bytes(b for _, b in trace.sent)
+    assert sent.count(ssc32.VERSION_REPLY) >= 5 and sent.replace(ssc32.VERSION_REPLY, b"") == b""
