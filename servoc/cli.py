@@ -1042,6 +1042,19 @@ def plan_data(plan: Plan, source) -> dict:
     return data
 
 
+def _host_reading(plan) -> str:
+    """`servoc plan`'s line on what `host` reads a frame and holds (docs/host-protocol.md, Timing)."""
+    from .flow import frame_bytes, host_passes, host_xram
+    from .layout import host_holds
+    k = host_holds(plan)
+    held = (f"{k} entr{'y' if k == 1 else 'ies'} held while a group waits" if k else
+            "no entry held while a group waits (the reading stops before a line's second entry"
+            + (" for a servo of the group)" if host_xram(plan) else ")"))
+    return (f"host reading: {float(frame_bytes(plan)):.1f} bytes a frame at {plan.program.serial.baud} baud "
+            f"(a host 2 % fast), up to {host_passes(plan)} read; its state in "
+            + ("XRAM" if host_xram(plan) else "internal RAM") + f"; {held}")
+
+
 def _port_rises(plan: Plan) -> list[dict]:
     """Each port's rise in the frame (µs from the first port's) and the highest N its lines reach."""
     from .flow import port_tops
@@ -1115,6 +1128,7 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
                    + ("; PL 0 SQ n does nothing for " + ", ".join(f"{i} `{q.name}`" for i, q in enumerate(plan.program.sequences)
                                                                   if q.name not in playable)
                       + " (each runs `host`)" if len(playable) < len(plan.program.sequences) else ""))
+        out.append(_host_reading(plan))
     for st, hull in plan.cuts:
         line = source.line_col(st.span.start)[0]
         spans = [f"{c.name} N {lo}..{hi}" + (" (or no target yet)" if unset else "") for c, (lo, hi, unset) in _ranges(plan, hull)]

@@ -732,3 +732,16 @@ def test_documented_flash_result(capsys, program, tmp_path, monkeypatch):
     monkeypatch.setitem(sys.modules, "stcgal", None)        # an AT89C52 needs no stcgal
     rc, out, _ = run(["flash", "--format", "json", str(program), "-o", str(tmp_path / "p.hex")], capsys)
     assert rc == 0 and key_paths(json.loads(out)) == documented_keys("`servoc flash --format json`")
+
+
+@pytest.mark.parametrize("frame, held", [("", "no entry held while a group waits"),
+                                         ("frame 20ms\n", "2 entries held while a group waits")])
+def test_plan_says_what_host_reads_a_frame_and_holds(capsys, tmp_path, frame, held):
+    # the arm at its own period (about 6 bytes a frame) has no holds; at 20 ms (about 20) it has
+    text = (Path(__file__).parent.parent / "examples" / "ssc32_arm.servo").read_text()
+    path = tmp_path / "arm.servo"
+    path.write_text(text.replace("serial 9600", "serial 9600\n" + frame.rstrip("\n")))
+    rc, out, err = run(["plan", str(path)], capsys)
+    assert rc == 0, err
+    line = next(x for x in out.splitlines() if x.startswith("host reading: "))
+    assert "at 9600 baud" in line and "its state in internal RAM" in line and held in line
