@@ -16,7 +16,10 @@
    24 servos get one-channel lines (8 or 9 bytes, a third of a frame's bytes) back to back, next to
    the same firmware patched to stop before every line end after a group line (no joining), as
    servoc did before; and lines that set 2 of the 24 servos each, next to the firmware patched to
-   wait before every entry of a servo after a group line, as servoc did before.
+   wait before every entry of a servo after a group line, as servoc did before; lines that set
+   the same 2 or 3 of the 24 servos each, next to the firmware built without holds; and the arm
+   at `frame 20ms` (its state in internal RAM, a frame brings 19 bytes) with lines that set the
+   same 2 servos, next to it built without holds.
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host` (moved by bytes between their home and N 250, as far as a host
@@ -170,9 +173,10 @@ def without_holds(fe, reporter):
 
 
 def sustained_few(seconds: float, program: str, what: str, size: int, patch=None, same: bool = False,
-                  holds: bool = True) -> list[str]:
-    """Group lines that set `size` servos each, the servos in turn (`same`: the first `size` in every
-    line), back to back at 9600 baud; `holds` False: built without them (`without_holds`)."""
+                  holds: bool = True, channels: tuple[int, ...] = tuple(range(24))) -> list[str]:
+    """Group lines that set `size` servos each, the servos of `channels` in turn (`same`: the first
+    `size` in every line), back to back at 9600 baud; `holds` False: built without them
+    (`without_holds`)."""
     fe, firmware, reporter = build(program)
     if not holds:
         fe, firmware = without_holds(fe, reporter)
@@ -180,7 +184,8 @@ def sustained_few(seconds: float, program: str, what: str, size: int, patch=None
         firmware = patch(firmware, reporter)
     plan = fe.plan
     first = (lambda n: 0) if same else (lambda n: n * size)
-    lines = ["".join(f"#{c % 24}P{1000 + (n * 37 + c * 11) % 900}" for c in range(first(n), first(n) + size)) + "\r"
+    lines = ["".join(f"#{channels[c % len(channels)]}P{1000 + (n * 37 + c * 11) % 900}"
+                     for c in range(first(n), first(n) + size)) + "\r"
              for n in range(int(seconds * 960 / (8 * size)))]
     report, sent, read, lost = _stream(fe, firmware, lines, seconds)
     return [f"sustained, {what}: {len(lines)} group lines of {size} servos{' (the same ones)' if same else ''} "
@@ -249,6 +254,7 @@ def capacity() -> list[str]:
 def main() -> int:
     seconds = float(sys.argv[1]) if len(sys.argv) > 1 else 10.0
     arm = ARM.read_text(encoding="utf-8")
+    arm20 = arm.replace("serial 9600", "serial 9600\nframe 20ms")
     for line in (latency(arm, "the arm (4 servos)")
                  + latency(arm, "the arm while `PL 0 SQ 0` plays its wave", '0.1s "PL 0 SQ 0\\r"\n', 250_000)
                  + latency(arm, "the same, reading one byte a frame while it plays (as servoc did before)",
@@ -272,6 +278,9 @@ def main() -> int:
                  + sustained_few(seconds, TWENTY_FOUR, "the same, built without holds (as servoc did before)", 2,
                                  same=True, holds=False)
                  + sustained_few(seconds, TWENTY_FOUR, "24 servos", 3, same=True)
+                 + sustained_few(seconds, arm20, "the arm at `frame 20ms`", 2, same=True, channels=(0, 1, 2, 7))
+                 + sustained_few(seconds, arm20, "the same, built without holds (as servoc did before)", 2,
+                                 same=True, holds=False, channels=(0, 1, 2, 7))
                  + periods() + capacity()):
         print(line)
     return 0

@@ -90,7 +90,10 @@ The rules, as the document states them:
   of a line that does not `joins`, the other control bytes 0x08-0x0F and
   0x18-0x1F, ESC among them, and a '#' after a '#' of the line, or with the
   host's state in XRAM a '#' that ends an entry for a channel the group
-  names, held instead while one of the firmware's holds is free). A group line that names a servo and ends in the same frame joins
+  names; with holds, `LineParser(holds)`, such an entry is held instead
+  while one of the firmware's holds is free, in internal RAM every entry a
+  '#' ends and, while one is held, a line's last at its end, whose line end
+  then waits too once every hold is taken). A group line that names a servo and ends in the same frame joins
   the group (`join`: one group per frame, its entries in order, the last T
   given); an empty one does nothing; a bad line's end drops it and stops
   the reading until the next frame (`Session.dropped`). So no `Q`, `QP`,
