@@ -115,12 +115,13 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
     depends on P. It also decides the build once for every command: when the firmware built for
     speed does not fit the chip's code memory, the plan is the one built for size (`compact`);
     with the host's state in XRAM, where the firmware fits internal RAM or code memory only without
-    the host's holds (`layout.host_holds`), it is built without them (`Plan.holds`; where it fits
+    the host's holds and reading on through answer lines (`layout.host_extras`), it is built
+    without them (`Plan.holds`; where it fits
     internal RAM neither way, the build without them says how short it is).
     `decide` False: the build `first` asks for, whether it fits or not. `least` False: no search
     below the code's own shortest period for one at which the firmware still fits (eased moves)."""
     result = _periods(program, first)
-    if decide and result.firmware_limit is not None and layout.host_holds(result) and \
+    if decide and result.firmware_limit is not None and layout.host_extras(result) and \
             {limit[0] for limit in result.firmware_limit} <= RAM_LIMITS:
         smaller = _periods(program, dataclasses.replace(first, holds=False))      # the holds' bytes of
         if smaller.firmware_limit is None or \
@@ -130,7 +131,7 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:
             over = _overflow(result)       # built for size, still too big: lint says so, as compile
-            if over and layout.host_holds(result):     # without the host's holds, if that fits
+            if over and layout.host_extras(result):    # without the host's holds, if that fits
                 smaller = _periods(program, dataclasses.replace(first, compact=True, holds=False))
                 if smaller.firmware_limit is None and not _overflow(smaller):
                     result, over = smaller, None

@@ -1044,7 +1044,7 @@ def plan_data(plan: Plan, source) -> dict:
 
 def _host_reading(plan) -> str:
     """`servoc plan`'s line on what `host` reads a frame and holds (docs/host-protocol.md, Timing)."""
-    from .flow import frame_bytes, host_passes, host_xram
+    from .flow import frame_bytes, host_passes, host_xram, reads_answers
     from .layout import host_holds
     k = host_holds(plan)
     held = (f"{k} entr{'y' if k == 1 else 'ies'} held while a group waits" if k else
@@ -1052,7 +1052,8 @@ def _host_reading(plan) -> str:
             + (" for a servo of the group)" if host_xram(plan) else ")"))
     return (f"host reading: {float(frame_bytes(plan)):.1f} bytes a frame at {plan.program.serial.baud} baud "
             f"(a host 2 % fast), up to {host_passes(plan)} read; its state in "
-            + ("XRAM" if host_xram(plan) else "internal RAM") + f"; {held}")
+            + ("XRAM" if host_xram(plan) else "internal RAM") + f"; {held}; Q, QP and VER lines after a group line "
+            + ("read on" if reads_answers(plan) else "wait for its commit"))
 
 
 def _port_rises(plan: Plan) -> list[dict]:

@@ -910,6 +910,7 @@ def _host(plan: Plan, chans: list[dict], tables: list[dict], rxq: int, fbase: st
                            "label": _seq_label(plan, name)} for name in playable],
             "playable": [int(q.name in playable) for q in plan.program.sequences],
             "xram": host_xram(plan), "holds": layout.host_holds(plan), "hold_bytes": layout.hold_bytes(host_xram(plan)),
+            "answers_on": flow_mod.reads_answers(plan),
             "gen_limit": 0xFF - host_passes(plan) - 1}
 
 

@@ -116,6 +116,17 @@ CUT_LINE = len(b"#0P0#1P0\r")     # the shortest line that does something and th
                                   # (before its second '#') while a group waits
 
 
+ANSWER_LINE = len(b"#0P0\rQ\r")   # the shortest group line and answer line that stopped the reading between them
+
+
+def reads_answers(plan: Plan) -> bool:
+    """Whether `host` reads on through `Q`, `QP` and `VER` lines after a group line (a `Q`'s answer
+    waiting for the group's commit): where a frame brings more bytes than ANSWER_LINE (else a
+    frame gets through a group line and an answer line at least, as many bytes as a frame brings,
+    and the code would buy nothing), and the build has the holds' code (`Plan.holds`)."""
+    return hosted(plan) and plan.holds and frame_bytes(plan) > ANSWER_LINE
+
+
 def full_line(plan: Plan) -> int:
     """Bytes of a group line that sets every servo of `host` to a width of 4 digits (`#c P1500`, no
     spaces) and its CR: the lines `host_passes` keeps up with back to back."""

@@ -92,6 +92,13 @@ def host_holds(plan, xram: bool | None = None) -> int:
     return min(HOLDS_MOST, room // HOLD_BYTES)
 
 
+def host_extras(plan) -> bool:
+    """Whether the build has code that `Plan.holds` False leaves out: the holds (`host_holds`) or
+    the reading on through answer lines after a group line (`flow.reads_answers`)."""
+    from .flow import reads_answers
+    return bool(host_holds(plan)) or reads_answers(plan)
+
+
 def state_base(ports: int, xram: bool = False) -> int:
     """Where the motion state starts in internal RAM (the stack ends there): RAM_SIZE, none,
     where it is kept in XRAM (`xram`)."""

@@ -743,6 +743,7 @@ def expand(plan: Plan, choices: Iterable[Choice] | Decider = (), reached: list |
         played = 0
 
         def read() -> None:
+            pending.extend(session.answers())      # those that waited for a group's commit first
             for b in next(reads, ()):
                 cmd = parser.feed(b)
                 if cmd is not None:

@@ -96,9 +96,14 @@ The rules, as the document states them:
   then waits too once every hold is taken). A group line that names a servo and ends in the same frame joins
   the group (`join`: one group per frame, its entries in order, the last T
   given); an empty one does nothing; a bad line's end drops it and stops
-  the reading until the next frame (`Session.dropped`). So no `Q`, `QP`,
-  `VER`, `STOP`, `STOP c`, `PL` or offset line, and no ESC, comes after a
-  group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
+  the reading until the next frame (`Session.dropped`). Where a frame
+  brings more bytes than a group line and a `Q` line (`flow.reads_answers`,
+  `LineParser(answers=True)`), `Q`, `QP` and `VER` lines after a group line
+  are read too: a `Q`'s answer waits for the group's commit and is computed
+  at the start of the next reading (`Session.deferred`, `answers`), and the
+  answers after it in its frame go out behind it. So no `STOP`, `STOP c`,
+  `PL` or offset line (nor, without that, `Q`, `QP` or `VER`), and no ESC,
+  comes after a group or an offset line in its frame. The other lines (`Q`, `QP c`, `VER`,
   `STOP`, `STOP c`, a group line that names no servo, a line that does
   nothing, a bad line) do not end the reading, except that an answer that
   cannot be queued at its line end (the transmit queue full, or answers
@@ -210,11 +215,12 @@ class LineParser:
     is a line's last entry at its end. `held` counts those taken, `joined` those of lines that
     have ended (a line dropped gives back its own)."""
 
-    def __init__(self, holds: int = 0, iram: bool = False) -> None:
+    def __init__(self, holds: int = 0, iram: bool = False, answers: bool = False) -> None:
         self._reset()
         self.dropped = False
         self.holds = holds
         self.iram = iram                # the host's state is in internal RAM (`waiting`)
+        self.answers = answers          # Q, QP and VER lines after a group line are read (`joins`)
         self.held = self.joined = 0
 
     def _reset(self) -> None:
@@ -333,13 +339,14 @@ class LineParser:
     def joins(self) -> bool:
         """A line end now would not end a command or offset line: the line is bad (dropped),
         or has a '#' and no PO (while a group waits it has one entry at most, still open; a word
-        after PO makes the line bad), or has nothing (no '#', no word open). The firmware's test:
-        HST bit 5, or bit 0 or 4 and HW not PO, or neither and HW 0."""
+        after PO makes the line bad), or has nothing (no '#', no word open); with `answers`
+        (`flow.reads_answers`), or its open word is Q, QP or VER. The firmware's test: HST bit 5,
+        or bit 0 or 4 and HW not PO, or neither and HW 0 (or Q, QP, VER)."""
         if self.bad:
             return True
         if self.hashed:
             return self.item != "PO"
-        return self.item is None
+        return self.item is None or (self.answers and self.item in ("Q", "QP", "VER"))
 
     def _close_item(self) -> None:
         """The open item ends (at '#', at a letter that starts a word, at the line end)."""
@@ -697,6 +704,7 @@ class Session:
         self.frames = 0                       # frames computed so far
         self.reading_stopped = False          # a line that stops the reading was read in this frame
         self.dropped = False                  # a line was dropped (a bad line's end) after the group
+        self.deferred: list[bytes | None] = []  # answers waiting for the group's commit (None: a Q's)
 
     def moving(self) -> bool:
         """A move has a frame still to come after frame i (k < F) and a servo still on its path, or
@@ -716,18 +724,20 @@ class Session:
             if names_a_servo(cmd, self.by_channel):     # it joins the group waiting (else does nothing)
                 self.pending = join(self.pending, cmd)
             return b""
-        if self.reading_stopped:
+        answer = isinstance(cmd, (Query, QueryPulse, Version))
+        if self.reading_stopped and not (answer and self.pending is not None):
             raise RuntimeError(f"{cmd!r} read after a line that ends the frame's reading")
+        later = self.pending is not None and isinstance(cmd, Query)
+        if answer and (later or self.deferred):
+            # a Q after a group line: its answer once the group is committed (`answers`); the answers
+            # after it go out behind it (theirs as they are read)
+            self.deferred.append(None if later else self._answer(cmd))
+            return b""
         self.reading_stopped = self.stops_reading(cmd)
         if self.sequence_running and self.reading_stopped and isinstance(cmd, (Group, Play)):
             self.replace_play = True
-        if isinstance(cmd, Query):
-            return b"+" if self.moving() else b"."
-        if isinstance(cmd, QueryPulse):
-            n = self.now.get(cmd.channel)
-            return b"\x00" if n is None else bytes([(WIDTH_MIN + 8 * n) // 10])
-        if isinstance(cmd, Version):
-            return VERSION_REPLY
+        if answer:
+            return self._answer(cmd)
         if isinstance(cmd, Stop):
             if self.sequence_running:           # STOP ends the sequence in frame i; STOP c holds its
                 if cmd.channel is None:         # channel where frame i has it until the sequence ends
@@ -750,6 +760,28 @@ class Session:
             self.pending = cmd
         return b""
 
+    def _answer(self, cmd: Command) -> bytes:
+        """The answer to a `Q`, `QP` or `VER` line now."""
+        if isinstance(cmd, Query):
+            return b"+" if self.moving() else b"."
+        if isinstance(cmd, QueryPulse):
+            n = self.now.get(cmd.channel)
+            return b"\x00" if n is None else bytes([(WIDTH_MIN + 8 * n) // 10])
+        return VERSION_REPLY
+
+    def answers(self) -> bytes:
+        """At the start of a reading, the answers that waited for a group's commit (a `Q` line read
+        after a group line, where the firmware reads on through it, `LineParser.answers`, and the
+        `Q`, `QP` and `VER` lines after it in its frame), once `frame` has committed it, the `Q`'s
+        as a `Q` read now answers: they go out before the reading's. The firmware's HAQ entries
+        0xFE until host_qs."""
+        if self.pending is not None:
+            return b""
+        q = b"+" if self.moving() else b"."
+        out = b"".join(q if a is None else a for a in self.deferred)
+        self.deferred = []
+        return out
+
     def read(self, parser: LineParser, data: bytes, limit: int | None = None) -> tuple[bytes, int]:
         """This frame's reading from bytes: `data` (the bytes received, oldest first) goes to
         `parser` byte by byte, each command to `line`, until an offset, `PL` or (while a sequence
@@ -760,9 +792,10 @@ class Session:
         `frame()`)."""
         if self.pending is None:
             parser.commit()                     # no group waits: no entry is held
+        first = self.answers()
         if (self.reading_stopped and self.pending is None) or self.dropped:
-            return b"", 0
-        out = []
+            return first, 0
+        out = [first]
         n = len(data) if limit is None else min(limit, len(data))
         for i in range(n):
             waiting = None

@@ -595,13 +595,14 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
     # before a byte the parser stalls at (the next reading's first), or after a line dropped.
     if obs.hosts:
         from . import ssc32
-        from .flow import host_passes, host_xram
+        from .flow import host_passes, host_xram, reads_answers
         from .model import host_channel
         passes = host_passes(plan)
         xram = host_xram(plan)
         servos = {host_channel(c.servo): None for c in plan.channels}
         for h in obs.hosts:
-            parser, waiting, held, played = ssc32.LineParser(layout.host_holds(plan), not xram), False, 0, False
+            parser = ssc32.LineParser(layout.host_holds(plan), not xram, reads_answers(plan))
+            waiting, held, played = False, 0, False
             readings = list(zip(h.frames, h.ends))
             for k, ((cycle, _, got), ended) in enumerate(readings):
                 stopped = answered = grouped = overread = dropped = False
@@ -623,6 +624,7 @@ def check_run(plan: Plan, trace: SimTrace, obs: Observation, frames: int, events
                     answered = answered or isinstance(cmd, (ssc32.Query, ssc32.QueryPulse, ssc32.Version))
                 after = readings[k + 1][0][2] if k + 1 < len(readings) else []
                 if (grouped and not dropped and ended.left and len(got) < passes and after
+                        and not ended.hline & HLINE_WAITS        # (the queue of answers full stops it too)
                         and not parser.stalls(after[0], ssc32.group_waiting(named, servos, xram, parser.holds))):
                     bad(cycle, f"the host parser stopped reading at {when(cycle)} after a group line, before "
                                f"{_show(after[0])}, a byte it reads on to")

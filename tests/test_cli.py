@@ -735,9 +735,11 @@ def test_documented_flash_result(capsys, program, tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize("frame, held", [("", "no entry held while a group waits"),
-                                         ("frame 20ms\n", "2 entries held while a group waits")])
+                                         ("frame 20ms\n", "2 entries held while a group waits; Q, QP and VER lines "
+                                                           "after a group line read on")])
 def test_plan_says_what_host_reads_a_frame_and_holds(capsys, tmp_path, frame, held):
-    # the arm at its own period (about 6 bytes a frame) has no holds; at 20 ms (about 20) it has
+    # the arm at its own period (about 6 bytes a frame) has no holds and stops before a Q after a
+    # group line; at 20 ms (about 20) it holds entries and reads on
     text = (Path(__file__).parent.parent / "examples" / "ssc32_arm.servo").read_text()
     path = tmp_path / "arm.servo"
     path.write_text(text.replace("serial 9600", "serial 9600\n" + frame.rstrip("\n")))

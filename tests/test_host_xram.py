@@ -383,3 +383,36 @@ def test_ver_answers_back_to_back_follow_each_other_within_a_frame():
     assert report.ok, problems(report)
     sent = bytes(b for _, b in trace.sent)
     assert sent.count(ssc32.VERSION_REPLY) >= 5 and sent.replace(ssc32.VERSION_REPLY, b"") == b""
+
+
+@pytest.mark.parametrize("answer", ["Q", "QP"])
+def test_answer_lines_after_group_lines_are_read_on(answer):
+    """24 servos (a frame brings about 28 bytes): group lines each followed by a `Q` or `QP` line,
+    back to back. The reading goes on through the answer lines after a group line
+    (flow.reads_answers): `QP`'s answer as its line ends, a `Q`'s once the group is committed (at
+    the start of the next reading, HAQ's 0xFE), the answers after it behind it. verify passes,
+    every answer line read is answered, in order; with `QP` no byte is lost (with the reading
+    stopped before each answer line's end, a quarter of them were). With `Q`, the queue of answers
+    (3) fills once a frame's Q lines wait behind the last frame's answers, which stops the reading
+    as documented (verify checks that rule both ways)."""
+    pins = [(p, b) for p in (1, 2, 0) for b in range(8)]
+    b = build_text(re.sub(r"sequence wave \{[^}]*\}\n", "", _program("stc89c58rd", pins, "main { host }")))
+    assert flow.reads_answers(b.plan)
+    pairs = [f"#{n % 24}P{1000 + n * 37 % 900}T200\\r" + (f"QP{n % 24}" if answer == "QP" else "Q") + "\\r"
+             for n in range(120)]
+    body = "".join(pairs)
+    sent = len(body.replace("\\r", "\r"))
+    trace, report = watch(b, f'0.2s "{body}"\n', int((1.0 + sent * 10 / 9600) * 1e6 / b.plan.period_us))
+    assert report.ok, problems(report)
+    readings = [bytes(got) for h in trace.observation.hosts for _, _, got in h.frames]
+    read = b"".join(readings)
+    assert sum(1 for got in readings if re.search(rb"\r(Q|QP\d+)\r#", got)) > 10     # read on in one frame
+    lines = [ln for ln in read.split(b"\r")[:-1] if 0xFF not in ln]
+    asked = [ln for ln in lines if ln.startswith(b"Q")]
+    replies = bytes(x for _, x in trace.sent)
+    assert len(replies) == len(asked), (len(replies), len(asked))
+    if answer == "Q":
+        assert set(replies) <= set(b"+.") and b"+" in replies
+    else:
+        lost = sent - sum(1 for r in trace.observation.received if r.queued)
+        assert lost == 0 and 0 not in replies

@@ -968,11 +968,15 @@ def test_lines_that_stop_the_reading():
     for text in (b"#0P900\r", b"#0PO5\r", b"PL0SQ0\r"):
         _line(s, b"#7P900\rQ\r" + text)
         assert s.reading_stopped
-        with pytest.raises(RuntimeError):
-            _line(s, b"Q\r")
+        if text == b"#0P900\r":         # after a group line (where the firmware reads on): its
+            assert _line(s, b"Q\r") == b""                # answer once the group is committed
+        else:
+            with pytest.raises(RuntimeError):
+                _line(s, b"Q\r")
         with pytest.raises(RuntimeError):
             _line(s, b"STOP\r")
         s.frame()
+        assert s.answers() == (b"+" if text == b"#0P900\r" else b"")
         assert not s.reading_stopped
     assert _line(s, b"Q\r") == b"+"
 
@@ -1183,6 +1187,27 @@ def test_with_holds_entries_for_the_groups_servos_are_held_until_the_holds_are_t
     s = Session(servos, P20, start={0: 0, 1: 250, 2: 100}, xram=True)
     assert s.read(p, b"#0P900\r#0S100#9P1000#0P1000\r") == (b"", 28)
     assert p.held == 0
+
+
+def test_where_the_firmware_reads_on_through_answer_lines_a_qs_answer_waits_for_the_commit():
+    # LineParser(answers=True) (flow.reads_answers): Q, QP and VER lines after a group line are
+    # read; QP's and VER's answers go out as their lines end, a Q's once the group is committed
+    # (with the next reading's, first), the answers after it behind it; STOP and offset lines wait
+    s = _two()
+    p = LineParser(answers=True)
+    data = b"#0P900\rQP1\rQ\rVER\r#1P1000\rSTOP\r"
+    # QP 1 answers now (250: 2500 us); Q waits, VER goes behind it; the group line joins; the
+    # reading stops before STOP's CR (7 + 4 + 2 + 4 + 8 + 4 bytes)
+    assert s.read(p, data) == (bytes([250]), 29)
+    assert s.frame() != {}
+    assert s.read(p, data[29:]) == (b"+" + VERSION_REPLY, 1)     # a move is under way
+    for text, stalls in ((b"Q", False), (b"QP 3", False), (b"VER", False), (b"qp", False), (b"STOP", True),
+                         (b"PL0SQ1", True), (b"T100", True)):
+        p, q = LineParser(answers=True), LineParser()
+        for b in text:
+            p.feed(b)
+            q.feed(b)
+        assert p.stalls(0x0D) == stalls and q.stalls(0x0D), text          # without: each waits
 
 
 def test_in_internal_ram_with_holds_every_entry_is_held_and_a_lines_last_while_one_is():
