@@ -19,7 +19,8 @@
    wait before every entry of a servo after a group line, as servoc did before; lines that set
    the same 2 or 3 of the 24 servos each, next to the firmware built without holds; and the arm
    at `frame 20ms` (its state in internal RAM, a frame brings 19 bytes) with lines that set the
-   same 2 servos, next to it built without holds.
+   same 2 servos, next to it built without holds; and 24 servos with group lines each followed by
+   a `QP` or `Q` line, next to the firmware built without holds (which stops before each).
 3. Periods. The shortest period servoc reports with `host` for 1 to 8 servos on one port at
    9600 baud and 11.0592 MHz, at 4800 baud and 12 MHz, and at 9600 baud and 22.1184 MHz, next to
    the same servos without `host` (moved by bytes between their home and N 250, as far as a host
@@ -194,6 +195,22 @@ def sustained_few(seconds: float, program: str, what: str, size: int, patch=None
             f"verify {'OK' if report.ok else 'FAILED'}"]
 
 
+def sustained_answers(seconds: float, program: str, what: str, answer: str, holds: bool = True) -> list[str]:
+    """Group lines of one servo with T, each followed by an answer line (`Q` or `QP c`), back to
+    back at 9600 baud, with no wait for the answers; `holds` False: built without the holds' code,
+    which also leaves out reading on through answer lines (`flow.reads_answers`)."""
+    fe, firmware, reporter = build(program)
+    if not holds:
+        fe, firmware = without_holds(fe, reporter)
+    plan = fe.plan
+    lines = [f"#{n % 24}P{1000 + n * 37 % 900}T200\r" + ("Q" if answer == "Q" else f"QP{n % 24}") + "\r"
+             for n in range(int(seconds * 960 / 16))]
+    report, sent, read, lost = _stream(fe, firmware, lines, seconds)
+    return [f"sustained, {what}: {len(lines)} group lines each followed by `{answer}` ({sent} bytes back to back at "
+            f"9600 baud, P = {plan.period_us} us): {read} bytes read by the parser, {lost} lost; "
+            f"verify {'OK' if report.ok else 'FAILED'}"]
+
+
 def sustained_one_channel(seconds: float, program: str, what: str, patch=None,
                           channels: tuple[int, ...] = (0, 1, 2, 7)) -> list[str]:
     """One-channel group lines (`#c P w`, 8 bytes, 9 for channels past 9) back to back at 9600
@@ -278,6 +295,12 @@ def main() -> int:
                  + sustained_few(seconds, TWENTY_FOUR, "the same, built without holds (as servoc did before)", 2,
                                  same=True, holds=False)
                  + sustained_few(seconds, TWENTY_FOUR, "24 servos", 3, same=True)
+                 + sustained_answers(seconds, TWENTY_FOUR, "24 servos", "QP")
+                 + sustained_answers(seconds, TWENTY_FOUR, "the same, built without holds (and without reading "
+                                     "on through answer lines, as servoc did before)", "QP", holds=False)
+                 + sustained_answers(seconds, TWENTY_FOUR, "24 servos", "Q")
+                 + sustained_answers(seconds, TWENTY_FOUR, "the same, built without holds (as servoc did before)",
+                                     "Q", holds=False)
                  + sustained_few(seconds, arm20, "the arm at `frame 20ms`", 2, same=True, channels=(0, 1, 2, 7))
                  + sustained_few(seconds, arm20, "the same, built without holds (as servoc did before)", 2,
                                  same=True, holds=False, channels=(0, 1, 2, 7))
