@@ -114,10 +114,9 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
     at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
     depends on P. It also decides the build once for every command: when the firmware built for
     speed does not fit the chip's code memory, the plan is the one built for size (`compact`);
-    with the host's state in XRAM, where the firmware fits internal RAM or code memory only without
-    the host's holds and reading on through answer lines (`layout.host_extras`), it is built
-    without them (`Plan.holds`; where it fits
-    internal RAM neither way, the build without them says how short it is).
+    where the firmware fits internal RAM or code memory only without the host's holds and reading
+    on through answer lines (`layout.host_extras`), it is built without them (`Plan.holds`; where
+    it fits internal RAM neither way, the build without them says how short it is).
     `decide` False: the build `first` asks for, whether it fits or not. `least` False: no search
     below the code's own shortest period for one at which the firmware still fits (eased moves)."""
     result = _periods(program, first)

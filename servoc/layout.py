@@ -77,8 +77,9 @@ def host_holds(plan, xram: bool | None = None) -> int:
     group names are held (HOLD_BYTES, between the host's arrays and the motion state): HOLDS_MOST,
     or what XRAM page 0 has room for (2 at least: 16 bytes with 24 servos). In internal RAM, every
     one is held, and while any is, so is a line's last entry, at its end (`flow.iram_holds`:
-    where a frame brings more bytes than the shortest line of two entries). 0 in a build that fits the chip's internal RAM or, built for size, its code
-    memory only without them (`Plan.holds`, `api.choose_period`). Once the K are taken, the
+    where a frame brings more bytes than the shortest line of two entries). 0 in a build that
+    fits the chip's internal RAM or, built for size, its code memory only without them
+    (`Plan.holds`, `api.choose_period`). Once the K are taken, the
     reading stops before a '#' that ends an open entry (in internal RAM also before the end of
     a line of entries)."""
     from .flow import HOST_XRAM_PER_SERVO, hosted, host_xram, iram_holds

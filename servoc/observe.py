@@ -12,7 +12,8 @@ select, found in the assembler's listing:
 - in the serial handler, `ui_got` (a byte was just taken from SBUF: the byte and the queue's
   counters) and `ui_drop` (it was queued, or not: the counters again);
 - with `host`: `host_run` (a run of the statement begins), `hr_frame` (each frame's reading
-  begins) and `hb_in`, `hb_chr`, `hb_eol` and `hb_hash` (the parser reads a byte: the byte).
+  begins) and `hb_in`, `hb_chr`, `hb_eol`, `hb_hash` and `hb_ans` (the parser reads a byte: the
+  byte).
 
 `observe` turns the probes of a run into `Observation`: every select reached, in order (`Visit`),
 with each look's window of cycles and the queue it saw, and the branch it took; and every byte
@@ -155,15 +156,15 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
         if shared:
             ram[HOST_END] += (equ["HPLAY"],)
         for lab, kind in (("host_run", HOST_START), ("host_read", HOST_FRAME), ("hb_in", HOST_BYTE),
-                          ("hb_chr", HOST_BYTE), ("hb_eol", HOST_BYTE), ("hb_hash", HOST_BYTE),
+                          ("hb_chr", HOST_BYTE), ("hb_eol", HOST_BYTE), ("hb_hash", HOST_BYTE), ("hb_ans", HOST_BYTE),
                           ("hp_end", HOST_END), ("play_read", PLAY_FRAME), ("pr_end", PLAY_END),
                           ("host_plays", PLAY_START), ("pc_go", PLAY_CUT)):
             if shared and kind in (PLAY_FRAME, PLAY_END):
                 continue
             if lab in labels:
                 add(labels[lab], kind, "", None, ram[kind])
-            elif not lab.startswith(("play", "pr_", "host_plays", "pc_", "hb_hash")):  # only with sequences,
-                                                                                        # with holds
+            elif not lab.startswith(("play", "pr_", "host_plays", "pc_", "hb_hash", "hb_ans")):  # only with
+                                                                                # sequences, holds, read-on
                 raise ProbeError(f"the listing has no {lab}")
     if queue and "serial_on" in labels:
         add(labels["serial_on"], LISTEN, "", None, ())

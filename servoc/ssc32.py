@@ -93,7 +93,8 @@ The rules, as the document states them:
   names; with holds, `LineParser(holds)`, such an entry is held instead
   while one of the firmware's holds is free, in internal RAM every entry a
   '#' ends and, while one is held, a line's last at its end, whose line end
-  then waits too once every hold is taken). A group line that names a servo and ends in the same frame joins
+  then waits too once every hold is taken). A group line that names a
+  servo and ends in the same frame joins
   the group (`join`: one group per frame, its entries in order, the last T
   given); an empty one does nothing; a bad line's end drops it and stops
   the reading until the next frame (`Session.dropped`). Where a frame
@@ -245,8 +246,10 @@ class LineParser:
         self.held = self.joined = 0
 
     def feed(self, byte: int, waiting: frozenset[int] | None = None) -> Command | None:
-        """`waiting`: while a group waits, its channels where the state is in XRAM (the entry a '#'
-        ends is held if it is for one of them and writes a width or an offset)."""
+        """`waiting`: while a group waits, the channels whose entries are held (`group_waiting`: the
+        group's where the state is in XRAM, every servo's in internal RAM with holds; None
+        without holds in internal RAM): the entry a '#' ends is held if it is for one of them and
+        writes a width or an offset, K at most (`stalls` says where the reading stops first)."""
         hold = waiting is not None and byte == 35 and self.clashes(waiting)
         n = len(self.entries)
         if byte in (CR, LF):

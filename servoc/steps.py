@@ -297,8 +297,9 @@ class Plan:
     compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
                                             # does not fit the code memory): loops where the fast one is unrolled
     period_holds: bool = True               # the code generated holds P itself (below min_period_us it may not)
-    holds: bool = True                      # where `host`'s state is in XRAM, it holds entries (layout.host_holds);
-                                            # False: built for size without them, when that alone fits the chip
+    holds: bool = True                      # `host` holds entries (layout.host_holds) and reads on through answer
+                                            # lines (flow.reads_answers) where they buy something; False: built
+                                            # without that code, when only that fits the chip (api.choose_period)
     rise_offsets: tuple[int, ...] = ()      # per port, cycles from the first port's rise to its own, as the code
                                             # generated has them (costs.fit_spans; empty: not generated yet)
 
