@@ -721,7 +721,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
     table = [] if target.grid else ["MOV     DPTR, #ctab"]
     sizes = sorted({p["s"] for p in ports})
     e = {
-        "window": 2 ** costs.WINDOW_BITS, "cascade": [(k, 2 ** k) for k in range(costs.WINDOW_BITS)],
+        "vmin": costs.PAD_FROM, "vmax": costs.PAD_FROM + costs.LATENCY,
         "stop": costs.STOP, "add": costs.STOP + 1,        # ~interval + STOP + 1 = 65536 - interval + STOP
         "entry": costs.ENTRY, "split": costs.SPLIT, "sled_add": costs.SLED + 8,   # ~gap + SLED + 8 = SLED + 7 - gap
         "later": list(range(1, most)),

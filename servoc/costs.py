@@ -3,8 +3,8 @@
 Every edge comes from the Timer0 handler (firmware_templates/irq.asm.j2).
 Timer0 overflows a fixed ENTRY cycles before the first edge of a cluster; the
 handler reads TL0, which counts the cycles since the overflow and so includes
-the entry latency, and pads itself to that fixed point through a cascade of
-`JB ACC.k` over 2^k NOPs (WINDOW_BITS bits). Edges closer than SPLIT cycles
+the entry latency, and pads itself to that fixed point by jumping into a pad of
+NOPs at that reading (a latency of up to LATENCY cycles). Edges closer than SPLIT cycles
 run in one entry as steps into the port's NOP sled (STEP cycles + the sled),
 each an `XRL Px,A` with the lines that change. Between entries the exit
 stops Timer0 for STOP cycles and adds (65536 - interval + STOP), so the next
@@ -50,15 +50,21 @@ from functools import lru_cache
 
 from .units import DEFAULT_PERIOD_FLOOR_US
 
-WINDOW_BITS = 5     # the entry pads over 2^5 TL0 readings (interrupts held off 22 cycles: exact, tests/test_irq.py)
+# The entry latency the handler's pad absorbs: 3 to 9 cycles on an 8051 (an instruction under
+# way, up to a 4-cycle MUL, and one more after a RETI or a write to IE; nothing else holds the
+# edge handler off: it alone has high priority and the firmware never clears EA), 1 or 2 in
+# ucsim; `tests/test_irq.py` holds interrupts off in ucsim up to this and past it.
+LATENCY = 12
+# TL0 as the handler reads it with no latency: the vector (PUSH PSW, PUSH ACC, LJMP: 6), PUSH
+# DPL/DPH (4), MOV DPTR (2), MOV A,TL0 (1).
+PAD_FROM = 13
 STOP = 7            # cycles Timer0 stands still while an exit adds to it
 STEP = 7            # the shortest step between two edges of one entry
-# Overflow to the first edge of an entry: the vector (PUSH PSW, PUSH ACC, LJMP: 6),
-# MOV A,TL0 (1), the cascade (2 a bit, and 31 - v NOPs for v = TL0 read), MOV PSW (2),
-# PUSH DPL/DPH (4), MOV DPL/DPH (4), MOV A,R6 (1), JMP (2), and the edge's 3; with
-# v = latency + 7 this is 57 whatever the latency (`tests/test_costs.py` reads TL0 at each
-# such edge in ucsim).
-ENTRY = 57
+# Overflow to the first edge of an entry: to the read of TL0 (PAD_FROM + latency), the jump into
+# the pad (2) and its PAD_FROM + LATENCY - v NOPs for v = TL0 read, MOV PSW (2), MOV DPL/DPH (4),
+# MOV A,R6 (1), JMP (2), and the edge's 3: 39 whatever the latency (`tests/test_costs.py` reads
+# TL0 at each such edge in ucsim).
+ENTRY = PAD_FROM + LATENCY + 2 + 9 + 3
 # The last edge of an entry to the end of its RETI on the longest exit: the step's
 # read and jump (4), LJMP (2), exit_far (28), MOV R6 (1), the add to SETB (8), POPs (8),
 # RETI (2); `tests/test_costs.py` reads it from the code.

@@ -190,8 +190,12 @@ def test_the_split_covers_the_longest_exit():
     exit_paths = step + 2 + code.longest_exit({"exit_far", "exit_p0"})   # the window's LJMP: 2
     assert costs.EXIT == exit_paths
     assert costs.SPLIT == costs.ENTRY + costs.EXIT + 1
-    bits = costs.WINDOW_BITS                    # MOV A,TL0, then JB ACC.k over 2^k NOPs: pads 0..31
-    assert code.longest("t0_entry", {f"tc{bits - 1}"}) == 1 + 2 * bits + 2 ** bits - 1
+    # after the vector's 6: PUSH DPL/DPH, MOV DPTR, MOV A,TL0 (the read), JMP @A+DPTR; the pad's
+    # NOPs (a latency of 0 runs them all), then 9 cycles to the window's JMP
+    cycles = lambda a, b: [i.cycles for i in code.instrs[code.labels[a]:code.labels[b]]]   # noqa: E731
+    assert cycles("t0_entry", "t0_pad") == [2, 2, 2, 1, 2] and 6 + 7 == costs.PAD_FROM
+    assert cycles("t0_pad", "win_p0") == [1] * costs.LATENCY + [2, 2, 2, 1, 2]
+    assert costs.ENTRY == costs.PAD_FROM + costs.LATENCY + 2 + 9 + 3
     assert costs.SLED == costs.SPLIT - 1 - costs.STEP
 
 

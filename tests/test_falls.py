@@ -27,9 +27,10 @@ def test_edges_load_counts_an_entry_per_cluster_and_the_steps_inside_it():
     assert costs.edges_load(w, []) == 0
     assert costs.edges_load(w, [5, 5, 5]) == SPLIT - 1
     assert costs.edges_load(w, [0, 1, 3]) == SPLIT - 1 + 8 + 16
-    assert costs.edges_load(w, [0, 13]) == SPLIT - 1 + 104               # a step: its gap
-    assert costs.edges_load(w, [0, 14, 250]) == 3 * (SPLIT - 1)         # entries of their own
-    assert costs.edges_load(w, list(range(0, 8 * 14, 14))) == 8 * (SPLIT - 1)
+    near = (SPLIT - 1) // 8                         # the most N apart that is still a step
+    assert costs.edges_load(w, [0, near]) == SPLIT - 1 + 8 * near             # a step: its gap
+    assert costs.edges_load(w, [0, near + 1, 250]) == 3 * (SPLIT - 1)         # entries of their own
+    assert costs.edges_load(w, list(range(0, 8 * (near + 1), near + 1))) == 8 * (SPLIT - 1)
 
 
 def frames_of(lines, frames, ease):
