@@ -46,6 +46,8 @@ QUICK_STEP = 8
 
 def shortest_period(ok, lo: int, hi: int, step: int = 1) -> int:
     """Smallest P in (lo, hi] with ok(P), to within `step`; ok must be monotone, ok(lo) false, ok(hi) true."""
+    if lo >= hi:
+        raise AssertionError(f"nothing to search: the lower bound {lo} us is not below {hi} us")
     if not ok(hi):
         raise AssertionError(f"not exact even at P = {hi} us")
     while hi - lo > step:
@@ -149,7 +151,7 @@ def shortest_exact_period(ports: int, per_port: int = 8, runtime_f: bool = False
     reports, to 1 us over 400 frames, or in quick mode to QUICK_STEP us over 100 frames."""
     frames = 100 if quick else 400
     return shortest_period(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth),
-                           pulse_floor(ports) - costs.SPLIT,     # never enough: the next rise before the last fall
+                           ports * _T12.width_cycles(250),       # never enough: the next rise before the last fall
                            budget_period(ports, per_port, runtime_f, depth),
                            QUICK_STEP if quick else 1)
 
@@ -179,7 +181,7 @@ def hold_shortest(ports: int, quick: bool) -> tuple[int, int]:
     """(shortest exact P, resolution) of the held pose: the port routines and a little more."""
     step = 2 if quick else 1
     frames = 100 if quick else 150
-    lo = pulse_floor(ports - 1) + _T12.width_cycles(max(POSITIONS))     # the next rise at the last fall
+    lo = (ports - 1) * _T12.width_cycles(250) + _T12.width_cycles(max(POSITIONS))    # a rise before a last fall
     p = shortest_period(lambda q: hold_exact_at(ports, q, frames), lo, pulse_floor(ports) + 512, step)
     return p, step
 

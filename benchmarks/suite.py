@@ -24,7 +24,7 @@ from pathlib import Path
 from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
                        measure_baseline, positions_source)
 from budget import SPAN, clock_budget, frame_budget, hold_source
-from servoc import api, target, toolchain
+from servoc import api, codegen, target, toolchain
 from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
 
@@ -126,6 +126,15 @@ def _build(text: str, how: str) -> tuple[api.FrontEnd, api.Firmware | None, list
     return fe, fw, [d.code for d in reporter.diagnostics if d.is_error]
 
 
+def _without_steps(text: str, how: str) -> int:
+    """The ROM bytes of `text` built `how` without rises as steps (codegen.generate): where the code
+    with them might not fit, the build has none."""
+    fe, _, _ = _build(text, how)
+    reporter = Reporter(fe.source)
+    fw = api.assemble(codegen.generate(fe.plan, fe.source, stepping=False), reporter)
+    return fw.rom_bytes
+
+
 def most_that_fit(make_source, k: int, how: str, say) -> dict:
     """The most items `make_source(n)` can hold in 8 KB built `how` (see `_build`): estimated from
     the bytes k and 2k items take (built for speed, or for size when `how` is not "speed"), then
@@ -135,7 +144,10 @@ def most_that_fit(make_source, k: int, how: str, say) -> dict:
     if fw_k is None or fw_2k is None:
         raise BuildError(f"{k} and {2 * k} items did not compile: {err_k} {err_2k}")
     per_item = (fw_2k.rom_bytes - fw_k.rom_bytes) / k
-    estimate = int((ROM_SIZE - (fw_k.rom_bytes - k * per_item)) // per_item)
+    fixed = fw_k.rom_bytes - k * per_item
+    if fw_k.unit.budget is not None and fw_k.unit.budget.steps:     # near the limit the build has no steps
+        fixed -= fw_k.rom_bytes - _without_steps(make_source(k), est)
+    estimate = int((ROM_SIZE - fixed) // per_item)
     say(f"  built {how}: estimate {estimate}, confirming by compiling")
     fits: dict[int, bool] = {}
 

@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import gc
 import os
-import re
 from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
@@ -181,7 +180,7 @@ def _overflow(p: Plan) -> tuple[str, str] | None:
     except layout.LayoutError:
         return None                         # a resource limit: reported as such, whatever the build
     chip = unit.target.chip
-    if _rom_bound(unit.text) + 512 * len(unit.fneed_pages) <= chip.code_bytes:
+    if layout.rom_bound(unit.text) + 512 * len(unit.fneed_pages) <= chip.code_bytes:
         return None
     try:
         image = toolchain.assemble(unit.text, name="servo")
@@ -210,28 +209,6 @@ def rom_overflow(unit: codegen.AsmUnit, image, room: layout.Fit) -> tuple[str, s
              + (f"; or build for a chip with more code memory: `target {bigger[0].lower().rstrip('+')}`"
                 if bigger else ""))
     return message, help_
-
-
-def _rom_bound(text: str) -> int:
-    """At least the end of the code and data the assembly text lays out."""
-    at = 0
-    for raw in text.splitlines():
-        line = re.sub(r"^\w+::?", "", raw.split(";", 1)[0].strip()).strip()     # the label, if any
-        if not line:
-            continue
-        op, _, rest = line.partition(" ")
-        op = op.lower()
-        if op == ".org":
-            at = max(at, int(rest.strip(), 0))
-        elif op == ".bndry":
-            at += int(rest.strip(), 0) - 1
-        elif op == ".db":
-            at += len(rest.split(","))
-        elif op == ".dw":
-            at += 2 * len(rest.split(","))
-        elif not op.startswith(".") and "=" not in line:
-            at += 3
-    return at
 
 
 def _periods(program, first: Plan) -> Plan:
@@ -292,7 +269,8 @@ def _budgeted(p: Plan) -> Plan:
                                    firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
     return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
                                period_holds=unit.min_period_us is None or unit.period_holds,
-                               rise_offsets=unit.rise_offsets)
+                               rise_offsets=unit.rise_offsets,
+                               rise_steps=unit.budget is not None and unit.budget.steps)
 
 
 def lint(plan_: Plan, reporter: Reporter) -> None:

@@ -28,7 +28,7 @@ import shutil
 import sys
 from fractions import Fraction
 
-from . import __version__, api
+from . import __version__, api, costs
 from .diagnostics import Severity, render_full, summary, to_dict
 from .plan import has_selects
 from .steps import AfterBranch, branch_text, HostStep, Plan, SelectStep, SendStep, host_playable, steps
@@ -1034,6 +1034,7 @@ def plan_data(plan: Plan, source) -> dict:
                         "playable": list(host_playable(plan.program))}
     if len(plan.rise_offsets) == len(plan.ports) > 0:
         data["ports"] = _port_rises(plan)
+        data["rise_steps"] = plan.rise_steps
     if plan.cuts:
         data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
                                   "servos": [{"servo": c.name, "low": lo, "high": hi, "unset": unset}
@@ -1107,7 +1108,9 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
     out += [text for _, _, text in sorted(lines, key=lambda x: (x[0], x[1]))]
     if len(plan.rise_offsets) == len(plan.ports) > 1:        # where each port's pulses begin in the frame
         out.append("ports: " + ", ".join(f"P{r['port']} rises at {fmt_ms(r['rise_us'])} (its lines reach N {r['top']})"
-                                         for r in _port_rises(plan)))
+                                         for r in _port_rises(plan))
+                   + (f"; a rise less than {costs.SPLIT} cycles after the last fall before it is a step of that "
+                      "fall's run of the edge handler" if plan.rise_steps else ""))
     if plan.startup:
         frames = startup_frames(plan)
         how = (f"`home {plan.program.home.name}`" if plan.program.home is not None

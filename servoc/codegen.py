@@ -355,22 +355,48 @@ def _seq_label(plan: Plan, name: str) -> str:
     return f"seq{[s.name for s in plan.sequences].index(name) + 1}"
 
 
-def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0) -> AsmUnit:
+def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, stepping: bool | None = None) -> AsmUnit:
     """Lay out the firmware for a plan (which must have passed lint without errors).
     `hold_off` > 0 makes a test build that holds interrupts off for that many cycles (NOPs
     between CLR EA and SETB EA) at several points of the background: the edges must not move.
     With `host`, HAQ holds HOST_ANSWERS answers waiting where the RAM allows it, else one (the
-    RAM `flow.host_vars` counts): a program that fits with one is never refused for the others."""
-    if not (plan.program.serial is not None and hosted(plan)):
-        return _generate(plan, source, hold_off, 1)
+    RAM `flow.host_vars` counts): a program that fits with one is never refused for the others.
+    The next port's rise comes as a step of its last fall's entry (`costs.RISE_STEP`) in the build
+    of the two, with and without such steps, whose code holds the shorter period (without where
+    they tie, or where the steps' code might not fit the chip's code memory); a build for size has
+    none. `stepping` True or False: that build (True only where a build can have steps)."""
+    can = costs.rise_steps(plan.compact) and bool(plan.ports)
+    if stepping is not None:
+        return _generate_answers(plan, source, hold_off, stepping and can)
+    without = _generate_answers(plan, source, hold_off, False)
+    if not can:
+        return without
     try:
-        return _generate(plan, source, hold_off, HOST_ANSWERS)
+        stepping = _generate_answers(plan, source, hold_off, True)
+    except layout.LayoutError as exc:       # dropped: its traceback would keep _generate's frame in a cycle
+        for each in (exc, *getattr(exc, "errors", ())):
+            each.__traceback__ = None
+        return without
+    if (stepping.min_period_us is None or without.min_period_us is None
+            or stepping.min_period_us >= without.min_period_us
+            or layout.rom_bound(stepping.text) + 512 * len(stepping.fneed_pages) > stepping.target.chip.code_bytes):
+        return without
+    return stepping
+
+
+def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool) -> AsmUnit:
+    """`generate`, with or without rises as steps."""
+    if not (plan.program.serial is not None and hosted(plan)):
+        return _generate(plan, source, hold_off, 1, stepping)
+    try:
+        return _generate(plan, source, hold_off, HOST_ANSWERS, stepping)
     except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
-        return _generate(plan, source, hold_off, 1)
+        return _generate(plan, source, hold_off, 1, stepping)
 
 
-def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int) -> AsmUnit:
-    """`generate`, with room for `answers` answers waiting in HAQ (with `host`)."""
+def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool) -> AsmUnit:
+    """`generate`, with room for `answers` answers waiting in HAQ (with `host`), with or without
+    rises as steps."""
     ctx = _Ctx(plan, source, [], {})
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)
@@ -500,7 +526,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     bport = (plan.ports[-1] if len(plan.ports) == 3 and not in_xram and stack_bytes + costs.BUFB_RAM <= room
              else None)
     tops = port_tops(plan)
-    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top) for top in tops))
+    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top, stepping) for top in tops),
+                stepping)
     e["framed"] = ctx.flagged
     chans = []
     for c in plan.channels:
@@ -682,10 +709,11 @@ def _engine_ram(ram: layout.RamAllocator) -> None:
 
 
 def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None,
-            spans: tuple[int, ...]) -> dict:
+            spans: tuple[int, ...], stepping: bool) -> dict:
     """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2).
     `bport`: the port sorted into buffer B (None: every port goes through buffer A); `spans`: each
-    port's rise to the next one's (costs.fit_spans)."""
+    port's rise to the next one's (costs.fit_spans); `stepping`: a rise can come as a step of the last
+    fall's entry (costs.RISE_STEP)."""
     target = plan.program.target
     ports = []
     for k, port in enumerate(plan.ports):
@@ -727,6 +755,8 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "later": list(range(1, most)),
         "sled": costs.SLED, "fall_off": costs.SLED, "exit_off": costs.SLED + 7,
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
+        "steps": stepping, "rs_off": costs.SLED + 21, "rstep_off": costs.SLED + 29,
+        "rsled": costs.RSLED, "rise_step": costs.RISE_STEP,
         "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "period": period_cycles, "t0_first": 65536 - period_cycles,     # no servo lines: Timer0 times a frame,
@@ -749,6 +779,15 @@ def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) 
         p["rise"] = rise[p["port"]]
         p["rnext"] = (period_cycles if p["last"] else rise[p["next_port"]]) - p["rise"]
         p["rest_add"] = (costs.STOP - p["rnext"]) % 0x10000   # no fall: straight to the next rise
+        # a last fall less than SPLIT cycles before the next rise: the rise is a step of its entry
+        # (gap g from RISE_STEP up: rsled offset RSLED + RISE_STEP - g, from C(N)'s low byte; 255: never)
+        target = plan.program.target
+        p["step_n"] = next((n for n in range(251) if p["rnext"] - target.width_cycles(n) < costs.SPLIT), 255)
+        c0 = target.width_cycles(0) if target.grid else 0
+        p["step_add"] = (c0 + costs.RSLED + costs.RISE_STEP - p["rnext"]) % 0x100
+    for k, p in enumerate(e["ports"]):
+        before = e["ports"][k - 1]
+        p["prev_port"], p["prev_rnext"] = before["port"], before["rnext"]
     e["spans"] = spans
 
 
@@ -792,8 +831,9 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                                          for falls, sw, e, r in starts),
                       "other_work": max((v for tag, v in by.items() if tag not in moving), default=0)}
         exits = {f"exit_p{p}" for p in ports} | {"exit_fall"}
-        rises = tuple(costs.ENTRY + 2 + code.longest(f"emit_p{p}", exits) + code.longest_exit(exits)
-                      for p in ports)
+        stepped = bool(ports) and f"emit_s{ports[0]}" in code.labels     # rises can come as steps
+        rises = tuple((costs.RISE_HEAD if stepped else costs.ENTRY + 2) + code.longest(f"emit_p{p}", exits)
+                      + code.longest_exit(exits) for p in ports)
         serial = {}
         if byte_cycles:     # from the vector's LCALL (2): the handler is at the vector
             serial = {"serial_run": 2 + code.longest("uart_isr", set()),
@@ -801,7 +841,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                       "byte_cycles": byte_cycles, "serial_sends": sends}
     except wcet.WcetError as exc:
         return None, str(exc)
-    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
+    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b, steps=stepped,
                          **paired, **serial),
             code.label_at(at))
 

@@ -72,11 +72,36 @@ EXIT = 53
 SPLIT = ENTRY + EXIT + 1   # edges this far apart or more: separate entries (the next
                            # overflow comes after the RETI before it)
 SLED = SPLIT - 1 - STEP    # NOPs before each port's edge: any gap from STEP to SPLIT - 1
+# A port's rise less than SPLIT cycles after the last fall of the port before it is a step of
+# that fall's entry (not in a build for size): the step's read and jump (4), the window's stub
+# (7: the offset, R5/R4 at the rising port's window, DPTR at rsled), RSLED NOPs less the offset,
+# rsled's jump to that window's step rise (7), and its 3 to the edge: the gap is RISE_STEP to
+# SPLIT - 1. From the rise's edge the handler reaches emit_p's path (its first two cycles,
+# R5:R4 = 0) 2 cycles later after a rise that starts an entry; after a step, LJMP (2) and emit_s
+# (9: R5:R4 = the rise from the step's entry's overflow) come before emit_b, 9 more than emit_p's
+# first two. The fall before such a rise is charged its entry and exit (SPLIT - 1), which the gap
+# is within, so RISE_HEAD + emit_p's longest path bounds both.
+RISE_STEP = 4 + 7 + 7 + 3
+RSLED = SPLIT - 1 - RISE_STEP
+RISE_HEAD = ENTRY + 9
 
 
-def port_span(target, top: int = 250) -> int:
+def rise_steps(compact: bool) -> bool:
+    """Whether a build has rises as steps: not a build for size (their code, about 45 bytes a port
+    and rsled's {RSLED} NOPs, would take room the build for size is for)."""
+    return not compact
+
+
+def port_span(target, top: int = 250, steps: bool = False) -> int:
     """A port's rise to the next port's: its longest pulse (its lines reach N `top` at the most),
-    then an entry of its own."""
+    then, with `steps`, the shortest step to the next rise (RISE_STEP; a last fall SPLIT or more
+    before that rise leaves the rise an entry of its own), else an entry of its own."""
+    return target.width_cycles(top) + (RISE_STEP if steps else SPLIT)
+
+
+def apart_span(target, top: int = 250) -> int:
+    """The shortest span in which the next port's rise is always an entry of its own, after the
+    exit of the port's last fall."""
     return target.width_cycles(top) + SPLIT
 
 
@@ -102,12 +127,12 @@ def _sort_need(target, budget: "Budget", j: int, span: int) -> int:
 
 def fit_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int, ...]:
     """Each port's span: its longest pulse, the highest N its lines can reach (`tops`, in port
-    order: flow.port_tops), then an entry of its own; longer where the sort of the port after it
+    order: flow.port_tops), then the shortest step to the next rise; longer where the sort of the port after it
     in buffer A (its sort, the port's handler load, the serial handler's runs in that time) needs
     more time between the two rises. With a serial line whose bytes the edge handler would keep
     waiting too long, each span also leaves the serial handler the time to take a byte between its
     port's last edge and the next port's rise (`busy_stretch`), where that makes it short enough."""
-    spans = _fit_spans(target, budget, tops, 0)
+    spans = _fit_spans(target, budget, tops, None)
     if budget.byte_cycles:
         late = serial_latency(target, dataclasses.replace(budget, spans=spans, tops=tops))
         if late > rx_gap(budget.byte_cycles):
@@ -117,10 +142,11 @@ def fit_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int, ...
     return spans
 
 
-def _fit_spans(target, budget: "Budget", tops: tuple[int, ...], gap: int) -> tuple[int, ...]:
-    """`fit_spans` with `gap` more cycles than its longest pulse and an entry in each span."""
+def _fit_spans(target, budget: "Budget", tops: tuple[int, ...], gap: int | None) -> tuple[int, ...]:
+    """`fit_spans` with `gap` more cycles than its longest pulse and an entry in each span (None:
+    the shortest, the next rise a step after the longest pulse)."""
     m = len(budget.lines)
-    spans = [port_span(target, top) + gap for top in tops]
+    spans = [port_span(target, top, budget.steps) if gap is None else apart_span(target, top) + gap for top in tops]
     for j in range(1, m - 1 if budget.last_in_b else m):
         while (more := _sort_need(target, budget, j, spans[j - 1])) > spans[j - 1]:
             spans[j - 1] = more
@@ -281,6 +307,7 @@ class Budget:
     last_in_b: bool = False     # the last port has sort buffer B: frame_io sorts it before the others
     spans: tuple[int, ...] = ()     # each port's rise to the next one's (`fit_spans`; none: N 250 each)
     tops: tuple[int, ...] = ()      # the highest N each port's lines reach (flow.port_tops; none: 250)
+    steps: bool = False         # a rise less than SPLIT after the last fall before it is a step (RISE_STEP)
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -320,7 +347,7 @@ def _first_failing(target, budget: Budget, period: int) -> int | None:
     time, so once a step holds with a run to spare, every longer period does."""
     gap, reach = rx_gap(budget.byte_cycles), run_reach(target, budget)
     m = len(budget.lines)
-    rise = _rises(target, budget.spans, m)
+    rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
     offsets = {0} if m == 0 else {0, rise[m - 1], rise[max(0, m - 2)]}
     # (spacing, shift): a window's count of runs steps where its length crosses shift mod spacing
     steps = {(gap, 1)} | ({(gap, 1 - reach)} if reach is not None else set()) | \
@@ -349,7 +376,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     m = len(budget.lines)
     if m == 0:
         return budget.work + runs(period)
-    rise = _rises(target, budget.spans, m)
+    rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
     span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
     frame = sum(budget.sorts) + budget.work + sum(load)
@@ -398,12 +425,19 @@ def busy_stretch(target, budget: Budget) -> int:
     worst = 0
     for k in range(m):
         nxt = (k + 1) % m
-        rise = budget.rises[nxt]
-        if c0 - budget.rises[nxt] < need:
-            rise += c0 - budget.rises[nxt] + SPLIT * budget.lines[nxt]
+        rise = budget.rises[nxt] - (0 if rise_may_step(target, budget, k) else RISE_HEAD - ENTRY - 2)
+        if c0 - rise < need:
+            rise += c0 - rise + SPLIT * budget.lines[nxt]
         chain = SPLIT * budget.lines[k]
         worst = max(worst, chain, rise) if span_slack(target, budget, k) + 1 >= need else max(worst, chain + rise)
     return worst
+
+
+def rise_may_step(target, budget: Budget, k: int) -> bool:
+    """Whether the rise after port k's span can be a step of its last fall's entry (RISE_STEP): it
+    cannot where the span leaves SPLIT cycles or more after its longest pulse (the rise is then an
+    entry of its own, and after its edge the handler runs RISE_HEAD - ENTRY - 2 cycles less)."""
+    return budget.steps and (not (budget.spans and budget.tops) or span_slack(target, budget, k) < 0)
 
 
 def serial_gap(budget: Budget) -> int:
@@ -413,10 +447,11 @@ def serial_gap(budget: Budget) -> int:
 
 
 def span_slack(target, budget: Budget, k: int) -> int:
-    """Cycles port k's span has beyond its longest pulse and an entry (0 where not known)."""
+    """Cycles port k's span has beyond its longest pulse and an entry (below 0: the next rise can be a
+    step of the last fall's entry; 0 where not known)."""
     if not budget.spans or not budget.tops:
         return 0
-    return budget.spans[k] - port_span(target, budget.tops[k])
+    return budget.spans[k] - apart_span(target, budget.tops[k])
 
 
 def serial_latency(target, budget: Budget) -> int:

@@ -33,6 +33,7 @@ starts with a flags byte (RECORD_FLAGS) and a flags byte with ENDF ends the list
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 from . import costs
@@ -427,3 +428,25 @@ def fit(symbols: dict[str, int], fneed_pages: tuple[int, ...], rom_size: int) ->
     end = symbols["data_end"]
     limit = min(fneed_pages) * 256 if fneed_pages else rom_size
     return Fit(runtime, program, data, end, limit, end + (rom_size - limit))
+
+
+def rom_bound(text: str) -> int:
+    """At least the end of the code and data the assembly text lays out."""
+    at = 0
+    for raw in text.splitlines():
+        line = re.sub(r"^\w+::?", "", raw.split(";", 1)[0].strip()).strip()     # the label, if any
+        if not line:
+            continue
+        op, _, rest = line.partition(" ")
+        op = op.lower()
+        if op == ".org":
+            at = max(at, int(rest.strip(), 0))
+        elif op == ".bndry":
+            at += int(rest.strip(), 0) - 1
+        elif op == ".db":
+            at += len(rest.split(","))
+        elif op == ".dw":
+            at += 2 * len(rest.split(","))
+        elif not op.startswith(".") and "=" not in line:
+            at += 3
+    return at

@@ -302,6 +302,8 @@ class Plan:
                                             # without that code, when only that fits the chip (api.choose_period)
     rise_offsets: tuple[int, ...] = ()      # per port, cycles from the first port's rise to its own, as the code
                                             # generated has them (costs.fit_spans; empty: not generated yet)
+    rise_steps: bool = False                # the code makes a rise less than SPLIT cycles after the last fall
+                                            # before it a step of that fall's handler run (costs.RISE_STEP)
 
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)

@@ -232,6 +232,58 @@ def test_each_window_steps_exactly_its_gap(handler_firmware):
             assert sum(t.cycles for t in rise) == sum(t.cycles for t in tail) == 3
 
 
+@pytest.fixture(scope="module")
+def stepping_firmware():
+    """Firmware whose rises can be steps (costs.RISE_STEP): three ports at 12 MHz and two at 11.0592
+    MHz whose lines reach N 250, the pulses bounding the period."""
+    out = []
+    for line, ports in (("", (0, 1, 2)), ("target stc89c52rc clock 11.0592MHz\n", (1, 2))):
+        pins = [(port, b) for port in ports for b in range(2)]
+        text = line + servo_decls(pins) + pose("p", {f"s{p}_{b}": 250 - 9 * b for p, b in pins}) + "main { move p }\n"
+        built = build_text(text)
+        assert built.firmware.unit.budget.steps
+        out.append((ports, built))
+    return out
+
+
+def test_a_step_to_the_next_ports_rise_lands_exactly_its_gap(stepping_firmware):
+    """In each window, after the entry's rise, its step rise (entered from rsled: LJMP emit_s), then
+    the stub that makes the next port's rise a step: its rsled offset, R5/R4 at that port's window,
+    DPTR at rsled. For every gap g from RISE_STEP to SPLIT - 1 the offset RSLED + RISE_STEP - g puts
+    the rise exactly g cycles after the fall before it."""
+    for ports, built in stepping_firmware:
+        instrs, labels = parse_listing(built.firmware.image.listing)
+        by_addr = {ins.address: k for k, ins in enumerate(instrs)}
+        for j, port in enumerate(ports):
+            base = instrs[labels[f"win_p{port}"]].address
+            at = lambda off: instrs[by_addr[base + off]]                  # noqa: E731
+            k = by_addr[at(costs.SLED + 2).address]
+            after = instrs[k + 1:k + 4]
+            rise = [at(costs.SLED + 13), at(costs.SLED + 15), at(costs.SLED + 16)]
+            assert at(costs.SLED + 18).args == (f"emit_p{port}",)
+            srise = [at(costs.SLED + 21), at(costs.SLED + 23), at(costs.SLED + 24), at(costs.SLED + 26)]
+            assert [(t.op, t.args) for t in srise[:3]] == [(t.op, t.args) for t in rise]
+            assert srise[3].args == (f"emit_s{port}",)
+            nxt = ports[(j + 1) % len(ports)]
+            stub = [at(costs.SLED + 29)]
+            while stub[-1].op != "JMP":
+                stub.append(instrs[by_addr[stub[-1].address] + 1])
+            assert [(t.op, t.args) for t in stub] == [("MOV", ("A", "@R0")), ("MOV", ("R5", f"#<win_p{nxt}")),
+                                                      ("MOV", ("R4", f"#>win_p{nxt}")), ("MOV", ("DPTR", "#rsled")),
+                                                      ("JMP", ("@A+DPTR",))]
+            r = labels["rsled"]
+            assert all(ins.op == "NOP" for ins in instrs[r:r + costs.RSLED])
+            jump = instrs[r + costs.RSLED:r + costs.RSLED + 4]
+            assert [(t.op, t.args) for t in jump] == [("MOV", ("DPL", "R5")), ("MOV", ("DPH", "R4")),
+                                                      ("MOV", ("A", f"#{costs.SLED + 21}")), ("JMP", ("@A+DPTR",))]
+            for gap in range(costs.RISE_STEP, costs.SPLIT):
+                off = costs.RSLED + costs.RISE_STEP - gap
+                assert 0 <= off <= costs.RSLED
+                assert (sum(t.cycles for t in after) + sum(t.cycles for t in stub) + (costs.RSLED - off)
+                        + sum(t.cycles for t in jump) + sum(t.cycles for t in rise) == gap)
+        assert built.verify(40).ok
+
+
 def test_exits_stop_timer0_for_stop_cycles(handler_firmware):
     _, built = handler_firmware[0]
     instrs, _ = parse_listing(built.firmware.image.listing)

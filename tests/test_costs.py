@@ -19,7 +19,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
 import budget  # noqa: E402
 
 from conftest import build_text, front_end_text  # noqa: E402
-from servoc import costs, wcet  # noqa: E402
+from servoc import codegen, costs, wcet  # noqa: E402
 
 pytestmark = pytest.mark.toolchain
 
@@ -196,6 +196,19 @@ def test_the_split_covers_the_longest_exit():
     assert cycles("t0_entry", "t0_pad") == [2, 2, 2, 1, 2] and 6 + 7 == costs.PAD_FROM
     assert cycles("t0_pad", "win_p0") == [1] * costs.LATENCY + [2, 2, 2, 1, 2]
     assert costs.ENTRY == costs.PAD_FROM + costs.LATENCY + 2 + 9 + 3
+    # a rise that comes as a step reaches emit_p's path 9 cycles after its edge (LJMP, 2, then emit_s's
+    # 7 more than emit_p's first two), an entry's rise 2: RISE_HEAD covers both (read from the same
+    # program's build with steps)
+    assert "emit_s0" not in code.labels and not built.firmware.unit.budget.steps     # its work bounds it
+    code = wcet.Code(codegen.generate(built.plan, stepping=True).text)
+    exits = {"exit_p0", "exit_fall"}
+    assert code.longest("emit_s0", exits) == code.longest("emit_p0", exits) + 7
+    assert costs.RISE_HEAD == costs.ENTRY + 2 + 7
+    # the step to a rise: the step's read and jump, the window's stub, rsled's jump, the rise's 3
+    stub = code.instrs[code.labels["rsled"]:]
+    dispatch = [i.cycles for i in stub if i.op != "NOP"][:4]
+    assert len([i for i in stub[:costs.RSLED + 1] if i.op == "NOP"]) == costs.RSLED and dispatch == [2, 2, 1, 2]
+    assert costs.RISE_STEP == 4 + 7 + sum(dispatch) + 3
     assert costs.SLED == costs.SPLIT - 1 - costs.STEP
 
 

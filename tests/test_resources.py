@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from conftest import front_end_text
-from servoc import costs
+from servoc import costs, layout
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -276,7 +276,7 @@ def test_the_language_server_says_the_period_is_that_of_the_build_for_size():
 
 @pytest.mark.toolchain
 def test_the_rom_bound_the_period_stage_reads_is_never_below_the_image():
-    """`api._rom_bound` may say "fits" only for firmware that does fit: it is at least the end of
+    """`layout.rom_bound` may say "fits" only for firmware that does fit: it is at least the end of
     what the assembler lays out, for the examples and keyframe programs near the limit."""
     import sys
     from servoc import api, toolchain
@@ -289,7 +289,7 @@ def test_the_rom_bound_the_period_stage_reads_is_never_below_the_image():
         fe, _ = front_end_text(text)
         unit = api.generate(fe.plan, fe.source, Reporter(fe.source))
         image = toolchain.assemble(unit.text, name="servo")
-        assert api._rom_bound(unit.text) >= image.symbols["data_end"], text[:80]
+        assert layout.rom_bound(unit.text) >= image.symbols["data_end"], text[:80]
 
 
 @pytest.mark.parametrize("clock", ["12MHz", "11.0592MHz"])

@@ -53,7 +53,7 @@ def test_three_ports_of_different_reach_verify_at_their_minimum(clock):
     b = unit.budget
     for k, top in enumerate((120, 250, 180)):       # its longest pulse, or what the next port's sort needs
         sort_need = b.sorts[k + 1] + b.rises[k] + b.falls[k] if k + 1 < (2 if b.last_in_b else 3) else 0
-        assert b.spans[k] == max(costs.port_span(target, top), sort_need)
+        assert b.spans[k] == max(costs.port_span(target, top, b.steps), sort_need)
     assert unit.rise_offsets == (0, unit.budget.spans[0], sum(unit.budget.spans[:2]))
     full = costs.frame_cycles(target, dataclasses.replace(b, spans=()))    # every port's span for N 250
     assert costs.frame_cycles(target, b) <= full and (clock or costs.frame_cycles(target, b) < full)
@@ -65,9 +65,9 @@ def test_a_span_is_longer_where_the_next_ports_sort_needs_it():
     template = ports_of({0: 10, 1: 250})
     built, period = check_at_minimum(template, 20000)
     target, budget = built.plan.program.target, built.firmware.unit.budget
-    assert budget.spans[0] > costs.port_span(target, 10)
+    assert budget.spans[0] > costs.port_span(target, 10, budget.steps)
     load = budget.rises[0] + budget.falls[0]
-    assert budget.spans[0] == budget.sorts[1] + load and budget.spans[1] == costs.port_span(target)
+    assert budget.spans[0] == budget.sorts[1] + load and budget.spans[1] == costs.port_span(target, 250, budget.steps)
 
 
 def test_host_lines_reach_what_the_limits_allow():
@@ -87,14 +87,17 @@ def test_plan_says_where_each_port_rises(tmp_path, capsys):
     prog.write_text(ports_of({1: 100, 2: 250}).replace("{1P}", "20000"))
     assert cli.main(["plan", str(prog)]) == 0
     out = capsys.readouterr().out
-    # P1's lines reach N 100: its span is C(100) + SPLIT = 1300 + 93 cycles (12 MHz: us), if its sort fits
+    # P1's lines reach N 100: its span is C(100) + RISE_STEP = 1300 + 13 cycles (12 MHz: us), if its sort fits
     fe, _ = front_end_text(prog.read_text())
     span = fe.plan.rise_offsets[1]
-    assert span >= costs.port_span(fe.plan.program.target, 100) == 1300 + costs.SPLIT
-    assert f"ports: P1 rises at 0 ms (its lines reach N 100), P2 rises at {span / 1000:g} ms (its lines reach N 250)" in out
+    assert span >= costs.port_span(fe.plan.program.target, 100, True) == 1300 + costs.RISE_STEP
+    steps = fe.plan.rise_steps
+    assert (f"ports: P1 rises at 0 ms (its lines reach N 100), P2 rises at {span / 1000:g} ms (its lines reach N 250)"
+            + (f"; a rise less than {costs.SPLIT} cycles after the last fall before it is a step" if steps else "\n")) in out
     assert cli.main(["plan", "--json", str(prog)]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["ports"] == [{"port": 1, "rise_us": 0.0, "top": 100}, {"port": 2, "rise_us": float(span), "top": 250}]
+    assert data["rise_steps"] == steps
 
 
 def serial_ports(per_port: int, sends: bool) -> str:
@@ -129,3 +132,28 @@ def test_spans_leave_the_serial_handler_room_for_every_byte(per_port, sends):
     # twice the rate: refused (8 x 111 cycles of falls alone are more than a byte time)
     _, faster = front_end_text(template.replace("serial 9600", "serial 19200"))
     assert "serial-too-fast" in [d.code for d in faster if d.is_error]
+
+
+@pytest.mark.parametrize("clock", CLOCKS)
+def test_a_rise_less_than_split_after_the_last_fall_is_a_step_at_every_gap(clock):
+    """The next port's rise comes RISE_STEP cycles after its port's longest pulse; where the port's
+    last fall is less than SPLIT before it, the rise is a step of that fall's entry (emit_s), else an
+    entry of its own. Each port's highest line walks down from its top one N a frame, through every
+    gap from RISE_STEP to past SPLIT, and back: every pulse exact at the reported minimum (and 1 us
+    less refused), at each clock."""
+    t = front_end_text(clock + "servo x = P1.0\npose a { x: 10 }\nmain { move a }\n")[0].plan.program.target
+    far = next(n for n in range(251) if t.width_cycles(250) - t.width_cycles(250 - n) + costs.RISE_STEP >= costs.SPLIT)
+    lines, walk = [], []
+    for port in (0, 1, 2):
+        for bit in range(3):
+            lines.append(f"servo s{port}{bit} = P{port}.{bit} speed 0.0001s/60deg")
+    poses = []
+    for k in range(far + 3):
+        poses.append(f"pose w{k} {{ " + ", ".join(f"s{p}{b}: {250 - k if b == 2 else 40 * b + 7 * p}"
+                                                for p in range(3) for b in range(3)) + " }")
+        walk.append(f"move w{k} in {{1P}}us")
+    template = clock + "\n".join(lines + poses) + "\nmain { loop { " + "; ".join(walk + walk[::-1]) + " } }\n"
+    built, period = check_at_minimum(template, 9000 if clock else 12000)
+    assert built.firmware.unit.budget.steps                                     # the steps pay here
+    assert built.firmware.unit.budget.spans[0] == costs.port_span(t, 250, True)     # the shortest span
+    assert far > 1 and "emit_s0" in built.firmware.unit.text

@@ -117,7 +117,7 @@ def test_generated_code_budget_names_its_start():
     assert b.work and b.lines == (2,) and len(b.sorts) == len(b.rises) == 1
     # one port: the pulses alone, or the sort, the work and the handler's load in one frame
     load = b.rises[0] + (costs.SPLIT - 1) * 2
-    assert b.spans == (costs.port_span(fe.plan.program.target, 100),)     # its lines reach N 100 at the most
+    assert b.spans == (costs.port_span(fe.plan.program.target, 100, b.steps),)     # its lines reach N 100 at the most
     assert unit.min_period_us == max(b.spans[0], b.sorts[0] + b.work + load)
     assert unit.work_from
     assert make_plan(fe.plan.program, None).min_period_us == unit.min_period_us
