@@ -369,7 +369,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if stepping is not None:
         return _generate_answers(plan, source, hold_off, stepping and can)
     without = _generate_answers(plan, source, hold_off, False)
-    if not can:
+    if not can or not _steps_may_pay(without):
         return without
     try:
         stepping = _generate_answers(plan, source, hold_off, True)
@@ -382,6 +382,23 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
             or layout.rom_bound(stepping.text) + 512 * len(stepping.fneed_pages) > stepping.target.chip.code_bytes):
         return without
     return stepping
+
+
+def _steps_may_pay(without: AsmUnit) -> bool:
+    """Whether the build with rises as steps can hold a shorter period than `without`: its spans
+    are at least each port's longest pulse and RISE_STEP, each rise at least RISE_HEAD - ENTRY - 2
+    cycles longer (the same emit, reached later) and its other cycles at least `without`'s, so the
+    frame that budget needs bounds its period from below."""
+    b = without.budget
+    if b is None or without.min_period_us is None or not b.tops:
+        return True
+    tight = tuple(costs.port_span(without.target, top, True) for top in b.tops)
+    rises = tuple(r + costs.RISE_HEAD - costs.ENTRY - 2 for r in b.rises)
+    try:
+        least = costs.frame_cycles(without.target, dataclasses.replace(b, spans=tight, rises=rises, steps=True))
+    except costs.TooSlow:
+        return False
+    return without.target.us_at_least(least) < without.min_period_us
 
 
 def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool) -> AsmUnit:
