@@ -634,6 +634,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     spans = e["spans"]
     if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
         spans = costs.fit_spans(target, budget, tops)
+        assert all(span >= costs.port_span(target, top, stepping) for span, top in zip(spans, tops)), \
+            "a span shorter than its longest pulse and the step to the next rise"
         if spans != e["spans"]:     # the spans are immediates: the code's cycles must not change
             _set_rises(e, plan, period_cycles, spans)
             before, text = text, lay_out()
@@ -766,7 +768,8 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
     table = [] if target.grid else ["MOV     DPTR, #ctab"]
     sizes = sorted({p["s"] for p in ports})
     e = {
-        "vmin": costs.PAD_FROM, "vmax": costs.PAD_FROM + costs.LATENCY,
+        "vmin": costs.PAD_FROM, "vmax": costs.PAD_FROM + costs.LATENCY, "latency": costs.LATENCY,
+        "pad_end": costs.PAD_FROM + costs.LATENCY + 2,
         "stop": costs.STOP, "add": costs.STOP + 1,        # ~interval + STOP + 1 = 65536 - interval + STOP
         "entry": costs.ENTRY, "split": costs.SPLIT, "sled_add": costs.SLED + 8,   # ~gap + SLED + 8 = SLED + 7 - gap
         "later": list(range(1, most)),

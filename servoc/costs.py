@@ -12,8 +12,8 @@ overflow comes exactly `interval` cycles after the last one, whatever the
 handler took: widths and the period are counter arithmetic.
 
 Port k rises at the sum of the spans of the ports before it (`fit_spans`: a port's longest
-pulse, for the highest N its lines reach, and an entry; longer where the next port's sort needs
-it); its lines fall C(N) cycles later. At
+pulse, for the highest N its lines reach, and an entry, or RISE_STEP in a build whose rises can be
+steps; longer where the next port's sort needs it); its lines fall C(N) cycles later. At
 the rise the handler writes that port's items from the distinct N the
 background sorted (frame_irq.asm.j2): one sorted buffer, filled for each port
 between the previous port's rise and its own.
@@ -87,8 +87,9 @@ RISE_HEAD = ENTRY + 9
 
 
 def rise_steps(compact: bool) -> bool:
-    """Whether a build has rises as steps: not a build for size (their code, about 45 bytes a port
-    and rsled's {RSLED} NOPs, would take room the build for size is for)."""
+    """Whether a build can have rises as steps: not a build for size (their code, rsled and its jump
+    and more in each port's window and emit: the README's "ROM runtime" row with and without them,
+    would take room the build for size is for)."""
     return not compact
 
 

@@ -734,10 +734,10 @@ win_p1:
         NOP                             ; 1
         XRL     P1, A                 ; 1  EDGE: the rise (every line was low)
         LJMP    emit_p1
-        MOV     A, RISEM                ; 1  a rise that came as a step (rsled): the lines with a target
+        MOV     A, RISEM                ; 1  the lines with a target
         NOP                             ; 1
-        XRL     P1, A                 ; 1  EDGE: the rise
-        LJMP    emit_s1
+        XRL     P1, A                 ; 1  EDGE: the rise (every line was low)
+        LJMP    emit_s1                 ; (a rise that came as a step, from rsled)
         MOV     A, @R0                  ; 1  P2's rise as a step of this entry: its offset in rsled
         MOV     R5, #<win_p2         ; 1  bank 1 R5/R4: P2's window
         MOV     R4, #>win_p2         ; 1
@@ -843,10 +843,10 @@ win_p2:
         NOP                             ; 1
         XRL     P2, A                 ; 1  EDGE: the rise (every line was low)
         LJMP    emit_p2
-        MOV     A, RISEM                ; 1  a rise that came as a step (rsled): the lines with a target
+        MOV     A, RISEM                ; 1  the lines with a target
         NOP                             ; 1
-        XRL     P2, A                 ; 1  EDGE: the rise
-        LJMP    emit_s2
+        XRL     P2, A                 ; 1  EDGE: the rise (every line was low)
+        LJMP    emit_s2                 ; (a rise that came as a step, from rsled)
         MOV     A, @R0                  ; 1  P1's rise as a step of this entry: its offset in rsled
         MOV     R5, #<win_p1         ; 1  bank 1 R5/R4: P1's window
         MOV     R4, #>win_p1         ; 1
