@@ -355,33 +355,58 @@ def _seq_label(plan: Plan, name: str) -> str:
     return f"seq{[s.name for s in plan.sequences].index(name) + 1}"
 
 
-def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, stepping: bool | None = None) -> AsmUnit:
+def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, stepping: bool | None = None,
+             stagger: bool | None = None) -> AsmUnit:
     """Lay out the firmware for a plan (which must have passed lint without errors).
     `hold_off` > 0 makes a test build that holds interrupts off for that many cycles (NOPs
     between CLR EA and SETB EA) at several points of the background: the edges must not move.
     With `host`, HAQ holds HOST_ANSWERS answers waiting where the RAM allows it, else one (the
     RAM `flow.host_vars` counts): a program that fits with one is never refused for the others.
-    The next port's rise comes as a step of its last fall's entry (`costs.RISE_STEP`) in the build
-    of the two, with and without such steps, whose code holds the shorter period (without where
-    they tie, or where the steps' code might not fit the chip's code memory); a build for size has
-    none. `stepping` True or False: that build (True only where a build can have steps)."""
+    The next port's rise comes as a step of its last fall's entry (`costs.RISE_STEP`), or where
+    the clock allows it among that port's falls (`costs.stagger_span`), in the build of these
+    whose code holds the shortest period (without either where they tie, or where their code might
+    not fit the chip's code memory); a build for size has neither. `stepping` or `stagger` given:
+    that build (True only where a build can have it)."""
     can = costs.rise_steps(plan.compact) and bool(plan.ports)
-    if stepping is not None:
-        return _generate_answers(plan, source, hold_off, stepping and can)
-    without = _generate_answers(plan, source, hold_off, False)
-    if not can or not _steps_may_pay(without):
+    can_stagger = can and _can_stagger(plan)
+    if stepping is not None or stagger is not None:
+        return _generate_answers(plan, source, hold_off, bool(stepping) and can, bool(stagger) and can_stagger)
+    best = without = _generate_answers(plan, source, hold_off, False)
+    if not can:
         return without
-    try:
-        stepping = _generate_answers(plan, source, hold_off, True)
-    except layout.LayoutError as exc:       # dropped: its traceback would keep _generate's frame in a cycle
-        for each in (exc, *getattr(exc, "errors", ())):
-            each.__traceback__ = None
-        return without
-    if (stepping.min_period_us is None or without.min_period_us is None
-            or stepping.min_period_us >= without.min_period_us
-            or layout.rom_bound(stepping.text) + 512 * len(stepping.fneed_pages) > stepping.target.chip.code_bytes):
-        return without
-    return stepping
+    for kind, pays in (("stagger", can_stagger and _stagger_may_pay(without)), ("steps", _steps_may_pay(without))):
+        if not pays:
+            continue
+        try:
+            other = _generate_answers(plan, source, hold_off, kind == "steps", kind == "stagger")
+        except layout.LayoutError as exc:       # dropped: its traceback would keep _generate's frame in a cycle
+            for each in (exc, *getattr(exc, "errors", ())):
+                each.__traceback__ = None
+            continue
+        if (other.min_period_us is not None and best.min_period_us is not None
+                and other.min_period_us < best.min_period_us
+                and layout.rom_bound(other.text) + 512 * len(other.fneed_pages) <= other.target.chip.code_bytes):
+            best = other
+    return best
+
+
+def _can_stagger(plan: Plan) -> bool:
+    """Whether a build can have each port's rise among the falls of the port before it: two ports
+    or more, a clock whose DIV leaves room for it (`costs.stagger_ok`), and no serial line (its
+    handler's latency is modelled for rises that come after the falls before them)."""
+    return len(plan.ports) >= 2 and plan.program.serial is None and costs.stagger_ok(plan.program.target)
+
+
+def _stagger_may_pay(without: AsmUnit) -> bool:
+    """Whether the build with staggered rises can hold a shorter period than `without`: its spans
+    are at least each port's pulses less C(0) (the last port's, its pulses and a step)."""
+    b = without.budget
+    if b is None or without.min_period_us is None or not b.tops:
+        return True
+    t = without.target
+    c0 = t.width_cycles(0)
+    least = sum(max(t.width_cycles(top) - c0, c0) for top in b.tops[:-1]) + t.width_cycles(b.tops[-1]) + costs.STEP
+    return t.us_at_least(least) < without.min_period_us
 
 
 def _steps_may_pay(without: AsmUnit) -> bool:
@@ -401,17 +426,19 @@ def _steps_may_pay(without: AsmUnit) -> bool:
     return without.target.us_at_least(least) < without.min_period_us
 
 
-def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool) -> AsmUnit:
-    """`generate`, with or without rises as steps."""
+def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool,
+                      stagger: bool = False) -> AsmUnit:
+    """`generate`, with or without rises as steps (or among the falls before them: `stagger`)."""
     if not (plan.program.serial is not None and hosted(plan)):
-        return _generate(plan, source, hold_off, 1, stepping)
+        return _generate(plan, source, hold_off, 1, stepping, stagger)
     try:
-        return _generate(plan, source, hold_off, HOST_ANSWERS, stepping)
+        return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger)
     except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
-        return _generate(plan, source, hold_off, 1, stepping)
+        return _generate(plan, source, hold_off, 1, stepping, stagger)
 
 
-def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool) -> AsmUnit:
+def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool,
+              stagger: bool = False) -> AsmUnit:
     """`generate`, with room for `answers` answers waiting in HAQ (with `host`), with or without
     rises as steps."""
     ctx = _Ctx(plan, source, [], {})
@@ -487,6 +514,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
+    if stagger:
+        ram.alloc("ECNT", 1, "the edge handler's count of the pairs left to write items for")
     s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, txq)
     if s is not None:
         s["marks"] = hosting        # a byte lost to a full queue spoils the line it was in
@@ -543,8 +572,10 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     bport = (plan.ports[-1] if len(plan.ports) == 3 and not in_xram and stack_bytes + costs.BUFB_RAM <= room
              else None)
     tops = port_tops(plan)
-    e = _engine(plan, ram, period_cycles, bport, tuple(costs.port_span(target, top, stepping) for top in tops),
-                stepping)
+    m = len(tops)
+    spans = (tuple(costs.stagger_span(target, top, target.width_cycles(0), k == m - 1) for k, top in enumerate(tops))
+             if stagger else tuple(costs.port_span(target, top, stepping) for top in tops))
+    e = _engine(plan, ram, period_cycles, bport, spans, stepping, stagger)
     e["framed"] = ctx.flagged
     chans = []
     for c in plan.channels:
@@ -634,7 +665,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     spans = e["spans"]
     if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
         spans = costs.fit_spans(target, budget, tops)
-        assert all(span >= costs.port_span(target, top, stepping) for span, top in zip(spans, tops)), \
+        assert stagger or all(span >= costs.port_span(target, top, stepping) for span, top in zip(spans, tops)), \
             "a span shorter than its longest pulse and the step to the next rise"
         if spans != e["spans"]:     # the spans are immediates: the code's cycles must not change
             _set_rises(e, plan, period_cycles, spans)
@@ -643,7 +674,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                 raise RuntimeError("the code laid out again for its spans takes other cycles than before")
         budget = dataclasses.replace(budget, spans=spans, tops=tops)
     offsets = tuple(costs.rise_offsets(plan.ports, target, spans).values())
-    if budget is not None and max(budget.rises, default=0) > target.width_cycles(0):
+    if budget is not None and max(budget.emits or budget.rises, default=0) > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
             f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
             f"machine cycles, longer than the {target.width_cycles(0)} before the earliest fall")
@@ -728,7 +759,7 @@ def _engine_ram(ram: layout.RamAllocator) -> None:
 
 
 def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int | None,
-            spans: tuple[int, ...], stepping: bool) -> dict:
+            spans: tuple[int, ...], stepping: bool, stagger: bool = False) -> dict:
     """The edge handler's and frame_io's numbers (templates irq.asm.j2, frame_irq.asm.j2).
     `bport`: the port sorted into buffer B (None: every port goes through buffer A); `spans`: each
     port's rise to the next one's (costs.fit_spans); `stepping`: a rise can come as a step of the last
@@ -777,6 +808,10 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
         "steps": stepping, "rs_off": costs.SLED + 21, "rstep_off": costs.SLED + 29,
         "rsled": costs.RSLED, "rise_step": costs.RISE_STEP,
+        # stagger: each window's fall code, its exits, then a sled and the next port's rise
+        "stagger": stagger, "step": costs.STEP, "rfar_off": costs.SLED + 10, "end_off": costs.SLED + 13,
+        "rs_base": costs.SLED + 16, "rland": 2 * costs.SLED + 16, "rsled_add": (2 * costs.SLED + 24) % 0x100,
+        "first_off": 2 * costs.SLED + 24,
         "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "period": period_cycles, "t0_first": 65536 - period_cycles,     # no servo lines: Timer0 times a frame,
@@ -787,6 +822,8 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
                    "network": [(a, b, layout.SORT_PAIR * a, layout.SORT_PAIR * b) for a, b in costs.SORTING_NETWORKS[n]]}
                   for n in sizes],
     }
+    if stagger:
+        e["rise_off"] = e["first_off"]       # the first frame's rise, in the first port's window
     _set_rises(e, plan, period_cycles, spans)
     return e
 
@@ -805,6 +842,8 @@ def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) 
         p["step_n"] = next((n for n in range(251) if p["rnext"] - target.width_cycles(n) < costs.SPLIT), 255)
         c0 = target.width_cycles(0) if target.grid else 0
         p["step_add"] = (c0 + costs.RSLED + costs.RISE_STEP - p["rnext"]) % 0x100
+        # stagger: the highest N whose fall comes before the next port's rise
+        p["nstar"] = max((n for n in range(251) if target.width_cycles(n) < p["rnext"]), default=-1)
     for k, p in enumerate(e["ports"]):
         before = e["ports"][k - 1]
         p["prev_port"], p["prev_rnext"] = before["port"], before["rnext"]
@@ -852,8 +891,15 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                       "other_work": max((v for tag, v in by.items() if tag not in moving), default=0)}
         exits = {f"exit_p{p}" for p in ports} | {"exit_fall"}
         stepped = bool(ports) and f"emit_s{ports[0]}" in code.labels     # rises can come as steps
-        rises = tuple((costs.RISE_HEAD if stepped else costs.ENTRY + 2) + code.longest(f"emit_p{p}", exits)
-                      + code.longest_exit(exits) for p in ports)
+        staggered = bool(ports) and f"exit_rf{ports[0]}" in code.labels   # or among the falls before them
+        emits: tuple[int, ...] = ()
+        if staggered:   # from the last edge: the step's read and jump (4), LJMP (2), the emit to the RETI
+            emits = tuple(costs.ENTRY + 6 + code.longest(f"emit_s{p}", {"exit_timer"})
+                          + code.longest_exit({"exit_timer"}) for p in ports)
+            rises = tuple(costs.SPLIT - 1 + v - costs.ENTRY for v in emits)
+        else:
+            rises = tuple((costs.RISE_HEAD if stepped else costs.ENTRY + 2) + code.longest(f"emit_p{p}", exits)
+                          + code.longest_exit(exits) for p in ports)
         serial = {}
         if byte_cycles:     # from the vector's LCALL (2): the handler is at the vector
             serial = {"serial_run": 2 + code.longest("uart_isr", set()),
@@ -861,8 +907,8 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                       "byte_cycles": byte_cycles, "serial_sends": sends}
     except wcet.WcetError as exc:
         return None, str(exc)
-    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b, steps=stepped,
-                         **paired, **serial),
+    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
+                         steps=stepped and not staggered, stagger=staggered, emits=emits, **paired, **serial),
             code.label_at(at))
 
 

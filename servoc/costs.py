@@ -106,6 +106,39 @@ def apart_span(target, top: int = 250) -> int:
     return target.width_cycles(top) + SPLIT
 
 
+def stagger_ok(target) -> bool:
+    """Whether a port's rise can come among the falls of the port before it (`stagger_span`): only
+    where every two falls one DIV apart leave room for a step on both sides of a rise between them
+    (2 STEP cycles), so that some rise times are at least STEP from every fall."""
+    return all(target.width_cycles(n + 1) - target.width_cycles(n) >= 2 * STEP for n in range(250))
+
+
+def rise_slot(target, top: int, at_least: int) -> int:
+    """The first time from `at_least` on (cycles after a port's rise) at least STEP cycles from the
+    fall of every N up to `top`: where the next port's rise can come among this port's falls as a
+    step on either side, or after them."""
+    widths = [target.width_cycles(n) for n in range(top + 1)]
+    d = at_least
+    while True:
+        near = [c for c in widths if abs(c - d) < STEP]
+        if not near:
+            return d
+        d = max(near) + STEP
+
+
+def stagger_span(target, top: int, emit: int, last: bool) -> int:
+    """The shortest span of a port whose next port's rise may come among its falls: the next port's
+    first fall (C(0) after its rise at the earliest) must come after this port's last fall (C(top))
+    and the handler's run from it through the next port's emit (`emit`: Budget.emits, an entry's
+    ENTRY included); the rise no earlier than this port's earliest fall (the emit before it ends
+    by then), and at least STEP from every fall (`rise_slot`). The last port's span holds its falls
+    whole (the next frame's first rise after them), so that every longer period holds too."""
+    if last:
+        return target.width_cycles(top) + STEP
+    c0 = target.width_cycles(0)
+    return rise_slot(target, top, max(target.width_cycles(top) - c0 + emit, c0))
+
+
 def rise_offsets(ports: tuple[int, ...], target, spans: tuple[int, ...] = ()) -> dict[int, int]:
     """Cycles from the first port's rise to each port's rise: each port `spans` after the one
     before (`fit_spans`; none given: every port's longest pulse N 250)."""
@@ -147,11 +180,37 @@ def _fit_spans(target, budget: "Budget", tops: tuple[int, ...], gap: int | None)
     """`fit_spans` with `gap` more cycles than its longest pulse and an entry in each span (None:
     the shortest, the next rise a step after the longest pulse)."""
     m = len(budget.lines)
+    if budget.stagger:
+        return _stagger_spans(target, budget, tops)
     spans = [port_span(target, top, budget.steps) if gap is None else apart_span(target, top) + gap for top in tops]
     for j in range(1, m - 1 if budget.last_in_b else m):
         while (more := _sort_need(target, budget, j, spans[j - 1])) > spans[j - 1]:
             spans[j - 1] = more
     return tuple(spans)
+
+
+def _stagger_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int, ...]:
+    """`fit_spans` where each rise may come among the falls of the port before it: each span
+    `stagger_span`, longer where the next port's sort needs more between the handover before it
+    (`handovers`) and its rise."""
+    m = len(budget.lines)
+    spans = [stagger_span(target, top, budget.emits[(k + 1) % m], k == m - 1) for k, top in enumerate(tops)]
+    for j in range(1, m - 1 if budget.last_in_b else m):
+        while True:
+            late = handovers(target, tops, spans)[j - 1] - sum(spans[:j - 1])
+            need = late + _sort_need(target, budget, j, spans[j - 1]) + SPLIT - 1
+            if need <= spans[j - 1]:
+                break
+            spans[j - 1] = rise_slot(target, tops[j - 1], need) if j - 1 < m - 1 else need
+    return tuple(spans)
+
+
+def handovers(target, tops: tuple[int, ...], spans: tuple[int, ...]) -> list[int]:
+    """Where each port's items are written at the latest (cycles from the first port's rise): at its
+    rise, or after the last fall of the port before it where the rise comes among those falls."""
+    m = len(spans)
+    rise = _rises(target, spans, m)
+    return [rise[j] + max(0, target.width_cycles(tops[j - 1]) - spans[j - 1]) for j in range(m)]
 
 
 def handler_load(rise_cycles: int, falls: int) -> int:
@@ -309,6 +368,9 @@ class Budget:
     spans: tuple[int, ...] = ()     # each port's rise to the next one's (`fit_spans`; none: N 250 each)
     tops: tuple[int, ...] = ()      # the highest N each port's lines reach (flow.port_tops; none: 250)
     steps: bool = False         # a rise less than SPLIT after the last fall before it is a step (RISE_STEP)
+    stagger: bool = False       # each port's rise may come among the falls of the port before it (stagger_span)
+    emits: tuple[int, ...] = ()     # stagger: each port's emit, from the last edge of the port before to
+                                # the RETI, and an entry's ENTRY (its rise: `rises`, SPLIT - 1 more)
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -384,16 +446,19 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     if budget.start_frame is not None:      # one port: a frame's work, then its sort, within its period
         frame = max(budget.sorts[0] + budget.other_work + load[0], budget.start_frame + budget.rises[0])
     need = [rise[m], frame + runs(period)]
-    last = period - rise[m - 1]     # the last port's rise to the first port's next
+    # where each port's items are written (its rise; with stagger, after the port before's last fall)
+    hand = handovers(target, budget.tops or (250,) * m, tuple(span)) if budget.stagger else rise[:m]
+    last = period - hand[m - 1]     # the last port's handover to the first port's next rise
     if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
-        need.append(rise[m - 1] + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))
+        need.append(hand[m - 1] + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))
     else:
-        need.append(rise[m - 1] + budget.sorts[0] + load[-1] + runs(last))
+        need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:
-            need.append(rise[m - 2] + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
-                        + runs(period - rise[m - 2]))
+            need.append(hand[m - 2] + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
+                        + runs(period - hand[m - 2]))
     for j in range(1, m - 1 if budget.last_in_b else m):   # each later port's sort in A fits between the rise before and its own
-        if _sort_need(target, budget, j, span[j - 1]) > span[j - 1]:
+        room = span[j - 1] - (hand[j - 1] - rise[j - 1]) - (SPLIT - 1 if budget.stagger else 0)
+        if _sort_need(target, budget, j, span[j - 1]) > room:
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
                           f"handler's {runs(span[j - 1])}) does not fit between the rise before it and its own")
     return max(need)

@@ -382,13 +382,75 @@ class Code:
             raise WcetError(f"no label `{start}`")
         return self._longest(self.labels[start], {self.labels[s] for s in stops if s in self.labels})
 
-    def _longest(self, first: int, stop_at: set[int]) -> int:
+    def loop_cycles(self, head: int, end: int, k: int) -> int:
+        """The longest k passes of the counted loop from `head` to its `DJNZ` at `end`: k times its
+        longest pass, except that a call made at most once in the whole loop (`_once_calls`) is
+        charged for one pass only."""
+        full = self.one_pass(head, end)
+        once = self._once_calls(head, end)
+        if not once:
+            return k * full
+        return (k - 1) * (self._longest(head, {end}, once) + self.instrs[end].cycles) + full
+
+    def _once_calls(self, head: int, end: int) -> frozenset[int]:
+        """The calls in a counted loop's pass made at most once in the loop: the routine called
+        starts with `CLR F0`, no `SETB F0` is on any path of the pass (nor in what it calls), and
+        the call is reached only by falling through a `JNB F0` (F0 set): once it has run, every
+        later pass jumps past it."""
+        reach: set[int] = set()
+        work = [head]
+        while work:
+            i = work.pop()
+            if i in reach or i == end:
+                continue
+            reach.add(i)
+            ins = self.instrs[i]
+            if ins.op in ("RET", "RETI"):
+                continue
+            if ins.op in _CALLS:
+                work += [self.target(ins), i + 1]
+            elif ins.op in _JUMPS:
+                work.append(self.target(ins))
+            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
+                work += [i + 1, self.target(ins)]
+            else:
+                work.append(i + 1)
+        if any(self.instrs[i].op == "SETB" and self.instrs[i].args == ("F0",) for i in reach):
+            return frozenset()
+        calls = {i for i in reach if self.instrs[i].op in _CALLS and i < end
+                 and self.instrs[self.target(self.instrs[i])].op == "CLR"
+                 and self.instrs[self.target(self.instrs[i])].args == ("F0",)}
+        # reachable from the head in the pass (not into called routines) with F0 clear: JNB F0 jumps
+        clear: set[int] = set()
+        work = [head]
+        while work:
+            i = work.pop()
+            if i in clear or i == end or not head <= i < end:
+                continue
+            clear.add(i)
+            ins = self.instrs[i]
+            if ins.op in ("RET", "RETI"):
+                continue
+            if ins.op == "JNB" and ins.args[0] == "F0":
+                work.append(self.target(ins))
+            elif ins.op in _JUMPS:
+                work.append(self.target(ins))
+            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
+                work += [i + 1, self.target(ins)]
+            else:
+                work.append(i + 1)
+        return frozenset(calls - clear)
+
+    def _longest(self, first: int, stop_at: set[int], dead: frozenset[int] = frozenset()) -> int:
+        """`longest` from instruction `first`; paths through the instructions in `dead` left out."""
         memo: dict[int, int] = {}
         on_path: set[int] = set()
 
         def go(i: int) -> int:
             if i in stop_at and i != first:
                 return 0
+            if i in dead:
+                return -(1 << 30)
             if i in memo:
                 return memo[i]
             if i in on_path:
@@ -401,7 +463,7 @@ class Code:
             loop = self._counted(ins)
             if loop:
                 end, k = loop
-                out = c + k * self.one_pass(i + 1, end) + go(end + 1)
+                out = c + self.loop_cycles(i + 1, end, k) + go(end + 1)
             elif ins.op in ("RET", "RETI"):
                 out = c
             elif ins.op in _CALLS:
