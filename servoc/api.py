@@ -270,7 +270,8 @@ def _budgeted(p: Plan) -> Plan:
     return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
                                period_holds=unit.min_period_us is None or unit.period_holds,
                                rise_offsets=unit.rise_offsets,
-                               rise_steps=unit.budget is not None and unit.budget.steps)
+                               rise_steps=unit.budget is not None and unit.budget.steps,
+                               rises_among_falls=unit.budget is not None and unit.budget.stagger)
 
 
 def lint(plan_: Plan, reporter: Reporter) -> None:

@@ -1035,6 +1035,7 @@ def plan_data(plan: Plan, source) -> dict:
     if len(plan.rise_offsets) == len(plan.ports) > 0:
         data["ports"] = _port_rises(plan)
         data["rise_steps"] = plan.rise_steps
+        data["rises_among_falls"] = plan.rises_among_falls
     if plan.cuts:
         data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
                                   "servos": [{"servo": c.name, "low": lo, "high": hi, "unset": unset}
@@ -1110,7 +1111,9 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
         out.append("ports: " + ", ".join(f"P{r['port']} rises at {fmt_ms(r['rise_us'])} (its lines reach N {r['top']})"
                                          for r in _port_rises(plan))
                    + (f"; a rise less than {costs.SPLIT} cycles after the last fall before it is a step of that "
-                      "fall's run of the edge handler" if plan.rise_steps else ""))
+                      "fall's run of the edge handler" if plan.rise_steps else "")
+                   + ("; each port's rise after the first comes among the falls of the port before it: the ports' "
+                      "pulses overlap" if plan.rises_among_falls else ""))
     if plan.startup:
         frames = startup_frames(plan)
         how = (f"`home {plan.program.home.name}`" if plan.program.home is not None

@@ -304,6 +304,8 @@ class Plan:
                                             # generated has them (costs.fit_spans; empty: not generated yet)
     rise_steps: bool = False                # the code makes a rise less than SPLIT cycles after the last fall
                                             # before it a step of that fall's handler run (costs.RISE_STEP)
+    rises_among_falls: bool = False         # the code makes each port's rise but the first come among the falls
+                                            # of the port before it: the ports' pulses overlap (costs.stagger_span)
 
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)

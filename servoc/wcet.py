@@ -185,6 +185,7 @@ class Code:
         self._walk_memo: dict[tuple, dict] = {}
         self._frames: dict[int, dict] | None = None
         self._on_path: set[int] = set()
+        self._f0_memo: dict[int, bool] = {}
         # counted loops: the head (the instruction after `MOV Rn,#k`) -> its `DJNZ Rn,head`
         self._loops: dict[int, int] = {}
         for ins in self.instrs:
@@ -390,7 +391,37 @@ class Code:
         once = self._once_calls(head, end)
         if not once:
             return k * full
-        return (k - 1) * (self._longest(head, {end}, once) + self.instrs[end].cycles) + full
+        return (k - 1) * self._without(head, end, once) + full
+
+    def _without(self, head: int, end: int, once: frozenset[int]) -> int:
+        """The longest pass of a counted loop that makes none of the calls in `once`."""
+        return self._longest(head, {end}, once) + self.instrs[end].cycles
+
+    def _touches_f0(self, entry: int) -> bool:
+        """Whether the routine at `entry` (or what it calls) may write F0 (or PSW)."""
+        if entry not in self._f0_memo:
+            seen: set[int] = set()
+            work = [entry]
+            touches = False
+            while work and not touches:
+                i = work.pop()
+                if i in seen or i >= len(self.instrs):
+                    continue
+                seen.add(i)
+                ins = self.instrs[i]
+                touches = bool(ins.args) and ins.args[0] in ("F0", "PSW") and not ins.op.startswith("J")
+                if ins.op in ("RET", "RETI"):
+                    continue
+                if ins.op in _CALLS:
+                    work += [self.target(ins), i + 1]
+                elif ins.op in _JUMPS:
+                    work.append(self.target(ins))
+                elif ins.op in _BRANCH2 and ins.args[-1] != ".":
+                    work += [i + 1, self.target(ins)]
+                elif ins.op != "JMP":
+                    work.append(i + 1)
+            self._f0_memo[entry] = touches
+        return self._f0_memo[entry]
 
     def _once_calls(self, head: int, end: int) -> frozenset[int]:
         """The calls in a counted loop's pass made at most once in the loop: the routine called
@@ -442,51 +473,100 @@ class Code:
         return frozenset(calls - clear)
 
     def _longest(self, first: int, stop_at: set[int], dead: frozenset[int] = frozenset()) -> int:
-        """`longest` from instruction `first`; paths through the instructions in `dead` left out."""
-        memo: dict[int, int] = {}
-        on_path: set[int] = set()
+        """`longest` from instruction `first`; paths through the instructions in `dead` left out.
+        F0 is followed along each path from its SETB and CLR (a call of a routine that starts with
+        CLR F0 leaves it clear; one that may write it, or PSW, leaves it unknown), so that a test of
+        it goes one way where it is known, and a counted loop whose calls are made once
+        (`_once_calls`) is charged for such a call only on the paths where F0 was set before it."""
+        memo: dict[tuple[int, int | None], int] = {}
+        on_path: set[tuple[int, int | None]] = set()
 
-        def go(i: int) -> int:
+        def go(i: int, f0: int | None = None) -> int:
             if i in stop_at and i != first:
                 return 0
             if i in dead:
                 return -(1 << 30)
-            if i in memo:
-                return memo[i]
-            if i in on_path:
+            if (i, f0) in memo:
+                return memo[(i, f0)]
+            if (i, f0) in on_path:
                 raise WcetError(f"a loop through {self.label_at(i)}")
             if i >= len(self.instrs):
                 raise WcetError("a path runs off the end of the code")
-            on_path.add(i)
+            on_path.add((i, f0))
             ins = self.instrs[i]
             c = ins.cycles
+            after = f0
+            if ins.args and ins.args[0] in ("F0", "PSW") and not ins.op.startswith("J"):
+                after = 1 if (ins.op, ins.args) == ("SETB", ("F0",)) else \
+                    0 if (ins.op, ins.args) == ("CLR", ("F0",)) else None
             loop = self._counted(ins)
             if loop:
                 end, k = loop
-                out = c + self.loop_cycles(i + 1, end, k) + go(end + 1)
+                once = self._once_calls(i + 1, end)
+                if not once:
+                    touched = any(self._touches_f0(j) for j in range(i + 1, end + 1)
+                                  if self.instrs[j].op in _CALLS) or \
+                        any(self.instrs[j].args and self.instrs[j].args[0] in ("F0", "PSW")
+                            and not self.instrs[j].op.startswith("J") for j in range(i + 1, end + 1))
+                    out = c + k * self.one_pass(i + 1, end) + go(end + 1, None if touched else f0)
+                else:
+                    without = self._without(i + 1, end, once)
+                    out = c + k * without + go(end + 1, f0)      # no pass makes the call
+                    if f0 != 0:                                     # one pass makes it: F0 clear after
+                        out = max(out, c + (k - 1) * without + self.one_pass(i + 1, end) + go(end + 1, 0))
             elif ins.op in ("RET", "RETI"):
                 out = c
             elif ins.op in _CALLS:
                 rets = [v for k, v in self.walk(self.target(ins)).items() if k[0] == "ret"]
                 if not rets:
                     raise WcetError(f"line {ins.line}: a call that does not return")
-                out = c + max(rets) + go(i + 1)
+                callee = self.instrs[self.target(ins)]
+                after = 0 if (callee.op, callee.args) == ("CLR", ("F0",)) and not self._sets_f0(self.target(ins)) \
+                    else None if self._touches_f0(self.target(ins)) else f0
+                out = c + max(rets) + go(i + 1, after)
             elif ins.op == "JMP":
                 raise WcetError(f"line {ins.line}: an indirect jump")
             elif ins.op in _JUMPS:
-                out = c + go(self.target(ins))
+                out = c + go(self.target(ins), after)
+            elif ins.op in ("JB", "JNB") and ins.args[0] == "F0" and f0 is not None:
+                taken = (f0 == 1) == (ins.op == "JB")
+                out = c + (go(self.target(ins), f0) if taken else go(i + 1, f0))
             elif ins.op in _BRANCH2:
-                out = c + max(go(i + 1), go(self.target(ins)))
+                out = c + max(go(i + 1, after), go(self.target(ins), after))
             else:
-                out = c + go(i + 1)
-            on_path.discard(i)
-            memo[i] = out
+                out = c + go(i + 1, after)
+            on_path.discard((i, f0))
+            memo[(i, f0)] = out
             return out
 
         try:
             return go(first)
         finally:
             del go      # it calls itself through its closure: no cycle is left for the collector
+
+    def _sets_f0(self, entry: int) -> bool:
+        """Whether the routine at `entry` (or what it calls) has a `SETB F0`."""
+        seen: set[int] = set()
+        work = [entry]
+        while work:
+            i = work.pop()
+            if i in seen or i >= len(self.instrs):
+                continue
+            seen.add(i)
+            ins = self.instrs[i]
+            if (ins.op, ins.args) == ("SETB", ("F0",)):
+                return True
+            if ins.op in ("RET", "RETI"):
+                continue
+            if ins.op in _CALLS:
+                work += [self.target(ins), i + 1]
+            elif ins.op in _JUMPS:
+                work.append(self.target(ins))
+            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
+                work += [i + 1, self.target(ins)]
+            elif ins.op != "JMP":
+                work.append(i + 1)
+        return False
 
     def straight(self, start: str, end: str) -> int:
         """Cycles of the instructions from label `start` up to label `end` in the order written (the
