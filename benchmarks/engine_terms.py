@@ -10,8 +10,10 @@ clock, from one budget read from its generated code (`costs.Budget`), side by si
 
 - the shortest period servoc reports (`Plan.min_period_us`) and the shortest at which the
   firmware, built with `frame` at each P (the budget bypassed), verifies exactly in ucsim;
-- the pulses' term: the sum of the ports' spans, each port's longest pulse and an entry, the
-  ports pulsed one after another;
+- the pulses' term: the sum of the ports' spans: each port's longest pulse and a step to the
+  next port's rise; where a DIV is 14 cycles or more (22.1184 MHz, 6T) each port after the first
+  rises among the falls of the port before it, its span that port's longest pulse less C(0) and
+  the handler's run that writes the rising port's edges (the last port's pulses whole);
 - the CPU's term: everything the frame's cycles must hold whatever the order of the ports'
   pulses: the work between two frames (W), the ports' sorts, the edge handler's rise entries
   (with the writing of each port's items) and its falls in the worst frame, each fall an entry
@@ -26,7 +28,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from budget import QUICK_STEP, build_unchecked, exact, plan_text, shortest_period
+from budget import QUICK_STEP, build_unchecked, exact, plan_text, shortest_period, steadily
 from servoc import api
 
 CLOCKS = (("12 MHz", ""), ("22.1184 MHz", "target at89c52 clock 22.1184MHz"),
@@ -62,7 +64,7 @@ def exact_period(target_line: str, reported: int, step: int, frames: int) -> int
     def ok(p: int) -> bool:
         plan, fw = build_unchecked(goal_source(target_line, p), "goal")
         return exact(plan, fw, frames)
-    return shortest_period(ok, reported * 2 // 3, reported, step)
+    return shortest_period(steadily(ok) if target_line else ok, reported * 2 // 3, reported, step)
 
 
 def main(argv: list[str] | None = None) -> int:

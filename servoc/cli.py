@@ -948,7 +948,8 @@ def _plan_line(plan: Plan) -> str:
         length = (f"{plan.total_frames} frame{'' if plan.total_frames == 1 else 's'} = "
                   f"{fmt_ms(plan.total_frames * plan.period_us)}")
     return (f"{servos} servo{'s' if servos != 1 else ''} on {ports}, P = {fmt_ms(plan.period_us)} ({kind}; "
-            f"shortest {fmt_ms(plan.min_period_us)}{'; built for size' if plan.compact else ''}), program {length}")
+            f"shortest {fmt_ms(plan.min_period_us)}{'; built for size' if plan.compact else ''}"
+            f"{'; the ports pulse overlapping' if plan.rises_among_falls else ''}), program {length}")
 
 
 def _plan_rows(plan: Plan, source) -> list:

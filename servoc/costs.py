@@ -40,6 +40,16 @@ With a serial line, each term adds the serial handler's runs that can come in
 its window: the whole frame, or from the rise it starts at to the first
 port's next rise. `tests/test_costs.py` runs adversarial programs in ucsim at
 their own minimum.
+
+Where a DIV is 2 STEP cycles or more (`stagger_ok`: 22.1184 MHz, 6T mode), a build may make each
+port's rise come among the falls of the port before it (`stagger_span`, irq_stagger.asm.j2): at a
+time STEP or more from every fall that port can have (`rise_slot`), so that the rise is a step of
+its own in that port's list (a second sled in its window) or an entry of its own; the handler
+writes the rising port's items after the last edge of the port before (its handover,
+`handovers`), which must end before the rising port's earliest fall: the span is C(top) - C(0)
+and that run (Budget.emits). The last port's span holds its pulses whole (C(top) + STEP), so
+that every period from the shortest on holds. In the terms above, each port's rise is then its
+handover, and each sort must fit between the handover before it and its port's rise.
 """
 
 from __future__ import annotations

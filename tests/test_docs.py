@@ -326,7 +326,8 @@ def test_angle_table():
 def test_min_period_formula(tmp_path: Path):
     text = doc_text()
     assert (f"Σ span                                        the pulses: span = C(top) + {costs.SPLIT} "
-            f"({costs.RISE_STEP} with steps)") in text
+            f"({costs.RISE_STEP} with steps;\n" + " " * 48 + "C(top) - C(0) + emit with rises among falls)") in text
+    assert f"at a time {costs.STEP} cycles or more from every fall" in text and f"C(top) + {costs.STEP}, so that" in text
     assert f"fixed {costs.ENTRY} cycles before the edge" in text and f"less than {costs.SPLIT} cycles apart" in text
     # the worked example quotes what servoc reports
     (tmp_path / "one.servo").write_text("servo arm = P1.0\npose a { arm: 100 }\nmain { move a }\n", encoding="utf-8")

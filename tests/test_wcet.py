@@ -206,3 +206,42 @@ def test_same_cycles_vouches_only_for_immediates_that_no_loop_counts():
     assert not wcet.same_cycles(text, text.replace("MOV     A, #<", "ADD     A, #<"))
     assert not wcet.same_cycles(text, text + "        NOP\n")
     assert [i.cycles for i in wcet.Code(text).instrs] == [i.cycles for i in wcet.Code(text.replace("24445", "1")).instrs]
+
+
+ONCE = """\
+start:  SETB    F0
+        MOV     R3, #6
+ol:     JNB     F0, on
+        LCALL   once
+        MUL     AB
+on:     NOP
+        DJNZ    R3, ol
+        JNB     F0, oe
+        LCALL   once
+oe:     RET
+once:   CLR     F0
+        MUL     AB
+        MUL     AB
+        MUL     AB
+        RET
+"""
+
+
+def test_a_call_that_clears_the_flag_guarding_it_is_charged_once_per_loop():
+    """The emit's `rins` (irq_stagger.asm.j2): a routine that starts with CLR F0, called only where
+    JNB F0 falls through, with no SETB F0 in the loop, runs in one pass at most; F0 is followed
+    past the loop, so the call after it is charged only where the loop made none. Passes: 5 cycles
+    without the call (JNB 2, NOP 1, DJNZ 2), 26 with it (LCALL 2, the routine 15, MUL 4)."""
+    code = wcet.Code(ONCE)
+    in_loop = 1 + 1 + 5 * 5 + 26 + 2 + 2                  # SETB, MOV, the loop, JNB and RET after it
+    after = 1 + 1 + 6 * 5 + 2 + 2 + 15 + 2                 # no call in the loop: the one after it
+    assert code.longest("start", set()) == max(in_loop, after) == 57
+
+
+@pytest.mark.parametrize("change,passes", [
+    ("on:     NOP", "on:     SETB    F0"),                 # the flag set again in the loop
+    ("ol:     JNB     F0, on", "ol:     NOP\n        NOP"),    # the call not guarded by it
+])
+def test_a_call_in_a_loop_is_charged_every_pass_unless_it_surely_runs_once(change, passes):
+    code = wcet.Code(ONCE.replace(change, passes))
+    assert code.longest("start", set()) >= 1 + 1 + 6 * 26 - 6

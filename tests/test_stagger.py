@@ -1,0 +1,163 @@
+"""Each port's rise among the falls of the port before it (costs.stagger_span): at clocks whose DIV
+is 2 STEP cycles or more, a port rises before the port before it has finished its pulses, at a time
+at least STEP cycles from every fall that port can have; its items are written after the port
+before's last edge. The ports' pulses overlap. Each program here runs in ucsim at exactly the
+shortest period servoc reports for it, every pulse exact, and that period less 1 us is refused.
+"""
+
+import pytest
+
+from conftest import build_text, front_end_text, parse_listing
+from servoc import codegen, costs
+from test_spans import check_at_minimum
+
+pytestmark = pytest.mark.toolchain
+
+FAST = ["target at89c52 clock 22.1184MHz\n", "target stc89c52rc clock 11.0592MHz mode 6T\n"]
+SLOW = ["", "target stc89c52rc clock 11.0592MHz\n", "target at89c52 clock 18.432MHz\n"]
+
+
+def target_of(clock: str):
+    return front_end_text(clock + "servo x = P1.0\npose a { x: 10 }\nmain { move a }\n")[0].plan.program.target
+
+
+@pytest.mark.parametrize("clock", FAST + ["target at89c52 clock 24MHz\n", "target stc89c52rc clock 12MHz mode 6T\n"])
+def test_a_rise_among_the_falls_is_at_least_a_step_from_every_fall(clock):
+    """rise_slot: the first time from a given one on that is STEP or more from the fall of every N
+    up to the port's top; below it, every time is nearer than STEP to some fall."""
+    t = target_of(clock)
+    assert costs.stagger_ok(t)
+    widths = [t.width_cycles(n) for n in range(251)]
+    for top in (0, 37, 120, 249, 250):
+        for start in range(widths[0] - 20, widths[top] + 20, 5):
+            d = costs.rise_slot(t, top, start)
+            assert d >= start and all(abs(c - d) >= costs.STEP for c in widths[:top + 1])
+            assert all(any(abs(c - x) < costs.STEP for c in widths[:top + 1]) for x in range(start, d))
+        assert costs.rise_slot(t, top, widths[top]) == widths[top] + costs.STEP
+
+
+@pytest.mark.parametrize("clock", SLOW)
+def test_where_a_div_is_less_than_two_steps_no_rise_comes_among_the_falls(clock):
+    """At 12 MHz (8 cycles a DIV), 11.0592 MHz (7.37) and 18.432 MHz (12.29) no time between two
+    falls one DIV apart is STEP from both: those builds pulse the ports one after another."""
+    t = target_of(clock)
+    assert not costs.stagger_ok(t)
+    assert costs.rise_slot(t, 250, t.width_cycles(0)) == t.width_cycles(250) + costs.STEP
+    built = build_text(clock + ports(8, 8, tops=(250, 250)).replace("{1P}", "20000"))
+    assert not built.firmware.unit.budget.stagger
+
+
+def ports(*per_port: int, tops: tuple[int, ...] = (), crossing: bool = False) -> str:
+    """Servos on P0, P1, ... (`per_port` each), moving every frame between two poses: each port's
+    lines spread over 0..top (`tops`, default 250) one way and back, or (`crossing`) each line
+    crossing the N of the others every frame."""
+    lines, a, b = [], [], []
+    for port, count in enumerate(per_port):
+        top = tops[port] if tops else 250
+        for bit in range(count):
+            name = f"s{port}{bit}"
+            lines.append(f"servo {name} = P{port}.{bit} speed 0.0001s/60deg")
+            lo = top * bit // max(1, count - 1)
+            a.append(f"{name}: {lo}")
+            b.append(f"{name}: {top - lo if crossing else (lo + 37 * port + 11) % (top + 1)}")
+    return ("\n".join(lines) + f"\npose a {{ {', '.join(a)} }}\npose b {{ {', '.join(b)} }}\n"
+            + "main { loop { move b in {1P}us; move a in {1P}us } }\n")
+
+
+def held(values: list[list[int]]) -> str:
+    """Servos holding one pose, `values[port][bit]` each."""
+    lines, a = [], []
+    for port, ns in enumerate(values):
+        for bit, n in enumerate(ns):
+            lines.append(f"servo s{port}{bit} = P{port}.{bit}")
+            a.append(f"s{port}{bit}: {n}")
+    return "\n".join(lines) + f"\npose a {{ {', '.join(a)} }}\nmain {{ move a; hold {{1P}}us; loop {{ hold {{1P}}us }} }}\n"
+
+
+CASES = {
+    "all 24 lines at N 250": held([[250] * 8] * 3),
+    "all 24 lines at N 0": held([[0] * 8] * 3),
+    "24 lines one DIV apart across three ports": held([[226 + 8 * p + b for b in range(8)] for p in range(3)]),
+    "N 0 and N 250 on every port": held([[0, 250, 36, 72, 108, 144, 180, 216]] * 3),
+    "one servo on a port, eight on the next": ports(1, 8),
+    "eight on a port, one on the next": ports(8, 1, 8),
+    "lines crossing each other's N every frame": ports(8, 8, 8, crossing=True),
+    "ports of different reach": ports(8, 8, 8, tops=(120, 250, 40)),
+}
+
+
+@pytest.mark.parametrize("clock", FAST)
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_rises_among_falls_verify_at_the_minimum(clock, case):
+    built, period = check_at_minimum(clock + CASES[case], 12000)
+    unit = built.firmware.unit
+    b, t = unit.budget, built.plan.program.target
+    if case == "all 24 lines at N 0":      # bound by the work: the build with rises among falls is no shorter
+        assert codegen.generate(built.plan, stagger=True).min_period_us >= period
+        return
+    assert b.stagger and built.plan.rises_among_falls
+    m = len(b.spans)
+    for k in range(m - 1):      # each rise among the falls before it where they reach past it
+        assert all(abs(t.width_cycles(n) - b.spans[k]) >= costs.STEP for n in range(b.tops[k] + 1))
+        assert b.spans[k] >= t.width_cycles(b.tops[k]) - t.width_cycles(0) + b.emits[k + 1]
+    assert b.spans[-1] >= t.width_cycles(b.tops[-1]) + costs.STEP
+    assert any(b.spans[k] < t.width_cycles(b.tops[k]) for k in range(m - 1))
+
+
+def test_the_rise_sled_puts_the_rise_exactly_its_gap_after_the_fall_before_it():
+    """In each window: after a fall (its step's read and jump), the rise sled at offset rland + 7 - g
+    for every gap g from STEP to SPLIT - 1, then the next port's rise; after the rise, the same read
+    and jump into the fall sled. An entry that starts with the rise lands on it with the fall's
+    3 cycles to the edge."""
+    built = build_text(FAST[0] + ports(3, 3, 3).replace("{1P}", "20000"))
+    unit = built.firmware.unit
+    assert unit.budget.stagger
+    instrs, labels = parse_listing(built.firmware.image.listing)
+    by_addr = {ins.address: k for k, ins in enumerate(instrs)}
+    ports_ = unit.ports
+    rland = 2 * costs.SLED + 16
+    for j, port in enumerate(ports_):
+        nxt = ports_[(j + 1) % len(ports_)]
+        base = instrs[labels[f"win_p{port}"]].address
+        at = lambda off: instrs[by_addr[base + off]]                  # noqa: E731
+        fall = [at(costs.SLED), at(costs.SLED + 1), at(costs.SLED + 2)]
+        assert [(t.op, t.args) for t in fall] == [("MOV", ("A", "@R0")), ("INC", ("R0",)), ("XRL", (f"P{port}", "A"))]
+        step = instrs[by_addr[fall[2].address] + 1:by_addr[fall[2].address] + 4]
+        assert [t.op for t in step] == ["MOV", "INC", "JMP"]
+        assert at(costs.SLED + 7).args == ("exit_far",) and at(costs.SLED + 10).args == (f"exit_rf{port}",)
+        assert at(costs.SLED + 13).args == (f"emit_s{nxt}",)
+        k = by_addr[base + costs.SLED + 16]
+        assert all(ins.op == "NOP" for ins in instrs[k:k + costs.SLED])
+        rise = instrs[k + costs.SLED:k + costs.SLED + 3]
+        assert rise[0].address == base + rland and rise[2].op == "XRL" and rise[2].args == (f"P{nxt}", "A")
+        assert sum(t.cycles for t in rise) == sum(t.cycles for t in fall)        # the same 3 cycles from an entry
+        after = instrs[k + costs.SLED + 3:k + costs.SLED + 6]
+        assert [(t.op, t.args) for t in after] == [(t.op, t.args) for t in step]
+        for gap in range(costs.STEP, costs.SPLIT):
+            off = (rland + 7 - gap)
+            assert costs.SLED + 16 <= off <= rland
+            assert sum(t.cycles for t in step) + (rland - off) + sum(t.cycles for t in rise) == gap
+            assert (~gap + 2 * costs.SLED + 24) & 0xFF == off       # the offset the emit writes
+    assert built.verify(40).ok
+
+
+def test_plan_says_the_ports_pulses_overlap(tmp_path, capsys):
+    from servoc import cli
+    import json
+    for clock, overlap in ((FAST[0], True), ("", False)):
+        path = tmp_path / "p.servo"
+        path.write_text(clock + ports(4, 4).replace("{1P}", "20000"))
+        assert cli.main(["plan", str(path)]) == 0
+        out = capsys.readouterr().out
+        assert ("the ports' pulses overlap" in out) == overlap
+        assert cli.main(["plan", "--json", str(path)]) == 0
+        assert json.loads(capsys.readouterr().out)["rises_among_falls"] is overlap
+
+
+def test_a_serial_line_or_a_build_for_size_keeps_the_ports_one_after_another():
+    """The serial handler's latency is modelled for rises after the falls before them, and a build
+    for size has no room for a second sled in each window: neither build has rises among falls."""
+    text = FAST[0] + ports(4, 4).replace("{1P}", "20000")
+    assert build_text(text).firmware.unit.budget.stagger
+    assert not build_text("serial 9600\n" + text).firmware.unit.budget.stagger
+    assert not build_text(text, for_size=True).firmware.unit.budget.stagger
