@@ -7,7 +7,8 @@ It speaks the Language Server Protocol over standard input and output (pygls):
 - hover: on a position in a pose, its N, pulse width and the angle it produces
   (for each servo it is sent to, after limit, reverse and trim); on a `move`, its
   frames, duration and each servo's share of its top speed and the time it needs;
-  on a name, its declaration;
+  on a name, its declaration; on `frame`, the period, the shortest the firmware
+  holds and where each port's pulses begin (one after another, or overlapping);
 - go to definition, find references and rename for servos, groups, poses and
   sequences (names share one namespace, so a name means the same thing everywhere);
 - completion of the declared names and the keywords (with the words that are keywords only
@@ -330,6 +331,24 @@ def hover_move(a: Analysis, stmt: nodes.MoveStmt) -> str:
     return "\n".join(out)
 
 
+def hover_frame(a: Analysis, decl: nodes.FrameDecl) -> str:
+    """The frame period, the shortest the firmware holds, and where each port's pulses begin (as
+    `servoc plan` says: one after another, or overlapping)."""
+    head = f"**`{a.source.snippet(decl.span)}`**"
+    plan = a.plan
+    if plan is None:
+        return head + "\n\n(timing is shown once the program has no errors in names and units)"
+    out = [head, f"\nP = {units.fmt_ms(plan.period_us)}; the shortest the firmware holds: "
+                 f"{units.fmt_ms(plan.min_period_us)}"]
+    if len(plan.rise_offsets) == len(plan.ports) > 1:
+        cycle = plan.program.target.cycle_us
+        out.append("\n" + ", ".join(f"P{p} rises at {units.fmt_ms(round(float(r * cycle), 3))}"
+                                    for p, r in zip(plan.ports, plan.rise_offsets)))
+        out.append("\nthe ports' pulses overlap: each port's rise after the first comes among the falls of the "
+                   "port before it" if plan.rises_among_falls else "\nthe ports pulse one after another")
+    return "\n".join(out)
+
+
 def _moves(tree: nodes.Program) -> Iterator[nodes.MoveStmt]:
     bodies = [item.body for item in tree.items if isinstance(item, (nodes.SequenceDecl, nodes.MainDecl))]
     return (st for st in walk.statements(bodies) if isinstance(st, nodes.MoveStmt))
@@ -351,6 +370,11 @@ def hover(a: Analysis, offset: int) -> lsp.Hover | None:
                 if entry.position.span.start <= offset <= entry.position.span.end:
                     parts.append(hover_value(a, item, entry))
                     span = entry.position.span
+    frame = next((d for d in a.tree.items if isinstance(d, nodes.FrameDecl)
+                  and d.span.start <= offset <= d.span.end), None)
+    if frame is not None and name is None:
+        parts.append(hover_frame(a, frame))
+        span = frame.span
     move = next((m for m in _moves(a.tree) if m.span.start <= offset <= m.span.end), None)
     if move is not None:
         parts.append(hover_move(a, move))

@@ -425,3 +425,16 @@ def test_references_of_an_input_through_edges_and_until(editor: Editor):
     refs = editor.references(uri, *where(text, "home a", into=5))       # `home a` uses the pose `a`
     assert [pos(r.range.start) for r in refs] == [where(text, "a {"), where(text, "home a", into=5),
                                                   where(text, "move a", into=5)]
+
+
+@pytest.mark.parametrize("clock,overlap", [("target at89c52 clock 22.1184MHz\n", True), ("", False)])
+def test_hover_on_frame_says_where_the_ports_pulses_begin(editor: Editor, clock, overlap):
+    text = (clock + "frame 10ms\n" + "".join(f"servo s{p}{b} = P{p}.{b}\n" for p in (1, 2) for b in range(3))
+            + "pose a { " + ", ".join(f"s{p}{b}: {250 - 20 * b}" for p in (1, 2) for b in range(3)) + " }\n"
+            + "main { move a }\n")
+    uri, _ = editor.open("hover-frame.servo", text)
+    value = editor.hover(uri, *where(text, "frame 10ms", into=2)).contents.value
+    assert "**`frame 10ms`**" in value and "P = 10 ms; the shortest the firmware holds: " in value
+    assert "P1 rises at 0 ms, P2 rises at " in value
+    assert ("the ports' pulses overlap" in value) == overlap
+    assert ("the ports pulse one after another" in value) == (not overlap)
