@@ -364,17 +364,34 @@ class Code:
                     and not ins.op.startswith("J") and ins.op != "CJNE":
                 raise WcetError(f"line {ins.line}: `{ins.op} {', '.join(ins.args)}` inside the counted loop at "
                                 f"line {self.instrs[head].line}")
-            if ins.op in ("RET", "RETI"):
-                continue
-            if ins.op in _CALLS:
-                work += [self.target(ins), i + 1]
-            elif ins.op in _JUMPS:
-                work.append(self.target(ins))
-            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
-                work += [i + 1, self.target(ins)]
-            else:
-                work.append(i + 1)
+            work += self._next(i)
         return self._longest(head, {end}) + self.instrs[end].cycles
+
+    def _next(self, i: int) -> list[int]:
+        """The instructions a path can take after instruction `i`: for a call, the routine called and
+        the instruction its return comes back to; none after a RET, a RETI or an indirect jump."""
+        ins = self.instrs[i]
+        if ins.op in ("RET", "RETI", "JMP"):
+            return []
+        if ins.op in _CALLS:
+            return [self.target(ins), i + 1]
+        if ins.op in _JUMPS:
+            return [self.target(ins)]
+        if ins.op in _BRANCH2 and ins.args[-1] != ".":
+            return [i + 1, self.target(ins)]
+        return [i + 1]
+
+    def _reach(self, start: int, stop: int | None = None) -> set[int]:
+        """The instructions the paths from `start` can reach (calls followed), up to `stop`."""
+        seen: set[int] = set()
+        work = [start]
+        while work:
+            i = work.pop()
+            if i in seen or i == stop or i >= len(self.instrs):
+                continue
+            seen.add(i)
+            work += self._next(i)
+        return seen
 
     def longest(self, start: str, stops: set[str]) -> int:
         """Longest cycles from label `start` until a label in `stops` is reached (its instruction
@@ -400,76 +417,37 @@ class Code:
     def _touches_f0(self, entry: int) -> bool:
         """Whether the routine at `entry` (or what it calls) may write F0 (or PSW)."""
         if entry not in self._f0_memo:
-            seen: set[int] = set()
-            work = [entry]
-            touches = False
-            while work and not touches:
-                i = work.pop()
-                if i in seen or i >= len(self.instrs):
-                    continue
-                seen.add(i)
-                ins = self.instrs[i]
-                touches = bool(ins.args) and ins.args[0] in ("F0", "PSW") and not ins.op.startswith("J")
-                if ins.op in ("RET", "RETI"):
-                    continue
-                if ins.op in _CALLS:
-                    work += [self.target(ins), i + 1]
-                elif ins.op in _JUMPS:
-                    work.append(self.target(ins))
-                elif ins.op in _BRANCH2 and ins.args[-1] != ".":
-                    work += [i + 1, self.target(ins)]
-                elif ins.op != "JMP":
-                    work.append(i + 1)
-            self._f0_memo[entry] = touches
+            self._f0_memo[entry] = any(self._writes_f0(self.instrs[i]) for i in self._reach(entry))
         return self._f0_memo[entry]
+
+    @staticmethod
+    def _writes_f0(ins: Instr) -> bool:
+        return bool(ins.args) and ins.args[0] in ("F0", "PSW") and not ins.op.startswith("J")
 
     def _once_calls(self, head: int, end: int) -> frozenset[int]:
         """The calls in a counted loop's pass made at most once in the loop: the routine called
         starts with `CLR F0`, no `SETB F0` is on any path of the pass (nor in what it calls), and
         the call is reached only by falling through a `JNB F0` (F0 set): once it has run, every
         later pass jumps past it."""
-        reach: set[int] = set()
-        work = [head]
-        while work:
-            i = work.pop()
-            if i in reach or i == end:
-                continue
-            reach.add(i)
-            ins = self.instrs[i]
-            if ins.op in ("RET", "RETI"):
-                continue
-            if ins.op in _CALLS:
-                work += [self.target(ins), i + 1]
-            elif ins.op in _JUMPS:
-                work.append(self.target(ins))
-            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
-                work += [i + 1, self.target(ins)]
-            else:
-                work.append(i + 1)
-        if any(self.instrs[i].op == "SETB" and self.instrs[i].args == ("F0",) for i in reach):
+        reach = self._reach(head, end)
+        if any((self.instrs[i].op, self.instrs[i].args) == ("SETB", ("F0",)) for i in reach):
             return frozenset()
         calls = {i for i in reach if self.instrs[i].op in _CALLS and i < end
-                 and self.instrs[self.target(self.instrs[i])].op == "CLR"
-                 and self.instrs[self.target(self.instrs[i])].args == ("F0",)}
-        # reachable from the head in the pass (not into called routines) with F0 clear: JNB F0 jumps
+                 and (self.instrs[self.target(self.instrs[i])].op,
+                      self.instrs[self.target(self.instrs[i])].args) == ("CLR", ("F0",))}
+        # reachable in the pass itself (calls stepped over) with F0 clear: a JNB F0 jumps
         clear: set[int] = set()
         work = [head]
         while work:
             i = work.pop()
-            if i in clear or i == end or not head <= i < end:
+            if i in clear or not head <= i < end:
                 continue
             clear.add(i)
             ins = self.instrs[i]
-            if ins.op in ("RET", "RETI"):
-                continue
             if ins.op == "JNB" and ins.args[0] == "F0":
                 work.append(self.target(ins))
-            elif ins.op in _JUMPS:
-                work.append(self.target(ins))
-            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
-                work += [i + 1, self.target(ins)]
             else:
-                work.append(i + 1)
+                work += [j for j in self._next(i) if not (ins.op in _CALLS and j == self.target(ins))]
         return frozenset(calls - clear)
 
     def _longest(self, first: int, stop_at: set[int], dead: frozenset[int] = frozenset()) -> int:
@@ -496,7 +474,7 @@ class Code:
             ins = self.instrs[i]
             c = ins.cycles
             after = f0
-            if ins.args and ins.args[0] in ("F0", "PSW") and not ins.op.startswith("J"):
+            if self._writes_f0(ins):
                 after = 1 if (ins.op, ins.args) == ("SETB", ("F0",)) else \
                     0 if (ins.op, ins.args) == ("CLR", ("F0",)) else None
             loop = self._counted(ins)
@@ -504,10 +482,7 @@ class Code:
                 end, k = loop
                 once = self._once_calls(i + 1, end)
                 if not once:
-                    touched = any(self._touches_f0(j) for j in range(i + 1, end + 1)
-                                  if self.instrs[j].op in _CALLS) or \
-                        any(self.instrs[j].args and self.instrs[j].args[0] in ("F0", "PSW")
-                            and not self.instrs[j].op.startswith("J") for j in range(i + 1, end + 1))
+                    touched = any(self._writes_f0(self.instrs[j]) for j in self._reach(i + 1, end))
                     out = c + k * self.one_pass(i + 1, end) + go(end + 1, None if touched else f0)
                 else:
                     without = self._without(i + 1, end, once)
@@ -546,27 +521,7 @@ class Code:
 
     def _sets_f0(self, entry: int) -> bool:
         """Whether the routine at `entry` (or what it calls) has a `SETB F0`."""
-        seen: set[int] = set()
-        work = [entry]
-        while work:
-            i = work.pop()
-            if i in seen or i >= len(self.instrs):
-                continue
-            seen.add(i)
-            ins = self.instrs[i]
-            if (ins.op, ins.args) == ("SETB", ("F0",)):
-                return True
-            if ins.op in ("RET", "RETI"):
-                continue
-            if ins.op in _CALLS:
-                work += [self.target(ins), i + 1]
-            elif ins.op in _JUMPS:
-                work.append(self.target(ins))
-            elif ins.op in _BRANCH2 and ins.args[-1] != ".":
-                work += [i + 1, self.target(ins)]
-            elif ins.op != "JMP":
-                work.append(i + 1)
-        return False
+        return any((self.instrs[i].op, self.instrs[i].args) == ("SETB", ("F0",)) for i in self._reach(entry))
 
     def straight(self, start: str, end: str) -> int:
         """Cycles of the instructions from label `start` up to label `end` in the order written (the
