@@ -515,7 +515,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     period_cycles = target.cycles(plan.period_us)
     _engine_ram(ram)
     if stagger:
-        ram.alloc("ECNT", 1, "the edge handler's count of the pairs left to write items for")
+        ram.alloc("EDP", 2, "DPTR as frame_io's caller had it, while the background writes a port's items")
     s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, txq)
     if s is not None:
         s["marks"] = hosting        # a byte lost to a full queue spoils the line it was in
@@ -551,7 +551,14 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                       "servo, its S, its width or offset", direct=False)
         assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
-    ram.alloc("ITEMS", 1 + 3 * (_most_lines(plan) - 1) + 3, "the handler's items for the port being pulsed", direct=False)
+    items = 1 + 3 * (_most_lines(plan) - 1) + 3
+    if stagger:     # two buffers, each with its first edge's landing and time: one in use, one being written
+        ram.alloc("ITA", 3 + items, "items of a port, with its first edge's landing and time (IBUF clear: in use)",
+                  direct=False)
+        ram.alloc("ITB", 3 + items, "items of a port, with its first edge's landing and time (IBUF set: in use)",
+                  direct=False)
+    else:
+        ram.alloc("ITEMS", items, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
         ram.alloc("TXQ", txq, "the transmit queue", direct=False)
     if s is not None:
@@ -570,7 +577,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     # the last of three ports gets a sort buffer of its own (B) where the stack leaves room for it
     room = state_base - stack_base
     bport = (plan.ports[-1] if len(plan.ports) == 3 and not in_xram and stack_bytes + costs.BUFB_RAM <= room
-             else None)
+             and not stagger else None)     # with rises among falls, each port's items are written in its turn
     tops = port_tops(plan)
     m = len(tops)
     spans = (tuple(costs.stagger_span(target, top, target.width_cycles(0), k == m - 1) for k, top in enumerate(tops))
