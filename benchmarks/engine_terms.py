@@ -13,11 +13,12 @@ clock, from one budget read from its generated code (`costs.Budget`), side by si
 - the pulses' term: the sum of the ports' spans: each port's longest pulse and a step to the
   next port's rise; where a DIV is 14 cycles or more (22.1184 MHz, 6T) each port after the first
   rises among the falls of the port before it, its span that port's longest pulse less C(0) and
-  the handler's run that writes the rising port's edges (the last port's pulses whole);
+  the handler's run that takes the rising port's edges (the last port's pulses whole);
 - the CPU's term: everything the frame's cycles must hold whatever the order of the ports'
   pulses: the work between two frames (W), the ports' sorts, the edge handler's rise entries
-  (with the writing of each port's items) and its falls in the worst frame, each fall an entry
-  of its own when it is SPLIT cycles or more from the one before.
+  (with the writing of each port's items; with rises among falls the rise's edge and the
+  handover, the items being written by the program after each sort) and its falls in the worst
+  frame, each fall an entry of its own when it is SPLIT cycles or more from the one before.
 
 The pulses' term is what overlapping the ports' pulses removes; the CPU's term stays. Where it
 is above a goal, no order of the pulses reaches that goal with this handler and this work.

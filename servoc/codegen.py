@@ -900,7 +900,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
         stepped = bool(ports) and f"emit_s{ports[0]}" in code.labels     # rises can come as steps
         staggered = bool(ports) and f"exit_rf{ports[0]}" in code.labels   # or among the falls before them
         emits: tuple[int, ...] = ()
-        if staggered:   # from the last edge: the step's read and jump (4), LJMP (2), the emit to the RETI
+        if staggered:   # from the last edge: the step's read and jump (4), LJMP (2), the handover to the RETI
             emits = tuple(costs.ENTRY + 6 + code.longest(f"emit_s{p}", {"exit_timer"})
                           + code.longest_exit({"exit_timer"}) for p in ports)
             rises = tuple(costs.SPLIT - 1 + v - costs.ENTRY for v in emits)

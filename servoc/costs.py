@@ -44,12 +44,14 @@ their own minimum.
 Where a DIV is 2 STEP cycles or more (`stagger_ok`: 22.1184 MHz, 6T mode), a build may make each
 port's rise come among the falls of the port before it (`stagger_span`, irq_stagger.asm.j2): at a
 time STEP or more from every fall that port can have (`rise_slot`), so that the rise is a step of
-its own in that port's list (a second sled in its window) or an entry of its own; the handler
-writes the rising port's items after the last edge of the port before (its handover,
-`handovers`), which must end before the rising port's earliest fall: the span is C(top) - C(0)
-and that run (Budget.emits). The last port's span holds its pulses whole (C(top) + STEP), so
-that every period from the shortest on holds. In the terms above, each port's rise is then its
-handover, and each sort must fit between the handover before it and its port's rise.
+its own in that port's list (a second sled in its window) or an entry of its own. The
+background writes each port's items after its sort (frame_irq.asm.j2, stagger_emit.asm.j2: the
+sort's term includes it) into the one of two buffers the handler does not use; the handler takes
+them after the last edge of the port before (its handover, `handovers`), a run that must end
+before the rising port's earliest fall: the span is C(top) - C(0) and that run (Budget.emits).
+The last port's span holds its pulses whole (C(top) + STEP), so that every period from the
+shortest on holds. In the terms above, each port's rise is then its handover, and each sort
+must fit between the handover before it and its port's rise.
 """
 
 from __future__ import annotations
@@ -139,9 +141,9 @@ def rise_slot(target, top: int, at_least: int) -> int:
 def stagger_span(target, top: int, emit: int, last: bool) -> int:
     """The shortest span of a port whose next port's rise may come among its falls: the next port's
     first fall (C(0) after its rise at the earliest) must come after this port's last fall (C(top))
-    and the handler's run from it through the next port's emit (`emit`: Budget.emits, an entry's
-    ENTRY included); the rise no earlier than this port's earliest fall (the emit before it ends
-    by then), and at least STEP from every fall (`rise_slot`). The last port's span holds its falls
+    and the handler's run from it that takes the next port's items (`emit`: Budget.emits, an
+    entry's ENTRY included); the rise no earlier than this port's earliest fall (the run that
+    takes this port's items ends by then), and at least STEP from every fall (`rise_slot`). The last port's span holds its falls
     whole (the next frame's first rise after them), so that every longer period holds too."""
     if last:
         return target.width_cycles(top) + STEP
@@ -379,8 +381,8 @@ class Budget:
     tops: tuple[int, ...] = ()      # the highest N each port's lines reach (flow.port_tops; none: 250)
     steps: bool = False         # a rise less than SPLIT after the last fall before it is a step (RISE_STEP)
     stagger: bool = False       # each port's rise may come among the falls of the port before it (stagger_span)
-    emits: tuple[int, ...] = ()     # stagger: each port's emit, from the last edge of the port before to
-                                # the RETI, and an entry's ENTRY (its rise: `rises`, SPLIT - 1 more)
+    emits: tuple[int, ...] = ()     # stagger: each port's handover, from the last edge of the port before
+                                # to the RETI, and an entry's ENTRY (its rise: `rises`, SPLIT - 1 more)
 
 
 def frame_cycles(target, budget: Budget) -> int:
