@@ -161,3 +161,14 @@ def test_a_serial_line_or_a_build_for_size_keeps_the_ports_one_after_another():
     assert build_text(text).firmware.unit.budget.stagger
     assert not build_text("serial 9600\n" + text).firmware.unit.budget.stagger
     assert not build_text(text, for_size=True).firmware.unit.budget.stagger
+
+
+def test_with_a_meanwhile_body_and_an_input_the_rises_come_among_falls_at_the_minimum():
+    """The work between frames grows with a select's looks (frame_w): the spans and each sort in
+    its turn still hold, every pulse exact at the reported minimum and 1 us less refused."""
+    body = ports(4, 4, 4)
+    decls, rest = body.split("main {", 1)
+    template = (FAST[0] + "input button = P3.2\n" + decls + "main { loop { select { on press button { wait release "
+                "button; move b in {2P}us } meanwhile { loop { move b in {1P}us; move a in {1P}us } } } } }\n")
+    built, period = check_at_minimum(template, 12000)
+    assert built.firmware.unit.budget.stagger and "frame_w" in built.firmware.unit.text
