@@ -552,11 +552,9 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     items = 1 + 3 * (_most_lines(plan) - 1) + 3
-    if stagger:     # two buffers, each with its first edge's landing and time: one in use, one being written
-        ram.alloc("ITA", 3 + items, "items of a port, with its first edge's landing and time (IBUF clear: in use)",
-                  direct=False)
-        ram.alloc("ITB", 3 + items, "items of a port, with its first edge's landing and time (IBUF set: in use)",
-                  direct=False)
+    if stagger:     # two buffers, each with its first edge's N: one in use, one being written
+        ram.alloc("ITA", 1 + items, "items of a port, after its first edge's N (IBUF clear: in use)", direct=False)
+        ram.alloc("ITB", 1 + items, "items of a port, after its first edge's N (IBUF set: in use)", direct=False)
     else:
         ram.alloc("ITEMS", items, "the handler's items for the port being pulsed", direct=False)
     if uses["sends"]:
