@@ -172,3 +172,37 @@ def test_with_a_meanwhile_body_and_an_input_the_rises_come_among_falls_at_the_mi
                 "button; move b in {2P}us } meanwhile { loop { move b in {1P}us; move a in {1P}us } } } } }\n")
     built, period = check_at_minimum(template, 12000)
     assert built.firmware.unit.budget.stagger and "frame_w" in built.firmware.unit.text
+
+
+def nested(depth: int) -> str:
+    """24 servos at 22.1184 MHz, moving every frame inside `depth` nested repeats (each level 2
+    bytes of stack)."""
+    pins = [(p, b) for p in range(3) for b in range(8)]
+    lines = [FAST[0].strip(), "frame 20ms"] + [f"servo s{p}{b} = P{p}.{b} speed 0.0001s/60deg" for p, b in pins]
+    lines += ["pose lo { " + ", ".join(f"s{p}{b}: {(7 * (8 * p + b)) % 40}" for p, b in pins) + " }",
+              "pose hi { " + ", ".join(f"s{p}{b}: {250 - (11 * (8 * p + b)) % 40}" for p, b in pins) + " }"]
+    body = "move hi in 20ms; move lo in 20ms"
+    for _ in range(depth):
+        body = f"repeat 1 {{ {body} }}"
+    return "\n".join(lines) + f"\nmain {{ loop {{ {body} }} }}\n"
+
+
+def test_where_the_ram_cannot_hold_two_item_buffers_the_ports_pulse_one_after_another():
+    """Rises among falls take two item buffers (the handler's and the one the program writes): a
+    program whose stack leaves no room for them is built without, and still compiles and verifies."""
+    from servoc import layout
+    results = []
+    for depth in range(10):
+        built = build_text(nested(depth))
+        try:
+            codegen.generate(built.plan, stagger=True)
+            fits = True
+        except layout.RamFull:
+            fits = False
+        results.append((depth, fits, built))
+        if not fits:
+            break
+    depth, fits, built = results[-1]
+    assert not fits and depth > 0 and results[-2][1]
+    assert results[-2][2].firmware.unit.budget.stagger and not built.firmware.unit.budget.stagger
+    assert built.verify(20).ok
