@@ -370,7 +370,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     can = costs.rise_steps(plan.compact) and bool(plan.ports)
     can_stagger = can and _can_stagger(plan)
     if stepping is not None or stagger is not None:
-        return _generate_answers(plan, source, hold_off, bool(stepping) and can, bool(stagger) and can_stagger)
+        staggered = bool(stagger) and can_stagger
+        return _generate_answers(plan, source, hold_off, bool(stepping) and can and not staggered, staggered)
     best = without = _generate_answers(plan, source, hold_off, False)
     if not can:
         return without
@@ -440,7 +441,7 @@ def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, step
 def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool,
               stagger: bool = False) -> AsmUnit:
     """`generate`, with room for `answers` answers waiting in HAQ (with `host`), with or without
-    rises as steps."""
+    rises as steps, or with each port's rise among the falls of the port before it (`stagger`)."""
     ctx = _Ctx(plan, source, [], {})
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)

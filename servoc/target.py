@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass
+from functools import lru_cache
 from fractions import Fraction
 
 MHZ = 1_000_000
@@ -106,7 +107,7 @@ class Target:
 
     def width_cycles(self, n: int) -> int:
         """Machine cycles from a port's rise to the fall of a line with N = n."""
-        return self.cycles(500 + 8 * n)
+        return _widths(self.clock_hz, self.six_t)[n] if 0 <= n < 256 else self.cycles(500 + 8 * n)
 
     def width_error_us(self) -> Fraction:
         """The largest distance of a firmware width from 500 + 8 N µs over N = 0..250."""
@@ -130,6 +131,13 @@ class Target:
                 f"{float(self.div_cycles):.2f} machine cycles, and two lines one DIV apart need at least "
                 f"{MIN_DIV_CYCLES}: the lowest clock that works is {fmt_hz(lowest)}"
                 + (" (half that in 6T mode)" if self.chip.six_t and not self.six_t else ""))
+
+
+@lru_cache(maxsize=32)
+def _widths(clock_hz: int, six_t: bool) -> tuple[int, ...]:
+    """Target.width_cycles for N = 0..255, worked out once per clock."""
+    target = Target(CHIPS[DEFAULT_CHIP], clock_hz, six_t)
+    return tuple(target.cycles(500 + 8 * n) for n in range(256))
 
 
 DEFAULT = Target(CHIPS[DEFAULT_CHIP], DEFAULT_CLOCK_HZ)
