@@ -393,9 +393,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
 
 def _can_stagger(plan: Plan) -> bool:
     """Whether a build can have each port's rise among the falls of the port before it: two ports
-    or more, a clock whose DIV leaves room for it (`costs.stagger_ok`), and no serial line (its
-    handler's latency is modelled for rises that come after the falls before them)."""
-    return len(plan.ports) >= 2 and plan.program.serial is None and costs.stagger_ok(plan.program.target)
+    or more, and a clock whose DIV leaves room for it (`costs.stagger_ok`)."""
+    return len(plan.ports) >= 2 and costs.stagger_ok(plan.program.target)
 
 
 def _stagger_may_pay(without: AsmUnit) -> bool:

@@ -206,7 +206,8 @@ def _stagger_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int
     `stagger_span`, longer where the next port's sort needs more between the handover before it
     (`handovers`) and its rise."""
     m = len(budget.lines)
-    spans = [stagger_span(target, top, budget.emits[(k + 1) % m], k == m - 1) for k, top in enumerate(tops)]
+    gap = serial_gap(budget) if budget.byte_cycles else 0     # the serial handler's time between two ports' runs
+    spans = [stagger_span(target, top, budget.emits[(k + 1) % m] + gap, k == m - 1) for k, top in enumerate(tops)]
     for j in range(1, m - 1 if budget.last_in_b else m):
         while True:
             late = handovers(target, tops, spans)[j - 1] - sum(spans[:j - 1])
@@ -423,6 +424,8 @@ def _first_failing(target, budget: Budget, period: int) -> int | None:
     gap, reach = rx_gap(budget.byte_cycles), run_reach(target, budget)
     m = len(budget.lines)
     rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
+    if budget.stagger and budget.spans:     # each port's handover starts its window
+        rise = handovers(target, budget.tops or (250,) * m, budget.spans)
     offsets = {0} if m == 0 else {0, rise[m - 1], rise[max(0, m - 2)]}
     # (spacing, shift): a window's count of runs steps where its length crosses shift mod spacing
     steps = {(gap, 1)} | ({(gap, 1 - reach)} if reach is not None else set()) | \
@@ -500,6 +503,8 @@ def busy_stretch(target, budget: Budget) -> int:
     m = len(budget.lines)
     c0 = target.width_cycles(0)
     need = serial_gap(budget)
+    if budget.stagger:
+        return _stagger_stretch(target, budget, need)
     worst = 0
     for k in range(m):
         nxt = (k + 1) % m
@@ -508,6 +513,26 @@ def busy_stretch(target, budget: Budget) -> int:
             rise += c0 - rise + SPLIT * budget.lines[nxt]
         chain = SPLIT * budget.lines[k]
         worst = max(worst, chain, rise) if span_slack(target, budget, k) + 1 >= need else max(worst, chain + rise)
+    return worst
+
+
+def _stagger_stretch(target, budget: Budget, need: int) -> int:
+    """`busy_stretch` where each port's rise comes among the falls of the port before it: that
+    port's lines and the rise, each an entry of at most SPLIT cycles (or a step shorter than it),
+    then the handover; each span leaves `need` cycles after it before the next port's earliest
+    fall's entry (`_stagger_spans`), and the last port's handover, right after the first port's
+    rise, C(0) less its run. Where that is shorter than `need`, no bound: the build is refused
+    (serial-too-fast) and the ports are pulsed one after another."""
+    m = len(budget.lines)
+    c0 = target.width_cycles(0)
+    worst = 0
+    for k in range(m):
+        n = (k + 1) % m
+        after = (budget.spans[k] + c0 - target.width_cycles(budget.tops[k]) if k < m - 1 and budget.spans
+                 else c0) - budget.emits[n]
+        if after < need:
+            return 1 << 20
+        worst = max(worst, SPLIT * (budget.lines[k] + 1) + budget.emits[n] - ENTRY)
     return worst
 
 
