@@ -1,7 +1,7 @@
 """Each port's rise among the falls of the port before it (costs.stagger_span): at clocks whose DIV
 is 2 STEP cycles or more, a port rises before the port before it has finished its pulses, at a time
-at least STEP cycles from every fall that port can have; its items are written after the port
-before's last edge. The ports' pulses overlap. Each program here runs in ucsim at exactly the
+at least STEP cycles from every fall that port can have; the program writes its items after its
+sort, and the handler takes them after the port before's last edge. The ports' pulses overlap. Each program here runs in ucsim at exactly the
 shortest period servoc reports for it, every pulse exact, and that period less 1 us is refused.
 """
 
