@@ -679,9 +679,10 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                 raise RuntimeError("the code laid out again for its spans takes other cycles than before")
         budget = dataclasses.replace(budget, spans=spans, tops=tops)
     offsets = tuple(costs.rise_offsets(plan.ports, target, spans).values())
-    if budget is not None and max(budget.emits or budget.rises, default=0) > target.width_cycles(0):
+    run = None if budget is None else max(budget.emits or budget.rises, default=0)
+    if run is not None and run > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
-            f"at {target.describe()} the edge handler's run at a port's rise takes {max(budget.rises)} "
+            f"at {target.describe()} the edge handler's run at a port's rise takes {run} "
             f"machine cycles, longer than the {target.width_cycles(0)} before the earliest fall")
     if budget is not None and s is not None:
         try:
@@ -847,8 +848,9 @@ def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) 
         p["step_n"] = next((n for n in range(251) if p["rnext"] - target.width_cycles(n) < costs.SPLIT), 255)
         c0 = target.width_cycles(0) if target.grid else 0
         p["step_add"] = (c0 + costs.RSLED + costs.RISE_STEP - p["rnext"]) % 0x100
-        # stagger: the highest N whose fall comes before the next port's rise
+        # stagger: the highest N whose fall comes before the next port's rise, and the N after it
         p["nstar"] = max((n for n in range(251) if target.width_cycles(n) < p["rnext"]), default=-1)
+        p["n_after"] = p["nstar"] + 1
     for k, p in enumerate(e["ports"]):
         before = e["ports"][k - 1]
         p["prev_port"], p["prev_rnext"] = before["port"], before["rnext"]

@@ -214,7 +214,7 @@ def _stagger_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int
             need = late + _sort_need(target, budget, j, spans[j - 1]) + SPLIT - 1
             if need <= spans[j - 1]:
                 break
-            spans[j - 1] = rise_slot(target, tops[j - 1], need) if j - 1 < m - 1 else need
+            spans[j - 1] = rise_slot(target, tops[j - 1], need)       # j - 1 < m - 1: never the last
     return tuple(spans)
 
 
