@@ -205,3 +205,21 @@ def test_where_the_ram_cannot_hold_two_item_buffers_the_ports_pulse_one_after_an
     assert not fits and depth > 0 and results[-2][1]
     assert results[-2][2].firmware.unit.budget.stagger and not built.firmware.unit.budget.stagger
     assert built.verify(20).ok
+
+
+@pytest.mark.parametrize("clock", ["target at89c52 clock 24MHz\n", "target stc89c52rc clock 12MHz mode 6T\n"])
+def test_at_the_other_clocks_whose_div_leaves_room_rises_come_among_falls_too(clock):
+    """24 MHz (16 cycles a DIV) and 12 MHz in 6T mode (16): N 0 and N 250 on every port, exact at
+    the reported minimum, 1 us less refused."""
+    built, period = check_at_minimum(clock + CASES["N 0 and N 250 on every port"], 12000)
+    assert built.firmware.unit.budget.stagger
+
+
+def test_the_handovers_cycles_quoted_in_the_docs_are_the_codes():
+    """docs/language.md quotes the handover's run (Budget.emits) as read from the generated code."""
+    from pathlib import Path
+    built = build_text(FAST[0] + ports(8, 8).replace("{1P}", "20000"))
+    emits = set(built.firmware.unit.budget.emits)
+    assert len(emits) == 1
+    text = (Path(__file__).resolve().parent.parent / "docs" / "language.md").read_text(encoding="utf-8")
+    assert f"the entry's {costs.ENTRY} cycles included: {emits.pop()})" in text
