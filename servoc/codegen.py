@@ -780,6 +780,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
                       "state0": layout.state_at(len(plan.ports)) + layout.STATE_BYTES * layout.ram_pin(plan.ports, port, 0),
                       "next_port": nxt, "next_win": f"win_p{nxt}"})
         ports[-1]["s"] = len(ports[-1]["pins"])
+        ports[-1]["others"] = ports[-1]["s"] - 1      # the pairs after the first
         # built for size, a port whose servos are its pins 0, 1, ... loads its pairs in a loop
         ports[-1]["looped"] = plan.compact and [pin["bit"] for pin in ports[-1]["pins"]] == list(range(ports[-1]["s"]))
         ports[-1]["all_mask"] = sum(pin["bit_mask"] for pin in ports[-1]["pins"])
@@ -813,7 +814,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "sled": costs.SLED, "fall_off": costs.SLED, "exit_off": costs.SLED + 7,
         "exitn_off": costs.SLED + 10, "rise_off": costs.SLED + 13,
         "steps": stepping, "rs_off": costs.SLED + 21, "rstep_off": costs.SLED + 29,
-        "rsled": costs.RSLED, "rise_step": costs.RISE_STEP,
+        "rsled": costs.RSLED, "rise_step": costs.RISE_STEP, "rsled_end": costs.RSLED + costs.RISE_STEP,
         # stagger: each window's fall code, its exits, then a sled and the next port's rise
         "stagger": stagger, "step": costs.STEP, "rfar_off": costs.SLED + 10, "end_off": costs.SLED + 13,
         "rs_base": costs.SLED + 16, "rland": 2 * costs.SLED + 16, "rsled_add": (2 * costs.SLED + 24) % 0x100,
