@@ -1,9 +1,12 @@
 """The frame budget in ucsim: the shortest frame period P at which a firmware verifies exactly.
 
-One search, `shortest_period`: a binary search over P with a predicate
-ok(P) ("the firmware built at P verifies exactly"), to 1 us or to a coarser
-step in quick mode. It runs on two kinds of programs, built at P with
-servoc's own budget bypassed (`build_unchecked`) so that P can go below it:
+Two searches with a predicate ok(P) ("the firmware built at P verifies
+exactly"): `holds_down_to`, down from the P servoc reports 1 us at a time to
+the first P that fails (the shortest P from which every P up to the reported
+one holds), and `shortest_period`, a binary search to 1 us or to a coarser
+step in quick mode, for the held pose, whose search starts from no reported
+P. They run on two kinds of programs, built at P with servoc's own budget
+bypassed (`build_unchecked`) so that P can go below it:
 
 - stress programs (`stress_source`): every servo moves on every frame
   (one-frame moves), so each frame reads a new move record, computes DDA
@@ -59,14 +62,20 @@ def shortest_period(ok, lo: int, hi: int, step: int = 1) -> int:
     return hi
 
 
-def steadily(ok):
-    """`ok` at P and at the next two P (1 us apart). Where each port's rise comes among the falls
-    of the port before it (costs.stagger_span), a period below the shortest servoc reports can put
-    the next frame's first rise, by chance, at a time that clears every fall of the last port (a
-    rise slot, at most 2 cycles wide in a DIV); the firmware holds every period only from the
-    shortest on. Three periods 1 us apart span more than 3 cycles at every clock where rises come
-    among falls (a DIV of 14 cycles or more), so they are never all such chances."""
-    return lambda q: ok(q) and ok(q + 1) and ok(q + 2)
+def holds_down_to(ok, lo: int, hi: int) -> int:
+    """Smallest P in (lo, hi] such that ok holds at every whole us from P to hi: scanned down from
+    hi (servoc's reported P) 1 us at a time to the first P that fails. No monotony assumed: where each
+    port's rise comes among the falls of the port before it (costs.stagger_span), a period below the
+    shortest servoc reports can put the next frame's first rise, by chance, at a time that clears
+    every fall of the last port, while longer ones do not (a binary search then finds such a chance
+    and reports a P from which not every period holds). Costs one build per us between the answer
+    and hi, and one more."""
+    if not ok(hi):
+        raise AssertionError(f"not exact even at P = {hi} us")
+    p = hi
+    while p - 1 > lo and ok(p - 1):
+        p -= 1
+    return p
 
 
 # ---------------------------------------------------------------- building at any P
@@ -157,13 +166,12 @@ def exact_at(ports: int, per_port: int, period: int, runtime_f: bool = False, fr
 
 def shortest_exact_period(ports: int, per_port: int = 8, runtime_f: bool = False, depth: int | None = None,
                           quick: bool = False) -> int:
-    """The shortest P (us) at which the stress program verifies exactly: searched below the P servoc
-    reports, to 1 us over 400 frames, or in quick mode to QUICK_STEP us over 100 frames."""
+    """The shortest P (us) from which the stress program verifies exactly at every P up to the one
+    servoc reports (`holds_down_to`), over 400 frames (quick mode: 100)."""
     frames = 100 if quick else 400
-    return shortest_period(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth),
-                           ports * _T12.width_cycles(250),       # never enough: the next rise before the last fall
-                           budget_period(ports, per_port, runtime_f, depth),
-                           QUICK_STEP if quick else 1)
+    return holds_down_to(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth),
+                         ports * _T12.width_cycles(250),       # never enough: the next rise before the last fall
+                         budget_period(ports, per_port, runtime_f, depth))
 
 
 def stress_default_period(ports: int, runtime_f: bool) -> int:
@@ -220,7 +228,8 @@ def serial_exact_at(ports: int, period: int, target: str = "", runtime_f: bool =
 def clock_budget(quick: bool, progress=None) -> list[dict]:
     """The worst-case stress program at 12 MHz with the serial line busy, and at crystals whose machine
     cycle is not 1 us (the cycles engine), with and without run-time F and `serial`: servoc's shortest P
-    next to the shortest exact P in ucsim, to QUICK_STEP us (quick: 1 port, fewer cases)."""
+    next to the shortest P from which every P up to servoc's verifies exactly in ucsim, to 1 us
+    (`holds_down_to`; quick: 1 port, fewer cases)."""
     say = progress or (lambda s: None)
     out = []
     cases = [("", False, True)] + [(line, rf, ser) for line in CLOCK_TARGETS for rf in (False, True) for ser in (False, True)
@@ -236,12 +245,11 @@ def clock_budget(quick: bool, progress=None) -> list[dict]:
                 ok = lambda q: serial_exact_at(ports, q, line, rf)      # noqa: E731
             else:
                 ok = lambda q: exact_at(ports, 8, q, rf, frames=100, target=line)      # noqa: E731
-            p = shortest_period(steadily(ok) if ports > 1 and "22.1184" in line else ok,
-                                reported * 2 // 3, reported, QUICK_STEP)
+            p = holds_down_to(ok, reported * 2 // 3, reported)
             out.append({"target": line.split(" ", 1)[1] if line else "at89c52 (12 MHz)", "ports": ports,
                         "servos": 8 * ports, "runtime_f": rf, "serial": SERIAL_LINE if ser else "",
                         "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
-                        "resolution_us": QUICK_STEP})
+                        "resolution_us": 1})
     return out
 
 
@@ -250,7 +258,8 @@ def clock_budget(quick: bool, progress=None) -> list[dict]:
 def frame_budget(quick: bool, progress=None) -> dict:
     """Shortest exact P against servoc's reported and default P, worst case and pose held.
 
-    Full: 1, 2 and 3 ports, with and without run-time F, to 1 us. Quick: 1 and 3 ports, to QUICK_STEP us."""
+    Full: 1, 2 and 3 ports, with and without run-time F. Quick: 1 and 3 ports, fewer frames, the
+    held pose to QUICK_STEP us. The stress programs' search is `holds_down_to` (1 us)."""
     say = progress or (lambda s: None)
     out: dict = {"port_span_cycles": SPAN, "worst_case": [], "steady_state": []}
     for ports in (1, 3) if quick else (1, 2, 3):
@@ -262,7 +271,7 @@ def frame_budget(quick: bool, progress=None) -> dict:
             out["worst_case"].append({
                 "ports": ports, "servos": 8 * ports, "runtime_f": rf,
                 "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
-                "resolution_us": QUICK_STEP if quick else 1, "over_pulses_cycles": p - pulse_floor(ports),
+                "resolution_us": 1, "over_pulses_cycles": p - pulse_floor(ports),
                 "default_p_us": stress_default_period(ports, rf),
                 "search_seconds": round(time.perf_counter() - t0, 1)})
         say(f"shortest exact P, pose held, {ports} port(s)")

@@ -1,15 +1,16 @@
 """24 moving servos: which term of the frame budget bounds the shortest period, at three clocks.
 
-    .venv/bin/python benchmarks/engine_terms.py           # to 1 us (about three minutes)
-    .venv/bin/python benchmarks/engine_terms.py --quick   # to 8 us
+    .venv/bin/python benchmarks/engine_terms.py           # over 150 frames
+    .venv/bin/python benchmarks/engine_terms.py --quick   # over 60 frames
 
 The program (`goal_source`): 24 servos on P0, P1 and P2, every other one slower (two speed
 classes), moving between two poses that put every port's lines over the full range (N 0 and 250
 in the same frame, the others 36 apart), an eased move and a linear one, in a loop. For each
 clock, from one budget read from its generated code (`costs.Budget`), side by side:
 
-- the shortest period servoc reports (`Plan.min_period_us`) and the shortest at which the
-  firmware, built with `frame` at each P (the budget bypassed), verifies exactly in ucsim;
+- the shortest period servoc reports (`Plan.min_period_us`) and the shortest from which the
+  firmware, built with `frame` at each P (the budget bypassed), verifies exactly in ucsim at every
+  P up to the reported one (`budget.holds_down_to`);
 - the pulses' term: the sum of the ports' spans: each port's longest pulse and a step to the
   next port's rise; where a DIV is 14 cycles or more (22.1184 MHz, 6T) each port after the first
   rises among the falls of the port before it, its span that port's longest pulse less C(0) and
@@ -29,7 +30,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from budget import QUICK_STEP, build_unchecked, exact, plan_text, shortest_period, steadily
+from budget import build_unchecked, exact, holds_down_to, plan_text
 from servoc import api
 
 CLOCKS = (("12 MHz", ""), ("22.1184 MHz", "target at89c52 clock 22.1184MHz"),
@@ -61,24 +62,25 @@ def terms(target_line: str) -> dict:
             "rises": rises, "falls": sum(budget.falls)}
 
 
-def exact_period(target_line: str, reported: int, step: int, frames: int) -> int:
+def exact_period(target_line: str, reported: int, frames: int) -> int:
+    """The shortest P from which every P up to the reported one verifies exactly (`holds_down_to`)."""
     def ok(p: int) -> bool:
         plan, fw = build_unchecked(goal_source(target_line, p), "goal")
         return exact(plan, fw, frames)
-    return shortest_period(steadily(ok) if target_line else ok, reported * 2 // 3, reported, step)
+    return holds_down_to(ok, reported * 2 // 3, reported)
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help=f"search to {QUICK_STEP} us over 60 frames")
+    ap.add_argument("--quick", action="store_true", help="verify over 60 frames, not 150")
     args = ap.parse_args(argv)
-    step, frames = (QUICK_STEP, 60) if args.quick else (1, 150)
+    frames = 60 if args.quick else 150
     print("| clock | reported P (us) | exact P in ucsim (us) | pulses' term (us) | CPU's term (us) "
           "| W | sorts | rise entries | falls (cycles) |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, line in CLOCKS:
         t = terms(line)
-        p = exact_period(line, t["reported_us"], step, frames)
+        p = exact_period(line, t["reported_us"], frames)
         print(f"| {name} | {t['reported_us']} | {p} | {t['pulses_us']} | {t['cpu_us']} ({t['cpu_cycles']} cycles) "
               f"| {t['work']} | {t['sorts']} | {t['rises']} | {t['falls']} |", flush=True)
     return 0
