@@ -296,7 +296,7 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
     cases = [(w, "worst case", ", run-time F" if w["runtime_f"] else "") for w in fb["worst_case"]]
     cases += [(st, "pose held", "") for st in fb["steady_state"]]
     for x, what, kind in cases:
-        res = "" if x["resolution_us"] == 1 else f" (to {x['resolution_us']} us)"
+        res = _resolution(x)
         name = f"{what}, {_servos(x['ports'])}{kind}"
         rows += [
             (f"servoc: shortest P reported / shortest exact in ucsim / difference, {name} (us)", "", "",
@@ -310,9 +310,14 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
         kind = "".join(f", {k}" for k in ("run-time F" if x.get("runtime_f") else "", x.get("serial", "")) if k)
         rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, worst case, "
                      f"{_servos(x['ports'])}, {x['target']}{kind} (us)", "", "",
-                     f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']} (to {x['resolution_us']} us) / "
+                     f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
                      f"{x['difference_us']:+d} ({_over(x)})"))
     return rows
+
+
+def _resolution(x: dict) -> str:
+    """How finely the shortest exact P was searched, where coarser than 1 us."""
+    return "" if x["resolution_us"] == 1 else f" (to {x['resolution_us']} us)"
 
 
 def _over(x: dict) -> str:

@@ -141,6 +141,23 @@ def test_hold_search_brackets():
         budget.shortest_period(ok, 0, 1000)
 
 
+def test_the_search_down_from_the_reported_period_stops_at_the_first_failure_not_at_a_chance():
+    # a predicate that holds from 1400 to 1460 by chance, fails from 1461 to 1507 and holds from
+    # 1508 on (the 22.1184 MHz stress program's shape): every P from the answer to the top must hold
+    calls = []
+
+    def ok(p):
+        calls.append(p)
+        return 1400 <= p <= 1460 or p >= 1508
+
+    assert budget.holds_down_to(ok, 1000, 1600) == 1508
+    assert calls == list(range(1600, 1506, -1))     # one build per us down to the first failure
+    assert budget.shortest_period(ok, 1000, 1600) == 1400   # a bisection takes the chance
+    assert budget.holds_down_to(lambda p: p >= 1001, 1000, 1600) == 1001      # the lower bound is never tried
+    with pytest.raises(AssertionError):
+        budget.holds_down_to(lambda p: p > 1600, 1000, 1600)
+
+
 def test_keyframes_and_compile_stages():
     mem = suite.memory(quick=True)
     for key in ("keyframes", "gait_steps"):
