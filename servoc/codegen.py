@@ -33,7 +33,7 @@ from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
                    host_xram, hosted, move_starts,
-                   port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
+                   port_bottoms, port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
                     host_playable,
@@ -399,13 +399,15 @@ def _can_stagger(plan: Plan) -> bool:
 
 def _stagger_may_pay(without: AsmUnit) -> bool:
     """Whether the build with staggered rises can hold a shorter period than `without`: its spans
-    are at least each port's pulses less C(0) (the last port's, its pulses and a step)."""
+    are at least each port's pulses less the next port's earliest fall, and C(0) (the last port's,
+    its pulses and a step)."""
     b = without.budget
     if b is None or without.min_period_us is None or not b.tops:
         return True
     t = without.target
-    c0 = t.width_cycles(0)
-    least = sum(max(t.width_cycles(top) - c0, c0) for top in b.tops[:-1]) + t.width_cycles(b.tops[-1]) + costs.STEP
+    low = b.bottoms or (0,) * len(b.tops)
+    least = (sum(max(t.width_cycles(top) - t.width_cycles(low[k + 1]), t.width_cycles(0)) for k, top in enumerate(b.tops[:-1]))
+             + t.width_cycles(b.tops[-1]) + costs.STEP)
     return t.us_at_least(least) < without.min_period_us
 
 
@@ -576,9 +578,10 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     room = state_base - stack_base
     bport = (plan.ports[-1] if len(plan.ports) == 3 and not in_xram and stack_bytes + costs.BUFB_RAM <= room
              and not stagger else None)     # with rises among falls, each port's items are written in its turn
-    tops = port_tops(plan)
+    tops, bottoms = port_tops(plan), port_bottoms(plan)
     m = len(tops)
-    spans = (tuple(costs.stagger_span(target, top, target.width_cycles(0), k == m - 1) for k, top in enumerate(tops))
+    spans = (tuple(costs.stagger_span(target, top, target.width_cycles(0), k == m - 1, bottoms[k], bottoms[(k + 1) % m])
+                   for k, top in enumerate(tops))
              if stagger else tuple(costs.port_span(target, top, stepping) for top in tops))
     e = _engine(plan, ram, period_cycles, bport, spans, stepping, stagger)
     e["framed"] = ctx.flagged
@@ -669,7 +672,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     budget, work_from = measure(text)
     spans = e["spans"]
     if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
-        spans = costs.fit_spans(target, budget, tops)
+        spans = costs.fit_spans(target, dataclasses.replace(budget, bottoms=bottoms), tops)
         assert stagger or all(span >= costs.port_span(target, top, stepping) for span, top in zip(spans, tops)), \
             "a span shorter than its longest pulse and the step to the next rise"
         if spans != e["spans"]:     # the spans are immediates: the code's cycles must not change
@@ -677,7 +680,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
             before, text = text, lay_out()
             if not wcet.same_cycles(before, text) and measure(text) != (budget, work_from):
                 raise RuntimeError("the code laid out again for its spans takes other cycles than before")
-        budget = dataclasses.replace(budget, spans=spans, tops=tops)
+        budget = dataclasses.replace(budget, spans=spans, tops=tops, bottoms=bottoms)
     offsets = tuple(costs.rise_offsets(plan.ports, target, spans).values())
     run = None if budget is None else max(budget.emits or budget.rises, default=0)
     if run is not None and run > target.width_cycles(0):

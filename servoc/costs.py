@@ -48,7 +48,8 @@ its own in that port's list (a second sled in its window) or an entry of its own
 background writes each port's items after its sort (frame_irq.asm.j2, stagger_emit.asm.j2: the
 sort's term includes it) into the one of two buffers the handler does not use; the handler takes
 them after the last edge of the port before (its handover, `handovers`), a run that must end
-before the rising port's earliest fall: the span is C(top) - C(0) and that run (Budget.emits).
+before the rising port's earliest fall: the span is C(top) - C(bottom) and that run
+(Budget.emits), `bottom` the lowest N the rising port's lines fall at (flow.port_bottoms).
 The last port's span holds its pulses whole (C(top) + STEP), so that every period from the
 shortest on holds. In the terms above, each port's rise is then its handover, and each sort
 must fit between the handover before it and its port's rise.
@@ -125,11 +126,11 @@ def stagger_ok(target) -> bool:
     return all(target.width_cycles(n + 1) - target.width_cycles(n) >= 2 * STEP for n in range(250))
 
 
-def rise_slot(target, top: int, at_least: int) -> int:
+def rise_slot(target, top: int, at_least: int, bottom: int = 0) -> int:
     """The first time from `at_least` on (cycles after a port's rise) at least STEP cycles from the
-    fall of every N up to `top`: where the next port's rise can come among this port's falls as a
-    step on either side, or after them."""
-    widths = [target.width_cycles(n) for n in range(top + 1)]
+    fall of every N from `bottom` to `top` (the N its lines can fall at): where the next port's rise
+    can come among this port's falls as a step on either side, or before or after them."""
+    widths = [target.width_cycles(n) for n in range(bottom, top + 1)]
     d = at_least
     while True:
         near = [c for c in widths if abs(c - d) < STEP]
@@ -138,17 +139,19 @@ def rise_slot(target, top: int, at_least: int) -> int:
         d = max(near) + STEP
 
 
-def stagger_span(target, top: int, emit: int, last: bool) -> int:
+def stagger_span(target, top: int, emit: int, last: bool, bottom: int = 0, next_bottom: int = 0) -> int:
     """The shortest span of a port whose next port's rise may come among its falls: the next port's
-    first fall (C(0) after its rise at the earliest) must come after this port's last fall (C(top))
-    and the handler's run from it that takes the next port's items (`emit`: Budget.emits, an
-    entry's ENTRY included); the rise no earlier than this port's earliest fall (the run that
-    takes this port's items ends by then), and at least STEP from every fall (`rise_slot`). The last port's span holds its falls
-    whole (the next frame's first rise after them), so that every longer period holds too."""
+    first fall (C(next_bottom) after its rise at the earliest: the lowest N its lines fall at,
+    `flow.port_bottoms`) must come after this port's last fall (C(top)) and the handler's run from
+    it that takes the next port's items (`emit`: Budget.emits, an entry's ENTRY included); the rise
+    no earlier than C(0) (the run that takes this port's items ends by then, `HandlerTooSlow`),
+    and at least STEP from every fall this port's lines can have (`rise_slot`, N `bottom` to
+    `top`). The last port's span holds its falls whole (the next frame's first rise after them),
+    so that every longer period holds too."""
     if last:
         return target.width_cycles(top) + STEP
-    c0 = target.width_cycles(0)
-    return rise_slot(target, top, max(target.width_cycles(top) - c0 + emit, c0))
+    least = target.width_cycles(top) - target.width_cycles(next_bottom) + emit
+    return rise_slot(target, top, max(least, target.width_cycles(0)), bottom)
 
 
 def rise_offsets(ports: tuple[int, ...], target, spans: tuple[int, ...] = ()) -> dict[int, int]:
@@ -207,14 +210,16 @@ def _stagger_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int
     (`handovers`) and its rise."""
     m = len(budget.lines)
     gap = serial_gap(budget) if budget.byte_cycles else 0     # the serial handler's time between two ports' runs
-    spans = [stagger_span(target, top, budget.emits[(k + 1) % m] + gap, k == m - 1) for k, top in enumerate(tops)]
+    low = budget.bottoms or (0,) * m
+    spans = [stagger_span(target, top, budget.emits[(k + 1) % m] + gap, k == m - 1, low[k], low[(k + 1) % m])
+             for k, top in enumerate(tops)]
     for j in range(1, m - 1 if budget.last_in_b else m):
         while True:
             late = handovers(target, tops, spans)[j - 1] - sum(spans[:j - 1])
             need = late + _sort_need(target, budget, j, spans[j - 1]) + SPLIT - 1
             if need <= spans[j - 1]:
                 break
-            spans[j - 1] = rise_slot(target, tops[j - 1], need)       # j - 1 < m - 1: never the last
+            spans[j - 1] = rise_slot(target, tops[j - 1], need, low[j - 1])      # j - 1 < m - 1: never the last
     return tuple(spans)
 
 
@@ -380,6 +385,7 @@ class Budget:
     last_in_b: bool = False     # the last port has sort buffer B: frame_io sorts it before the others
     spans: tuple[int, ...] = ()     # each port's rise to the next one's (`fit_spans`; none: N 250 each)
     tops: tuple[int, ...] = ()      # the highest N each port's lines reach (flow.port_tops; none: 250)
+    bottoms: tuple[int, ...] = ()   # the lowest N each port's lines fall at (flow.port_bottoms; none: 0)
     steps: bool = False         # a rise less than SPLIT after the last fall before it is a step (RISE_STEP)
     stagger: bool = False       # each port's rise may come among the falls of the port before it (stagger_span)
     emits: tuple[int, ...] = ()     # stagger: each port's handover, from the last edge of the port before
@@ -521,15 +527,16 @@ def _stagger_stretch(target, budget: Budget, need: int) -> int:
     port's lines and the rise, each an entry of at most SPLIT cycles (or a step shorter than it),
     then the handover; each span leaves `need` cycles after it before the next port's earliest
     fall's entry (`_stagger_spans`), and the last port's handover, right after the first port's
-    rise, C(0) less its run. Where that is shorter than `need`, no bound: the build is refused
-    (serial-too-fast) and the ports are pulsed one after another."""
+    rise, its earliest fall less its run. Where that is shorter than `need`, no bound: the build is
+    refused (serial-too-fast) and the ports are pulsed one after another."""
     m = len(budget.lines)
-    c0 = target.width_cycles(0)
+    low = budget.bottoms or (0,) * m
     worst = 0
     for k in range(m):
         n = (k + 1) % m
-        after = (budget.spans[k] + c0 - target.width_cycles(budget.tops[k]) if k < m - 1 and budget.spans
-                 else c0) - budget.emits[n]
+        first = target.width_cycles(low[n])      # the next port's earliest fall, after its rise
+        after = (budget.spans[k] + first - target.width_cycles(budget.tops[k]) if k < m - 1 and budget.spans
+                 else first) - budget.emits[n]
         if after < need:
             return 1 << 20
         worst = max(worst, SPLIT * (budget.lines[k] + 1) + budget.emits[n] - ENTRY)

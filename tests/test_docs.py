@@ -326,7 +326,7 @@ def test_angle_table():
 def test_min_period_formula(tmp_path: Path):
     text = doc_text()
     assert (f"Σ span                                        the pulses: span = C(top) + {costs.SPLIT} "
-            f"({costs.RISE_STEP} with steps;\n" + " " * 48 + "C(top) - C(0) + emit with rises among falls)") in text
+            f"({costs.RISE_STEP} with steps;\n" + " " * 48 + "C(top) - C(bottom') + emit with rises among falls)") in text
     assert f"at a time {costs.STEP} cycles or more from every fall" in text and f"C(top) + {costs.STEP}, so that" in text
     assert f"fixed {costs.ENTRY} cycles before the edge" in text and f"less than {costs.SPLIT} cycles apart" in text
     # the worked example quotes what servoc reports

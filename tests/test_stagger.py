@@ -5,10 +5,13 @@ sort, and the handler takes them after the port before's last edge. The ports' p
 shortest period servoc reports for it, every pulse exact, and that period less 1 us is refused.
 """
 
+import dataclasses
+
 import pytest
 
 from conftest import build_text, front_end_text, parse_listing
 from servoc import codegen, costs
+from servoc.flow import port_bottoms
 from test_spans import check_at_minimum
 
 pytestmark = pytest.mark.toolchain
@@ -64,6 +67,20 @@ def ports(*per_port: int, tops: tuple[int, ...] = (), crossing: bool = False) ->
             + "main { loop { move b in {1P}us; move a in {1P}us } }\n")
 
 
+def ranged(per_port: int, lo: int, hi: int, ports_: int = 3) -> str:
+    """Servos on P0, P1, ... (`per_port` each) whose lines stay within N lo..hi, moving every frame
+    between two poses (an eased move and a linear one)."""
+    lines, a, b = [], [], []
+    for port in range(ports_):
+        for bit in range(per_port):
+            name = f"s{port}{bit}"
+            lines.append(f"servo {name} = P{port}.{bit} speed 0.0001s/60deg")
+            a.append(f"{name}: {lo + (13 * bit + 5 * port) * bit % (hi - lo + 1)}")
+            b.append(f"{name}: {hi - (11 * bit + 7 * port) * bit % (hi - lo + 1)}")
+    return ("\n".join(lines) + f"\npose a {{ {', '.join(a)} }}\npose b {{ {', '.join(b)} }}\n"
+            + "main { loop { move b in {1P}us ease in-out; move a in {1P}us } }\n")
+
+
 def held(values: list[list[int]]) -> str:
     """Servos holding one pose, `values[port][bit]` each."""
     lines, a = [], []
@@ -83,6 +100,7 @@ CASES = {
     "eight on a port, one on the next": ports(8, 1, 8),
     "lines crossing each other's N every frame": ports(8, 8, 8, crossing=True),
     "ports of different reach": ports(8, 8, 8, tops=(120, 250, 40)),
+    "lines within 1 to 2 ms (N 62 to 187)": ranged(3, 62, 187),
 }
 
 
@@ -97,11 +115,30 @@ def test_rises_among_falls_verify_at_the_minimum(clock, case):
         return
     assert b.stagger and built.plan.rises_among_falls
     m = len(b.spans)
+    assert b.bottoms == port_bottoms(built.plan)
     for k in range(m - 1):      # each rise among the falls before it where they reach past it
-        assert all(abs(t.width_cycles(n) - b.spans[k]) >= costs.STEP for n in range(b.tops[k] + 1))
-        assert b.spans[k] >= t.width_cycles(b.tops[k]) - t.width_cycles(0) + b.emits[k + 1]
+        assert all(abs(t.width_cycles(n) - b.spans[k]) >= costs.STEP for n in range(b.bottoms[k], b.tops[k] + 1))
+        assert b.spans[k] >= t.width_cycles(b.tops[k]) - t.width_cycles(b.bottoms[k + 1]) + b.emits[k + 1]
     assert b.spans[-1] >= t.width_cycles(b.tops[-1]) + costs.STEP
     assert any(b.spans[k] < t.width_cycles(b.tops[k]) for k in range(m - 1))
+
+
+@pytest.mark.parametrize("clock", FAST)
+def test_a_port_whose_lines_never_fall_early_lets_the_port_before_it_end_sooner(clock):
+    """The rising port's earliest fall is C(bottom), the lowest N its lines fall at (flow.port_bottoms),
+    not C(0); and the rise need only be STEP from the falls the port before can have (N bottom to
+    top). Lines within 1 to 2 ms: each span among falls is C(187) - C(62) and the handover, not
+    C(187) - C(0), and the frame is shorter than with every bottom taken as N 0."""
+    built = build_text(clock + ranged(2, 62, 187).replace("{1P}", "20000"))
+    b, t = built.firmware.unit.budget, built.plan.program.target
+    assert b.stagger and b.bottoms == (62, 62, 62) and b.tops == (187, 187, 187)
+    as_if_zero = costs.fit_spans(t, dataclasses.replace(b, bottoms=()), b.tops)
+    for k in range(2):      # at least the shortest such span (longer where the next port's sort needs it)
+        least = costs.stagger_span(t, 187, b.emits[k + 1], False, 62, 62)
+        assert least < costs.stagger_span(t, 187, b.emits[k + 1], False) and b.spans[k] >= least
+    assert sum(b.spans) < sum(as_if_zero)
+    assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(b, spans=as_if_zero, bottoms=()))
+    assert built.plan.min_period_us == t.us_at_least(costs.frame_cycles(t, b))
 
 
 def test_the_rise_sled_puts_the_rise_exactly_its_gap_after_the_fall_before_it():
