@@ -855,6 +855,11 @@ def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) 
         # stagger: the highest N whose fall comes before the next port's rise, and the N after it
         p["nstar"] = max((n for n in range(251) if target.width_cycles(n) < p["rnext"]), default=-1)
         p["n_after"] = p["nstar"] + 1
+        # rins takes the rise for a step only where nstar - N is below this (its gap from C(N) is then
+        # found from low bytes): 0 where the rise is SPLIT or more after C(nstar), so never a step
+        # (the last port's, or one whose span its sort made longer, can be 256 cycles or more after)
+        far = p["nstar"] >= 0 and p["rnext"] - target.width_cycles(p["nstar"]) >= costs.SPLIT
+        p["near_rise"] = 0 if far else e["near_dn"]
     for k, p in enumerate(e["ports"]):
         before = e["ports"][k - 1]
         p["prev_port"], p["prev_rnext"] = before["port"], before["rnext"]

@@ -12,6 +12,7 @@ import pytest
 from conftest import build_text, front_end_text, parse_listing
 from servoc import codegen, costs
 from servoc.flow import port_bottoms
+from test_costs import at_period, own_minimum
 from test_spans import check_at_minimum
 
 pytestmark = pytest.mark.toolchain
@@ -121,6 +122,23 @@ def test_rises_among_falls_verify_at_the_minimum(clock, case):
         assert b.spans[k] >= t.width_cycles(b.tops[k]) - t.width_cycles(b.bottoms[k + 1]) + b.emits[k + 1]
     assert b.spans[-1] >= t.width_cycles(b.tops[-1]) + costs.STEP
     assert any(b.spans[k] < t.width_cycles(b.tops[k]) for k in range(m - 1))
+
+
+@pytest.mark.parametrize("clock", FAST)
+def test_every_period_from_the_minimum_on_holds_not_only_the_minimum(clock):
+    """The last port's next rise (the first port's, a frame later) comes P - rise(last) after its
+    own: at most periods 256 cycles or more after its last fall. Where that fall's N is near the
+    top, the items must still take the rise for a cluster of its own, not for a step whose gap is
+    found from the low bytes of the two times (right only below 256 cycles). Periods from the
+    minimum on, 7 us apart over more than 256 cycles: every pulse exact."""
+    template = clock + CASES["N 0 and N 250 on every port"]
+    least = own_minimum(template, 12000)
+    turn = int(256 * target_of(clock).cycle_us) + 1         # 256 machine cycles, in us
+    for period in range(least, least + turn + 15, 7):
+        built = build_text(at_period(template, period))
+        assert built.firmware.unit.budget.stagger
+        report = built.verify(12)
+        assert report.ok and report.max_error_cycles == 0, (period, report.summary())
 
 
 @pytest.mark.parametrize("clock", FAST)
