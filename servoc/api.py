@@ -172,15 +172,15 @@ def _least_fitting(program, first: Plan, at: Plan) -> int:
 
 def _overflow(p: Plan) -> tuple[str, str] | None:
     """The rom-overflow message and help when the firmware generated for `p` does not fit the
-    chip's code memory, else None: it surely fits when a bound read from the text (3 bytes an
-    instruction, every data byte, a whole page at each page boundary) says so; else as the
-    assembler lays it out (without the toolchain: taken to fit, as nothing can be built then)."""
+    chip's code memory, else None: it fits when the size read from the text says so
+    (`layout.rom_end`); else the assembler lays it out for the message (without the toolchain:
+    taken to fit, as nothing can be built then)."""
     try:
         unit = codegen.generate(p)
     except layout.LayoutError:
         return None                         # a resource limit: reported as such, whatever the build
     chip = unit.target.chip
-    if layout.rom_bound(unit.text) + 512 * len(unit.fneed_pages) <= chip.code_bytes:
+    if layout.rom_end(unit.text) + 512 * len(unit.fneed_pages) <= chip.code_bytes:
         return None
     try:
         image = toolchain.assemble(unit.text, name="servo")

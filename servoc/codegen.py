@@ -364,8 +364,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     RAM `flow.host_vars` counts): a program that fits with one is never refused for the others.
     The next port's rise comes as a step of its last fall's entry (`costs.RISE_STEP`), or where
     the clock allows it among that port's falls (`costs.stagger_span`), in the build of these
-    whose code holds the shortest period (without either where they tie, or where their code might
-    not fit the chip's code memory); a build for size has neither. `stepping` or `stagger` given:
+    whose code holds the shortest period (without either where they tie, or where their code does
+    not fit the chip's code memory, `layout.rom_end`); a build for size has neither. `stepping` or `stagger` given:
     that build (True only where a build can have it)."""
     can = costs.rise_steps(plan.compact) and bool(plan.ports)
     can_stagger = can and _can_stagger(plan)
@@ -386,7 +386,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
             continue
         if (other.min_period_us is not None and best.min_period_us is not None
                 and other.min_period_us < best.min_period_us
-                and layout.rom_bound(other.text) + 512 * len(other.fneed_pages) <= other.target.chip.code_bytes):
+                and layout.rom_end(other.text) + 512 * len(other.fneed_pages) <= other.target.chip.code_bytes):
             best = other
     return best
 

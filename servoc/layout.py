@@ -430,23 +430,55 @@ def fit(symbols: dict[str, int], fneed_pages: tuple[int, ...], rom_size: int) ->
     return Fit(runtime, program, data, end, limit, end + (rom_size - limit))
 
 
-def rom_bound(text: str) -> int:
-    """At least the end of the code and data the assembly text lays out."""
+_NO_BYTES = {"A", "C", "AB", "DPTR", "@A+DPTR", "@A+PC", "@DPTR", "@R0", "@R1",
+             "R0", "R1", "R2", "R3", "R4", "R5", "R6", "R7"}
+
+
+def instruction_bytes(op: str, args: list[str]) -> int:
+    """The bytes of one 8051 instruction as the assembler encodes it: the opcode, then a byte for
+    each direct address, bit address, relative jump or 8-bit immediate, two for a 16-bit address
+    (LJMP, LCALL) or immediate (MOV DPTR,#); registers, A, C, AB, DPTR and indirect operands are
+    in the opcode."""
+    op = op.upper()
+    n = 1
+    for a in args:
+        a = a.strip()
+        if a.upper() in _NO_BYTES:
+            continue
+        wide = op in ("LJMP", "LCALL") or (a.startswith("#") and op == "MOV" and args[0].strip().upper() == "DPTR")
+        n += 2 if wide else 1
+    return n
+
+
+def _data_items(rest: str) -> list[str]:
+    """The items of a .db / .ascii operand list, quoted strings kept whole."""
+    return [m.group(0).strip() for m in re.finditer(r'"[^"]*"|[^,]+', rest) if m.group(0).strip()]
+
+
+def rom_end(text: str) -> int:
+    """The end of the code and data the assembly text lays out, as the assembler lays them out
+    (`instruction_bytes`, each .db item a byte or a string's characters, .bndry padding to its
+    boundary, .org): the address of `data_end` (the frames-needed tables after it have pages of
+    their own, `fit`), or of the text's end. Without the toolchain, so that a build can be chosen
+    by its size."""
     at = 0
     for raw in text.splitlines():
+        if re.match(r"\s*data_end::?", raw):
+            return at
         line = re.sub(r"^\w+::?", "", raw.split(";", 1)[0].strip()).strip()     # the label, if any
         if not line:
             continue
         op, _, rest = line.partition(" ")
         op = op.lower()
         if op == ".org":
-            at = max(at, int(rest.strip(), 0))
+            at = int(rest.strip(), 0)
         elif op == ".bndry":
-            at += int(rest.strip(), 0) - 1
-        elif op == ".db":
-            at += len(rest.split(","))
+            size = int(rest.strip(), 0)
+            at += -at % size
+        elif op in (".db", ".ascii"):
+            at += sum(len(item) - 2 if item.startswith('"') else 1 for item in _data_items(rest))
         elif op == ".dw":
-            at += 2 * len(rest.split(","))
+            at += 2 * len(_data_items(rest))
         elif not op.startswith(".") and "=" not in line:
-            at += 3
+            at += instruction_bytes(op, [a for a in rest.split(",") if a.strip()])
     return at
