@@ -892,7 +892,12 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                          frozenset({"PLAYH"}), barred)
         work, at = code.between_frames()
         fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
-        sorts = tuple(f - _unswapped(code, n, load.swaps) for f, n, load in zip(fs, lines, loads))
+        # with rises among falls a port is sorted first, then its items written once the handler
+        # took the port before's (ft: after the wait): the sort's term is both
+        items = tuple(code.longest(f"ft{p}", {f"fs{q}" for q in ports} | {"fi_done"}) for p in ports
+                      ) if ports and f"ft{ports[0]}" in code.labels else ()
+        sorts = tuple(f - _unswapped(code, n, load.swaps) + (items[k] if items else 0)
+                      for k, (f, n, load) in enumerate(zip(fs, lines, loads)))
         paired = {}
         if starts:      # the paths that read a move record (a hold's HOLDF set, or not known, is not one)
             by = code.by_record()
@@ -924,7 +929,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
     except wcet.WcetError as exc:
         return None, str(exc)
     return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
-                         steps=stepped and not staggered, stagger=staggered, emits=emits, **paired, **serial),
+                         steps=stepped and not staggered, stagger=staggered, emits=emits, items=items, **paired, **serial),
             code.label_at(at))
 
 

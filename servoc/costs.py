@@ -52,7 +52,10 @@ before the rising port's earliest fall: the span is C(top) - C(bottom) and that 
 (Budget.emits), `bottom` the lowest N the rising port's lines fall at (flow.port_bottoms).
 The last port's span holds its pulses whole (C(top) + STEP), so that every period from the
 shortest on holds. In the terms above, each port's rise is then its handover, and each sort
-must fit between the handover before it and its port's rise.
+must fit between the handover before it and its port's rise. The handler never reads the sort
+buffer then: frame_io sorts a port before it waits, and writes only its items (Budget.items) after
+the handler took the port before's, so the last port's sort can end before its wait
+(`_items_start`).
 """
 
 from __future__ import annotations
@@ -390,6 +393,8 @@ class Budget:
     stagger: bool = False       # each port's rise may come among the falls of the port before it (stagger_span)
     emits: tuple[int, ...] = ()     # stagger: each port's handover, from the last edge of the port before
                                 # to the RETI, and an entry's ENTRY (its rise: `rises`, SPLIT - 1 more)
+    items: tuple[int, ...] = ()     # stagger: the part of each port's sort (`sorts`) that waits for the
+                                # handler to take the port before's items: writing its own
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -472,6 +477,12 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     last = period - hand[m - 1]     # the last port's handover to the first port's next rise
     if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
         need.append(hand[m - 1] + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))
+    elif budget.items:      # stagger: a port is sorted before the wait, its items written after it
+        need.append(hand[m - 1] + budget.items[0] + load[-1] + runs(last))
+        if m >= 2:
+            need.append(min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
+                        + budget.items[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
+                        + runs(period - hand[m - 2]))
     else:
         need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:
@@ -483,6 +494,28 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
                           f"handler's {runs(span[j - 1])}) does not fit between the rise before it and its own")
     return max(need)
+
+
+def _items_start(budget: Budget, hand: list[int], rise: list[int], load: list[int], period: int, runs) -> int:
+    """Stagger: when the last port's items are written at the latest: once the handler took the
+    port before's (its handover) and its sort is done. That sort follows the items of the port
+    before, which wait for the handover of the port before that one (`before`: hand[m - 3], the
+    first port's rise; with two ports, the last port's handover in the frame before) and are
+    written before their own handover: so it is done by `before`, the two sorts and the items
+    between, the handler's load of every port that rises by then (with two ports, and the last
+    port's of the frame before; the last port's span holds its falls, so with three they are
+    over by the first port's rise) and the serial handler's runs."""
+    m = len(hand)
+    before = hand[m - 3] if m >= 3 else hand[m - 1] - period
+    net = [s - i for s, i in zip(budget.sorts, budget.items)]
+    busy = net[m - 2] + budget.items[m - 2] + net[m - 1] + (load[m - 1] if m == 2 else 0)
+    done = before + busy
+    for _ in range(64):     # each pass adds a port's load or the serial handler's runs in more time
+        more = before + busy + sum(ld for r, ld in zip(rise, load) if r < done) + runs(done - before)
+        if more <= done:
+            return max(hand[m - 2], done)
+        done = more
+    return max(hand[m - 2], before + busy + sum(load) + runs(1 << 16))
 
 
 class TooSlow(Exception):
