@@ -33,7 +33,7 @@ from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
                    host_xram, hosted, move_starts,
-                   port_bottoms, port_motions, port_tops, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
+                   port_motions, port_reach, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
                     host_playable,
@@ -578,7 +578,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     room = state_base - stack_base
     bport = (plan.ports[-1] if len(plan.ports) == 3 and not in_xram and stack_bytes + costs.BUFB_RAM <= room
              and not stagger else None)     # with rises among falls, each port's items are written in its turn
-    tops, bottoms = port_tops(plan), port_bottoms(plan)
+    motions = port_motions(plan)
+    bottoms, tops = port_reach(plan, motions)
     m = len(tops)
     spans = (tuple(costs.stagger_span(target, top, target.width_cycles(0), k == m - 1, bottoms[k], bottoms[(k + 1) % m])
                    for k, top in enumerate(tops))
@@ -661,7 +662,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         breakdown[f"frames-needed tables ({len(fneed)} speed class{'es' if len(fneed) != 1 else ''})"] = 512 * len(fneed)
     if hosting:
         breakdown["host: the S table E(|delta|)"] = N_MAX + 1
-    motions, starts = port_motions(plan), move_starts(plan)
+    starts = move_starts(plan)
     def measure(text: str):
         return frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
                             tuple(costs.port_load(target, motions[p]) for p in plan.ports),

@@ -519,24 +519,25 @@ def port_tops(plan: Plan) -> tuple[int, ...]:
     """Per port, in port order, the highest N any of its lines can have in any frame (0: none ever
     has a target): the longest pulse its span must hold (`costs.fit_spans`). Every frame of a move
     lies between its start and its end (`port_motions`; eased curves never overshoot)."""
-    return _port_extremes(plan, max)
+    return port_reach(plan)[1]
 
 
 def port_bottoms(plan: Plan) -> tuple[int, ...]:
     """Per port, in port order, the lowest N at which any of its lines can fall in any frame (0:
     none ever has a target): its earliest fall, C(bottom) after its rise (`costs.stagger_span`).
     A line without a target stays at N 0 but never falls."""
-    return _port_extremes(plan, min)
+    return port_reach(plan)[0]
 
 
-def _port_extremes(plan: Plan, pick) -> tuple[int, ...]:
-    """Per port, `pick` (max or min) of the N its lines with a target can have in any frame."""
-    motions = port_motions(plan)
-
-    def ends(v) -> int:
-        return v if isinstance(v, int) else (v.hi if pick is max else v.lo)
-    return tuple(pick((ends(n) for lines in motions[port] for ab in lines if ab is not None for n in ab), default=0)
-                 for port in plan.ports)
+def port_reach(plan: Plan, motions: dict[int, frozenset] | None = None) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """(`port_bottoms`, `port_tops`), from the ports' motions (`port_motions`, given or found)."""
+    motions = port_motions(plan) if motions is None else motions
+    low, high = [], []
+    for port in plan.ports:
+        values = [n for lines in motions[port] for ab in lines if ab is not None for n in ab]
+        low.append(min((n if isinstance(n, int) else n.lo for n in values), default=0))
+        high.append(max((n if isinstance(n, int) else n.hi for n in values), default=0))
+    return tuple(low), tuple(high)
 
 
 def host_watchers(plan: Plan) -> set[int]:

@@ -455,6 +455,9 @@ def _data_items(rest: str) -> list[str]:
     return [m.group(0).strip() for m in re.finditer(r'"[^"]*"|[^,]+', rest) if m.group(0).strip()]
 
 
+_STATEMENT = re.compile(r"^[ \t]*(?:(\w+)::?)?[ \t]*([^;\n]*)", re.M)
+
+
 def rom_end(text: str) -> int:
     """The end of the code and data the assembly text lays out, as the assembler lays them out
     (`instruction_bytes`, each .db item a byte or a string's characters, .bndry padding to its
@@ -462,11 +465,15 @@ def rom_end(text: str) -> int:
     their own, `fit`), or of the text's end. Without the toolchain, so that a build can be chosen
     by its size."""
     at = 0
-    for raw in text.splitlines():
-        if re.match(r"\s*data_end::?", raw):
+    sizes: dict[str, int] = {}      # an instruction's operands as written: its bytes
+    for label, line in _STATEMENT.findall(text):
+        if label == "data_end":
             return at
-        line = re.sub(r"^\w+::?", "", raw.split(";", 1)[0].strip()).strip()     # the label, if any
+        line = line.strip()
         if not line:
+            continue
+        if line in sizes:
+            at += sizes[line]
             continue
         op, _, rest = line.partition(" ")
         op = op.lower()
@@ -480,5 +487,6 @@ def rom_end(text: str) -> int:
         elif op == ".dw":
             at += 2 * len(_data_items(rest))
         elif not op.startswith(".") and "=" not in line:
-            at += instruction_bytes(op, [a for a in rest.split(",") if a.strip()])
+            sizes[line] = instruction_bytes(op, [a for a in rest.split(",") if a.strip()])
+            at += sizes[line]
     return at
