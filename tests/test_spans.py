@@ -19,18 +19,22 @@ CLOCKS = ["", "target stc89c52rc clock 11.0592MHz\n", "target at89c52 clock 22.1
           "target stc89c52rc clock 11.0592MHz mode 6T\n"]
 
 
+def between_two_poses(servos: list[tuple[int, int, int, int]], eased: bool = False) -> str:
+    """Fast servos s<port><bit> on P<port>.<bit>, for each (port, bit, N in pose a, N in pose b),
+    moving every frame from one pose to the other ({1P}: the period), the first move eased or not."""
+    lines = [f"servo s{port}{bit} = P{port}.{bit} speed 0.0001s/60deg" for port, bit, _, _ in servos]
+    a = ", ".join(f"s{port}{bit}: {n}" for port, bit, n, _ in servos)
+    b = ", ".join(f"s{port}{bit}: {n}" for port, bit, _, n in servos)
+    ease = " ease in-out" if eased else ""
+    return ("\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
+            + f"main {{ loop {{ move b in {{1P}}us{ease}; move a in {{1P}}us }} }}\n")
+
+
 def ports_of(tops: dict[int, int], per_port: int = 8) -> str:
     """Servos on each port, moving every frame between N 0 and their port's top, in steps so that
     lines fall apart: the port's highest N is its top, reached in some frames."""
-    lines, a, b = [], [], []
-    for port, top in tops.items():
-        for bit in range(per_port):
-            name = f"s{port}{bit}"
-            lines.append(f"servo {name} = P{port}.{bit} speed 0.0001s/60deg")
-            a.append(f"{name}: {top * bit // max(1, per_port - 1)}")
-            b.append(f"{name}: {top - top * bit // max(1, per_port - 1)}")
-    return ("\n".join(lines) + f"\npose a {{ {', '.join(a)} }}\npose b {{ {', '.join(b)} }}\n"
-            + "main { loop { move b in {1P}us; move a in {1P}us } }\n")
+    return between_two_poses([(port, bit, top * bit // max(1, per_port - 1), top - top * bit // max(1, per_port - 1))
+                              for port, top in tops.items() for bit in range(per_port)])
 
 
 def check_at_minimum(template: str, start: int) -> tuple:

@@ -15,7 +15,7 @@ from conftest import build_text, front_end_text, parse_listing
 from servoc import codegen, costs
 from servoc.flow import port_bottoms
 from test_costs import at_period, own_minimum
-from test_spans import check_at_minimum
+from test_spans import between_two_poses, check_at_minimum
 
 pytestmark = pytest.mark.toolchain
 ROOT = Path(__file__).resolve().parent.parent
@@ -58,31 +58,21 @@ def ports(*per_port: int, tops: tuple[int, ...] = (), crossing: bool = False) ->
     """Servos on P0, P1, ... (`per_port` each), moving every frame between two poses: each port's
     lines spread over 0..top (`tops`, default 250) one way and back, or (`crossing`) each line
     crossing the N of the others every frame."""
-    lines, a, b = [], [], []
+    servos = []
     for port, count in enumerate(per_port):
         top = tops[port] if tops else 250
         for bit in range(count):
-            name = f"s{port}{bit}"
-            lines.append(f"servo {name} = P{port}.{bit} speed 0.0001s/60deg")
             lo = top * bit // max(1, count - 1)
-            a.append(f"{name}: {lo}")
-            b.append(f"{name}: {top - lo if crossing else (lo + 37 * port + 11) % (top + 1)}")
-    return ("\n".join(lines) + f"\npose a {{ {', '.join(a)} }}\npose b {{ {', '.join(b)} }}\n"
-            + "main { loop { move b in {1P}us; move a in {1P}us } }\n")
+            servos.append((port, bit, lo, top - lo if crossing else (lo + 37 * port + 11) % (top + 1)))
+    return between_two_poses(servos)
 
 
 def ranged(per_port: int, lo: int, hi: int, ports_: int = 3) -> str:
     """Servos on P0, P1, ... (`per_port` each) whose lines stay within N lo..hi, moving every frame
     between two poses (an eased move and a linear one)."""
-    lines, a, b = [], [], []
-    for port in range(ports_):
-        for bit in range(per_port):
-            name = f"s{port}{bit}"
-            lines.append(f"servo {name} = P{port}.{bit} speed 0.0001s/60deg")
-            a.append(f"{name}: {lo + (13 * bit + 5 * port) * bit % (hi - lo + 1)}")
-            b.append(f"{name}: {hi - (11 * bit + 7 * port) * bit % (hi - lo + 1)}")
-    return ("\n".join(lines) + f"\npose a {{ {', '.join(a)} }}\npose b {{ {', '.join(b)} }}\n"
-            + "main { loop { move b in {1P}us ease in-out; move a in {1P}us } }\n")
+    return between_two_poses([(port, bit, lo + (13 * bit + 5 * port) * bit % (hi - lo + 1),
+                               hi - (11 * bit + 7 * port) * bit % (hi - lo + 1))
+                              for port in range(ports_) for bit in range(per_port)], eased=True)
 
 
 def held(values: list[list[int]]) -> str:
