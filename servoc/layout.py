@@ -483,7 +483,8 @@ def rom_end(text: str) -> int:
             size = int(rest.strip(), 0)
             at += -at % size
         elif op in (".db", ".ascii"):
-            at += sum(len(item) - 2 if item.startswith('"') else 1 for item in _data_items(rest))
+            at += (sum(len(item) - 2 if item.startswith('"') else 1 for item in _data_items(rest)) if '"' in rest
+                   else rest.count(",") + 1)
         elif op == ".dw":
             at += 2 * len(_data_items(rest))
         elif not op.startswith(".") and "=" not in line:
