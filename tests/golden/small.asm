@@ -233,18 +233,27 @@ dm_dda: CLR     C                       ; ERR0 = floor(-F / 2), 16 bits: the DDA
         MOV     A, R7
         RRC     A
         MOV     ERR0, A
-        JNB     0x20, dd_8              ; pan: linear DDA terms
-        MOV     R1, #0xC0
-        LCALL   dda_pin
+        JNB     0x20, dd_8              ; 2  pan: linear DDA terms and first N
+        MOV     R0, #0x30            ; 1
+        MOV     R1, #0xC0            ; 1
+        MOV     C, 0x38              ; 1
+        LCALL   dda_step                ; 2
 dd_8:
-        JNB     0x23, dd_11              ; tilt: linear DDA terms
-        MOV     R1, #0xCC
-        LCALL   dda_pin
+        JNB     0x23, dd_11              ; 2  tilt: linear DDA terms and first N
+        MOV     R0, #0x33            ; 1
+        MOV     R1, #0xCC            ; 1
+        MOV     C, 0x3B              ; 1
+        LCALL   dda_step                ; 2
 dd_11:
-        JNB     0x2E, dd_22              ; claw: linear DDA terms
-        MOV     R1, #0xF8
-        LCALL   dda_pin
+        JNB     0x2E, dd_22              ; 2  claw: linear DDA terms and first N
+        MOV     R0, #0x3E            ; 1
+        MOV     R1, #0xF8            ; 1
+        MOV     C, 0x46              ; 1
+        LCALL   dda_step                ; 2
 dd_22:
+        MOV     FLEFT, SEGF             ; the move's first frame is stepped: on to frame_io
+        MOV     FLEFT+1, SEGF+1
+        LJMP    dm_io
 dm_run: MOV     FLEFT, SEGF
         MOV     FLEFT+1, SEGF+1
         MOV     SEGK, #0
@@ -290,6 +299,7 @@ st_11:
         MOV     C, 0x46              ; 1
         LCALL   step_pin                ; 2
 st_22:
+dm_io:
         LCALL   frame_io
         LCALL   fleft_dec
         JZ      dm_done
@@ -343,33 +353,43 @@ sp_up:  INC     R1
         XCH     A, @R0                  ; A = |delta| (for the F found at run time)
 sp_ret: RET
 
-; dda_pin: linear DDA terms of one moving pin, R1 -> its STATE (N0, |delta|):
+; The linear DDA terms of one moving pin, R1 -> its STATE (N0, |delta|):
 ; Q = |delta| div F, REM = |delta| mod F (F > 255: Q = 0, REM = |delta|), and the
 ; error term E = floor(F/2) kept as E - F mod 65536 (ERR0), so that every value
 ; fits 16 bits for any F up to 65535. step_pin adds REM to it each frame; a
 ; carry out of 16 bits means E + REM >= F: one step more, and E -= F.
 ; Carries after k frames: floor((REM k + floor(F/2)) / F) = floor(REM k / F + 1/2),
 ; so frame k is N0 + sgn x floor(|delta| k / F + 1/2).
-dda_pin:
+; dda_step: those terms and the move's first frame as step_pin takes it, in one call (the
+; move's first frame steps no pin again). R0 -> CUR, R1 -> STATE, C = down. Out: STATE = Q,
+; REM, E - F after the first frame; CUR = its N.
+dda_step:
+        MOV     DIRF, C
         INC     R1
         MOV     A, SEGF+1
-        JZ      dd_div
-        DEC     R1
-        MOV     @R1, #0                 ; Q = 0, REM = |delta|
-        INC     R1
-        SJMP    dd_err
-dd_div: MOV     A, @R1
+        JZ      ds_div
+        MOV     B, @R1                  ; F > 255: Q = 0, REM = |delta|
+        MOV     R6, #0
+        SJMP    ds_err
+ds_div: MOV     A, @R1
         MOV     B, SEGF
         DIV     AB
-        MOV     @R1, B                  ; REM
+        MOV     R6, A                   ; step = Q
+ds_err: MOV     @R1, B                  ; REM
         DEC     R1
+        MOV     A, R6
         MOV     @R1, A                  ; Q
         INC     R1
-dd_err: INC     R1
-        MOV     @R1, ERR0               ; E - F, low byte
         INC     R1
-        MOV     @R1, ERR0+1
-        RET
+        MOV     A, ERR0                 ; E - F + REM: the first frame's carry
+        ADD     A, B
+        MOV     @R1, A                  ; E - F, low byte
+        INC     R1
+        MOV     A, ERR0+1
+        ADDC    A, #0
+        MOV     @R1, A                  ; high byte
+        JNC     sl_move                 ; E + REM < F: no carry
+        SJMP    sl_carry
 
 ; step_pin: one frame of the current move for one pin. R0 -> CUR, R1 -> STATE, C = down.
 step_pin:
@@ -388,6 +408,7 @@ step_pin:
         ADDC    A, @R1
         MOV     @R1, A                  ; high byte
         JNC     sl_move                 ; E + REM < F: no carry
+sl_carry:
         DEC     R1                      ; E -= F
         MOV     A, @R1
         CLR     C
