@@ -49,7 +49,7 @@ background writes each port's items after its sort (frame_irq.asm.j2, stagger_em
 sort's term includes it) into the one of two buffers the handler does not use; the handler takes
 them after the last edge of the port before (its handover, `handovers`), a run that must end
 before the rising port's earliest fall: the span is C(top) - C(bottom) and that run
-(Budget.emits), `bottom` the lowest N the rising port's lines fall at (flow.port_bottoms).
+(Budget.emits), `bottom` the lowest N the rising port's lines fall at (flow.port_reach).
 The last port's span holds its pulses whole (C(top) + STEP), so that every period from the
 shortest on holds. In the terms above, each port's rise is then its handover, and each sort
 must fit between the handover before it and its port's rise. The handler never reads the sort
@@ -145,7 +145,7 @@ def rise_slot(target, top: int, at_least: int, bottom: int = 0) -> int:
 def stagger_span(target, top: int, emit: int, last: bool, bottom: int = 0, next_bottom: int = 0) -> int:
     """The shortest span of a port whose next port's rise may come among its falls: the next port's
     first fall (C(next_bottom) after its rise at the earliest: the lowest N its lines fall at,
-    `flow.port_bottoms`) must come after this port's last fall (C(top)) and the handler's run from
+    `flow.port_reach`) must come after this port's last fall (C(top)) and the handler's run from
     it that takes the next port's items (`emit`: Budget.emits, an entry's ENTRY included); the rise
     no earlier than C(0) (the run that takes this port's items ends by then, `HandlerTooSlow`),
     and at least STEP from every fall this port's lines can have (`rise_slot`, N `bottom` to
@@ -388,7 +388,7 @@ class Budget:
     last_in_b: bool = False     # the last port has sort buffer B: frame_io sorts it before the others
     spans: tuple[int, ...] = ()     # each port's rise to the next one's (`fit_spans`; none: N 250 each)
     tops: tuple[int, ...] = ()      # the highest N each port's lines reach (flow.port_tops; none: 250)
-    bottoms: tuple[int, ...] = ()   # the lowest N each port's lines fall at (flow.port_bottoms; none: 0)
+    bottoms: tuple[int, ...] = ()   # the lowest N each port's lines fall at (flow.port_reach; none: 0)
     steps: bool = False         # a rise less than SPLIT after the last fall before it is a step (RISE_STEP)
     stagger: bool = False       # each port's rise may come among the falls of the port before it (stagger_span)
     emits: tuple[int, ...] = ()     # stagger: each port's handover, from the last edge of the port before

@@ -522,15 +522,11 @@ def port_tops(plan: Plan) -> tuple[int, ...]:
     return port_reach(plan)[1]
 
 
-def port_bottoms(plan: Plan) -> tuple[int, ...]:
-    """Per port, in port order, the lowest N at which any of its lines can fall in any frame (0:
-    none ever has a target): its earliest fall, C(bottom) after its rise (`costs.stagger_span`).
-    A line without a target stays at N 0 but never falls."""
-    return port_reach(plan)[0]
-
-
 def port_reach(plan: Plan, motions: dict[int, frozenset] | None = None) -> tuple[tuple[int, ...], tuple[int, ...]]:
-    """(`port_bottoms`, `port_tops`), from the ports' motions (`port_motions`, given or found)."""
+    """Per port, in port order: the lowest N at which any of its lines can fall in any frame (its
+    earliest fall, C(bottom) after its rise: `costs.stagger_span`; a line without a target stays at
+    N 0 but never falls), and the highest (`port_tops`); 0 where none ever has a target. From the
+    ports' motions (`port_motions`, given or found)."""
     motions = port_motions(plan) if motions is None else motions
     low, high = [], []
     for port in plan.ports:

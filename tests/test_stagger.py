@@ -13,7 +13,7 @@ import pytest
 
 from conftest import build_text, front_end_text, parse_listing
 from servoc import codegen, costs
-from servoc.flow import port_bottoms
+from servoc.flow import port_reach
 from test_costs import at_period, own_minimum
 from test_spans import between_two_poses, check_at_minimum
 
@@ -109,7 +109,7 @@ def test_rises_among_falls_verify_at_the_minimum(clock, case):
         return
     assert b.stagger and built.plan.rises_among_falls
     m = len(b.spans)
-    assert b.bottoms == port_bottoms(built.plan)
+    assert b.bottoms == port_reach(built.plan)[0]
     for k in range(m - 1):      # each rise among the falls before it where they reach past it
         assert all(abs(t.width_cycles(n) - b.spans[k]) >= costs.STEP for n in range(b.bottoms[k], b.tops[k] + 1))
         assert b.spans[k] >= t.width_cycles(b.tops[k]) - t.width_cycles(b.bottoms[k + 1]) + b.emits[k + 1]
@@ -137,7 +137,7 @@ def test_every_period_from_the_minimum_on_holds_not_only_the_minimum(clock):
 
 @pytest.mark.parametrize("clock", FAST)
 def test_a_port_whose_lines_never_fall_early_lets_the_port_before_it_end_sooner(clock):
-    """The rising port's earliest fall is C(bottom), the lowest N its lines fall at (flow.port_bottoms),
+    """The rising port's earliest fall is C(bottom), the lowest N its lines fall at (flow.port_reach),
     not C(0); and the rise need only be STEP from the falls the port before can have (N bottom to
     top). Lines within 1 to 2 ms: each span among falls is C(187) - C(62) and the handover, not
     C(187) - C(0), and the frame is shorter than with every bottom taken as N 0."""
