@@ -1062,9 +1062,7 @@ def _host_reading(plan) -> str:
 def _port_rises(plan: Plan) -> list[dict]:
     """Each port's rise in the frame (µs from the first port's) and the highest N its lines reach."""
     from .flow import port_tops
-    cycle = plan.program.target.cycle_us
-    return [{"port": p, "rise_us": round(float(r * cycle), 3), "top": t}
-            for p, r, t in zip(plan.ports, plan.rise_offsets, port_tops(plan))]
+    return [{"port": p, "rise_us": r, "top": t} for p, r, t in zip(plan.ports, plan.rises_us(), port_tops(plan))]
 
 
 def startup_frames(plan: Plan) -> int:

@@ -341,9 +341,7 @@ def hover_frame(a: Analysis, decl: nodes.FrameDecl) -> str:
     out = [head, f"\nP = {units.fmt_ms(plan.period_us)}; the shortest the firmware holds: "
                  f"{units.fmt_ms(plan.min_period_us)}"]
     if len(plan.rise_offsets) == len(plan.ports) > 1:
-        cycle = plan.program.target.cycle_us
-        out.append("\n" + ", ".join(f"P{p} rises at {units.fmt_ms(round(float(r * cycle), 3))}"
-                                    for p, r in zip(plan.ports, plan.rise_offsets)))
+        out.append("\n" + ", ".join(f"P{p} rises at {units.fmt_ms(r)}" for p, r in zip(plan.ports, plan.rises_us())))
         out.append("\nthe ports' pulses overlap: each port's rise after the first comes among the falls of the "
                    "port before it" if plan.rises_among_falls else "\nthe ports pulse one after another")
     return "\n".join(out)

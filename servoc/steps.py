@@ -307,6 +307,11 @@ class Plan:
     rises_among_falls: bool = False         # the code makes each port's rise but the first come among the falls
                                             # of the port before it: the ports' pulses overlap (costs.stagger_span)
 
+    def rises_us(self) -> tuple[float, ...]:
+        """Each port's rise, in µs from the first port's (to the ns), in port order."""
+        cycle = self.program.target.cycle_us
+        return tuple(round(float(r * cycle), 3) for r in self.rise_offsets)
+
     def channel_of(self, servo: str) -> Channel:
         return next(c for c in self.channels if c.servo.name == servo)
 
