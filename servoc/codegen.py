@@ -399,16 +399,13 @@ def _can_stagger(plan: Plan) -> bool:
 
 def _stagger_may_pay(without: AsmUnit) -> bool:
     """Whether the build with staggered rises can hold a shorter period than `without`: its spans
-    are at least each port's pulses less the next port's earliest fall, and C(0) (the last port's,
-    its pulses and a step)."""
+    are at least `costs.stagger_span` with no handover (a span only grows with it)."""
     b = without.budget
     if b is None or without.min_period_us is None or not b.tops:
         return True
-    t = without.target
-    low = b.bottoms or (0,) * len(b.tops)
-    least = (sum(max(t.width_cycles(top) - t.width_cycles(low[k + 1]), t.width_cycles(0)) for k, top in enumerate(b.tops[:-1]))
-             + t.width_cycles(b.tops[-1]) + costs.STEP)
-    return t.us_at_least(least) < without.min_period_us
+    m, low = len(b.tops), b.bottoms or (0,) * len(b.tops)
+    least = sum(costs.stagger_span(without.target, top, 0, k == m - 1, low[k], low[(k + 1) % m]) for k, top in enumerate(b.tops))
+    return without.target.us_at_least(least) < without.min_period_us
 
 
 def _steps_may_pay(without: AsmUnit) -> bool:
