@@ -112,7 +112,9 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
     it holds (costs.py, read by wcet.py). Without `frame`, P is the default: the plan is made again
     at that minimum (never below 5.3 ms) until it no longer changes, since F, and with it the code,
     depends on P. It also decides the build once for every command: when the firmware built for
-    speed does not fit the chip's code memory, the plan is the one built for size (`compact`);
+    speed does not fit the chip's code memory, the plan is the one built for speed without
+    `first_step` (a linear move's pins set up and first stepped in two passes: a longer period,
+    less code), and when that does not fit either, the one built for size (`compact`);
     where the firmware fits internal RAM or code memory only without the host's holds and reading
     on through answer lines (`layout.host_extras`), it is built without them (`Plan.holds`; where
     it fits internal RAM neither way, the build without them says how short it is).
@@ -125,6 +127,8 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
         if smaller.firmware_limit is None or \
                 {limit[0] for limit in smaller.firmware_limit} <= RAM_LIMITS:    # internal RAM were short (or
             result = smaller                                                      # more: say the least short)
+    if decide and not result.compact and result.firmware_limit is None and _overflow(result):
+        result = _periods(program, dataclasses.replace(first, first_step=False))
     if decide and not result.compact and result.firmware_limit is None and _overflow(result):
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:
@@ -147,6 +151,11 @@ def _plan_at(program, period: int) -> Plan:
     return _plan.plan(dataclasses.replace(program, frame_us=None), None, period)
 
 
+def _built_as(p: Plan, like: Plan) -> Plan:
+    """`p` with the build `like` has (for size, with the host's holds, with `first_step`)."""
+    return dataclasses.replace(p, compact=like.compact, holds=like.holds, first_step=like.first_step)
+
+
 def _eased(p: Plan) -> bool:
     """Whether the program has an eased move: its curve tables (a byte a frame) grow as P shrinks."""
     return any(isinstance(st, MoveStep) and st.ease != "linear" for st in steps(p))
@@ -157,7 +166,7 @@ def _least_fitting(program, first: Plan, at: Plan) -> int:
     byte a frame): the least P, from `at`'s shortest on, at which `frame P` builds (for speed or
     for size) and holds P. `at` (its own P) builds; between the two, by bisection."""
     def builds(p: int) -> bool:
-        asked = dataclasses.replace(_plan_at(program, p), compact=first.compact, holds=first.holds, period_is_default=False)
+        asked = dataclasses.replace(_built_as(_plan_at(program, p), first), period_is_default=False)
         got = choose_period(program, asked, least=False)
         return got.firmware_limit is None and got.min_period_us <= p
 
@@ -221,7 +230,7 @@ def _periods(program, first: Plan) -> Plan:
             break
         seen.add(result.period_us)
         period = max(want, result.period_us) if len(seen) > 4 else want
-        result = _budgeted(dataclasses.replace(_plan.plan(program, None, period), compact=first.compact, holds=first.holds))
+        result = _budgeted(_built_as(_plan.plan(program, None, period), first))
     least = _least_period(program, result)
     return result if least == result.min_period_us else dataclasses.replace(result, min_period_us=least)
 
@@ -243,7 +252,7 @@ def _least_period(program, at: Plan) -> int:
 
     def need(p: int) -> int:            # the shortest period of the code built for p (p + 1: none)
         if p not in known:
-            got = _budgeted(dataclasses.replace(_plan_at(program, p), compact=at.compact, holds=at.holds))
+            got = _budgeted(_built_as(_plan_at(program, p), at))
             known[p] = p + 1 if got.firmware_limit is not None else got.min_period_us
         return known[p]
 

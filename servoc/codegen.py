@@ -480,6 +480,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     uses = {"eased": bool(ctx.ease_tables), "repeats": ctx.repeats,
             "holds": any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records),
             "nodur": any(r["flags"] & layout.FLAG["NODUR"] for r in ctx.records),
+            "fixed": any(not r["flags"] & (layout.FLAG["EASED"] | layout.FLAG["NODUR"] | layout.FLAG["HOLDF"])
+                         for r in ctx.records),
             "sends": serial is not None and (sends(plan.main, plan, ctx.sends_memo) or hosted(plan))}
     hosting = serial is not None and hosted(plan)
     rxq = host_queue(plan)
@@ -619,6 +621,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         raise layout.PeriodTooLong(
             f"a frame of {plan.period_us} us is {period_cycles} machine cycles at {target.describe()}, "
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
+    host_ctx = _host(plan, chans, fneed, rxq, fbase, answers) if hosting else None
     lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
                   ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2, playh_bit=framed_bit + 3,
@@ -633,7 +636,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                   looks=ctx.looks, watch=watch, fcall=fcall,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables,
                   fneed=fneed if uses["nodur"] else [], ftables=fneed, pin_dmax=pin_dmax,
-                  h=_host(plan, chans, fneed, rxq, fbase, answers) if hosting else None,
+                  fused=uses["fixed"] and plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"]),
+                  h=host_ctx,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
                                                  "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},

@@ -7,11 +7,13 @@ port trace directly. They need SDCC and ucsim and never skip.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
 import random
 from dataclasses import dataclass, field
 from fractions import Fraction
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, Phase, example, given, settings
@@ -623,3 +625,36 @@ def test_worst_case_frames_at_the_minimum_period():
     report = built.verify()
     assert_exact(report, text)
     assert report.period_min == report.period_max == period
+
+
+HEXAPOD_11 = "target stc89c52rc clock 11.0592MHz\n"
+
+
+def _hexapod_at(head: str) -> str:
+    text = (Path(__file__).resolve().parent.parent / "examples" / "hexapod.servo").read_text()
+    return head + "\n".join(line for line in text.splitlines() if not line.startswith(("target ", "frame ")))
+
+
+def test_a_linear_move_of_known_f_is_set_up_and_first_stepped_in_one_call():
+    """`Plan.first_step`: each pin of a linear move whose F is known is set up, gets its DDA terms
+    and is stepped for the move's first frame in one call (setup_step). The work between two
+    frames is shorter by at least 12 cycles a pin than in two passes, so where that work bounds the
+    period (the hexapod at 11.0592 MHz) the reported minimum is shorter, and the firmware verifies
+    exactly there, through the first frames of its linear moves, with 1 us less refused."""
+    fe, diags = front_end_text(_hexapod_at(HEXAPOD_11))
+    plan = fe.plan
+    assert plan is not None and plan.first_step and not plan.compact, diags
+    two = api.choose_period(plan.program, dataclasses.replace(plan, first_step=False), decide=False)
+    one_unit, two_unit = api.codegen.generate(plan), api.codegen.generate(two)
+    assert "LCALL   setup_step" in one_unit.text and "setup_step" not in two_unit.text
+    pins = len(plan.channels)
+    assert one_unit.budget.work <= two_unit.budget.work - 12 * pins
+    assert plan.min_period_us < two.min_period_us
+    built = build_text(_hexapod_at(HEXAPOD_11 + f"frame {plan.min_period_us}us\n"))
+    assert built.plan.first_step and built.plan.min_period_us == built.plan.period_us
+    assert "LCALL   setup_step" in built.firmware.unit.text
+    linear = [m for m in built.plan.moves if m.step.ease == "linear" and m.step.frames is not None]
+    assert linear
+    assert_exact(built.verify(400), "hexapod at its minimum")
+    less, _ = front_end_text(_hexapod_at(HEXAPOD_11 + f"frame {plan.min_period_us - 1}us\n"))
+    assert less.plan is None or less.plan.min_period_us > plan.min_period_us - 1

@@ -120,6 +120,23 @@ def test_a_program_that_fits_is_built_for_speed():
     assert not built.plan.compact and "LCALL   step_port" not in built.firmware.unit.text
 
 
+def test_where_the_fast_build_does_not_fit_it_goes_without_first_step_before_going_for_size():
+    """180 random 24-servo keyframes: built for speed with `first_step` (a pin set up and first
+    stepped in one call) they need more than 8 KB; without it they fit, still built for speed
+    (not for size, whose period is longer), and their first moves verify."""
+    text = suite.keyframe_source(180)
+    built = build_text(text)
+    assert not built.plan.compact and not built.plan.first_step and built.firmware.rom_bytes <= 8192
+    assert "setup_step" not in built.firmware.unit.text and "LCALL   dda_step" in built.firmware.unit.text
+    with_it = api.choose_period(built.plan.program, dataclasses.replace(built.plan, first_step=True), decide=False)
+    assert layout.rom_end(api.codegen.generate(with_it).text) > 8192
+    size = api.choose_period(built.plan.program, dataclasses.replace(built.plan, compact=True), decide=False)
+    assert built.plan.min_period_us < size.min_period_us
+    moves = built.plan.moves[:2]
+    report = built.verify(sum(m.frames for m in moves) + 3)
+    assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
 def test_250_random_keyframes_fit_8_kb_built_for_size_and_verify():
     """The benchmark's program: 24 servos, 250 random poses, each moved to in 1 s. Built for
     speed it needs more than 8 KB; built for size it fits, and its first moves verify."""

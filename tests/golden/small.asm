@@ -140,6 +140,67 @@ dm_all:
         MOV     RMASK+1, #0x09          ; P1: every servo
         MOV     RMASK+2, #0x40          ; P2: every servo
 dm_pins:
+        JNB     EASED, dm_fl
+        LJMP    dm_sx                   ; eased: the first frame is stepped with the others
+dm_fl:
+        JNB     NODUR, dm_fk
+        LJMP    dm_sx                   ; F found at run time: known after every pin's |delta|
+dm_fk:
+        MOV     A, SEGF                 ; F = max(1, F)
+        ORL     A, SEGF+1
+        JNZ     dm_fe
+        MOV     SEGF, #1
+dm_fe:
+        CLR     C                       ; ERR0 = floor(-F / 2), 16 bits: the DDA's start
+        CLR     A
+        SUBB    A, SEGF                 ; -F as 17 bits: C = 1 (F >= 1) is its sign
+        MOV     R7, A
+        CLR     A
+        SUBB    A, SEGF+1
+        RRC     A                       ; arithmetic shift right through the sign
+        MOV     ERR0+1, A
+        MOV     A, R7
+        RRC     A
+        MOV     ERR0, A
+        JNB     0x50, sf_8              ; 2  pan (P1.0)
+        MOV     R0, #0x30            ; 1
+        MOV     R1, #0xC0            ; 1
+        MOV     C, 0x08              ; 1  has a target?
+        LCALL   setup_step
+        SETB    0x08
+        MOV     C, F0
+        MOV     0x20, C
+        MOV     C, DIRF
+        MOV     0x38, C
+sf_8:
+        JNB     0x53, sf_11              ; 2  tilt (P1.3)
+        MOV     R0, #0x33            ; 1
+        MOV     R1, #0xCC            ; 1
+        MOV     C, 0x0B              ; 1  has a target?
+        LCALL   setup_step
+        SETB    0x0B
+        MOV     C, F0
+        MOV     0x23, C
+        MOV     C, DIRF
+        MOV     0x3B, C
+sf_11:
+        JNB     0x5E, sf_22              ; 2  claw (P2.6)
+        MOV     R0, #0x3E            ; 1
+        MOV     R1, #0xF8            ; 1
+        MOV     C, 0x16              ; 1  has a target?
+        LCALL   setup_step
+        SETB    0x16
+        MOV     C, F0
+        MOV     0x2E, C
+        MOV     C, DIRF
+        MOV     0x46, C
+sf_22:
+        MOV     LPTR, DPL               ; the record list goes on after this record
+        MOV     LPTR+1, DPH
+        MOV     FLEFT, SEGF             ; the move's first frame is stepped: on to frame_io
+        MOV     FLEFT+1, SEGF+1
+        LJMP    dm_io
+dm_sx:
         JNB     0x50, su_8              ; 2  pan (P1.0)
         MOV     R0, #0x30            ; 1
         MOV     R1, #0xC0            ; 1
@@ -222,7 +283,8 @@ dm_f:
         MOV     SEGF, #1
 dm_2f:  JNB     EASED, dm_dda
         LJMP    dm_run                  ; eased moves need no DDA terms
-dm_dda: CLR     C                       ; ERR0 = floor(-F / 2), 16 bits: the DDA's start
+dm_dda:
+        CLR     C                       ; ERR0 = floor(-F / 2), 16 bits: the DDA's start
         CLR     A
         SUBB    A, SEGF                 ; -F as 17 bits: C = 1 (F >= 1) is its sign
         MOV     R7, A
@@ -353,6 +415,30 @@ sp_up:  INC     R1
         XCH     A, @R0                  ; A = |delta| (for the F found at run time)
 sp_ret: RET
 
+; setup_step: setup_pin, then dda_step, in one call: one pin of a linear move whose F is known
+; (ERR0 set). In and out as setup_pin; a pin that moves leaves as dda_step does.
+setup_step:
+        CLR     A
+        MOVC    A, @A+DPTR
+        INC     DPTR
+        CLR     F0
+        CLR     DIRF
+        JC      ss_has
+        MOV     @R0, A                  ; first target: set at once
+        RET
+ss_has: CLR     C
+        SUBB    A, @R0                  ; delta = N1 - N0
+        JZ      ss_ret                  ; already there
+        SETB    F0
+        MOV     DIRF, C                 ; borrow: N1 < N0, moving down
+        JNC     ss_up
+        CPL     A                       ; |delta| = N0 - N1
+        INC     A
+ss_up:  INC     R1                      ; R1 -> |delta|'s place in STATE, A = |delta|
+        JNB     F8, ds_big
+        SJMP    ds_q
+ss_ret: RET
+
 ; The linear DDA terms of one moving pin, R1 -> its STATE (N0, |delta|):
 ; Q = |delta| div F, REM = |delta| mod F (F > 255: Q = 0, REM = |delta|), and the
 ; error term E = floor(F/2) kept as E - F mod 65536 (ERR0), so that every value
@@ -368,11 +454,12 @@ dda_step:
         INC     R1
         MOV     A, SEGF+1
         JZ      ds_div
-        MOV     B, @R1                  ; F > 255: Q = 0, REM = |delta|
+        MOV     A, @R1                  ; |delta|
+ds_big: MOV     B, A                    ; F > 255: Q = 0, REM = |delta|
         MOV     R6, #0
         SJMP    ds_err
-ds_div: MOV     A, @R1
-        MOV     B, SEGF
+ds_div: MOV     A, @R1                  ; |delta|
+ds_q:   MOV     B, SEGF                 ; F < 256
         DIV     AB
         MOV     R6, A                   ; step = Q
 ds_err: MOV     @R1, B                  ; REM
@@ -388,8 +475,8 @@ ds_err: MOV     @R1, B                  ; REM
         MOV     A, ERR0+1
         ADDC    A, #0
         MOV     @R1, A                  ; high byte
-        JNC     sl_move                 ; E + REM < F: no carry
-        SJMP    sl_carry
+        JC      sl_carry                ; E + REM >= F: a carry
+        SJMP    sl_move
 
 ; step_pin: one frame of the current move for one pin. R0 -> CUR, R1 -> STATE, C = down.
 step_pin:
