@@ -27,6 +27,7 @@ code) and the default P it picks.
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from baselines import POSITIONS, BuildError
 from servoc import api, codegen, costs, events
@@ -62,17 +63,20 @@ def shortest_period(ok, lo: int, hi: int, step: int = 1) -> int:
     return hi
 
 
-def holds_down_to(ok, lo: int, hi: int) -> int:
+def holds_down_to(ok, lo: int, hi: int, step: int = 1) -> int:
     """Smallest P in (lo, hi] such that ok holds at every whole us from P to hi: scanned down from
     hi (servoc's reported P) 1 us at a time to the first P that fails. No monotony assumed: where each
     port's rise comes among the falls of the port before it (costs.stagger_span), a period below the
     shortest servoc reports can put the next frame's first rise, by chance, at a time that clears
     every fall of the last port, while longer ones do not (a binary search then finds such a chance
     and reports a P from which not every period holds). Costs one build per us between the answer
-    and hi, and one more."""
+    and hi, and one more. `step` > 1: scanned every `step` us down to the first failure, then every
+    us above it (a failure narrower than `step` higher up may be missed: to within `step`)."""
     if not ok(hi):
         raise AssertionError(f"not exact even at P = {hi} us")
     p = hi
+    while step > 1 and p - step > lo and ok(p - step):
+        p -= step
     while p - 1 > lo and ok(p - 1):
         p -= 1
     return p
@@ -250,6 +254,38 @@ def clock_budget(quick: bool, progress=None) -> list[dict]:
                         "servos": 8 * ports, "runtime_f": rf, "serial": SERIAL_LINE if ser else "",
                         "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
                         "resolution_us": 1})
+    return out
+
+
+# ---------------------------------------------------------------- real programs: the examples
+
+EXAMPLES = ("biped", "hexapod")
+EXAMPLE_CLOCKS = ("", "target stc89c52rc clock 11.0592MHz", "target at89c52 clock 22.1184MHz")
+EXAMPLE_STEP = 8        # us: the examples' search below servoc's P (each build plays every move once)
+
+
+def example_source(name: str, target: str, period: int | None = None) -> str:
+    """examples/NAME.servo for `target` (empty: its default), at `period` if given, else its default P."""
+    text = (Path(__file__).resolve().parent.parent / "examples" / f"{name}.servo").read_text(encoding="utf-8")
+    body = [line for line in text.splitlines() if not line.startswith(("target ", "frame "))]
+    head = ([target] if target else []) + ([f"frame {period}us"] if period else [])
+    return "\n".join(head + body) + "\n"
+
+
+def examples_budget(quick: bool, progress=None) -> list[dict]:
+    """The examples at three clocks: servoc's shortest P next to the shortest P from which every P
+    up to it verifies exactly in ucsim, every move played once (`holds_down_to`; quick: the biped)."""
+    say = progress or (lambda s: None)
+    out = []
+    for name in EXAMPLES[:1] if quick else EXAMPLES:
+        for line in EXAMPLE_CLOCKS:
+            say(f"shortest exact P, examples/{name}.servo, {line or '12 MHz'}")
+            reported = plan_text(example_source(name, line), name)[1].min_period_us
+            ok = lambda q: exact(*build_unchecked(example_source(name, line, q), name), 100)     # noqa: E731
+            p = holds_down_to(ok, reported * 2 // 3, reported, EXAMPLE_STEP)
+            out.append({"program": f"examples/{name}.servo", "target": line.split(" ", 1)[1] if line else "at89c52 (12 MHz)",
+                        "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
+                        "resolution_us": 1 if p == reported else EXAMPLE_STEP})
     return out
 
 

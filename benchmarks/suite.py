@@ -5,7 +5,9 @@
   frame period, jitter, lines high after reset, ROM.
 - `budget.frame_budget`: the shortest P servoc reports next to the shortest
   that verifies exactly in ucsim, for the worst-case stress programs and a
-  held pose (budget.py), and the default P servoc picks.
+  held pose (budget.py), and the default P servoc picks; `budget.clock_budget`
+  the same at other crystals and with the serial line busy; `budget.examples_budget`
+  for the examples (real programs) at three clocks.
 - `memory`: ROM (runtime, per keyframe, keyframes that fit 8 KB) and RAM.
 - `compiler_time`: the time of each compiler stage.
 
@@ -23,7 +25,7 @@ from pathlib import Path
 
 from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
                        measure_baseline, positions_source)
-from budget import SPAN, clock_budget, frame_budget, hold_source
+from budget import SPAN, clock_budget, examples_budget, frame_budget, hold_source
 from servoc import api, codegen, target, toolchain
 from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
@@ -276,6 +278,7 @@ def run_all(quick: bool = False, progress=None) -> dict:
         "comparison": compare(FRAMES, progress),
         "frame_budget": frame_budget(quick, progress),
         "clock_budget": clock_budget(quick, progress),
+        "examples_budget": examples_budget(quick, progress),
         "memory": memory(quick, progress),
         "compiler": compiler_time(quick, progress),
     }
@@ -312,6 +315,11 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
                      f"{_servos(x['ports'])}, {x['target']}{kind} (us)", "", "",
                      f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
                      f"{x['difference_us']:+d} ({_over(x)})"))
+    for x in fb.get("examples", ()):
+        rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, {x['program']}, "
+                     f"{x['target']} (us)", "", "",
+                     f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
+                     f"{x['difference_us']:+d} ({_over(x)})"))
     return rows
 
 
@@ -346,7 +354,8 @@ def table(r: dict) -> str:
     cmp("jitter, max - min rise-to-rise (us)", "jitter_us")
     cmp("lines high after reset, first_low max (us)", "reset_high_max_us")
     cmp("ROM bytes", "rom_bytes")
-    fb, mem, comp = {**r["frame_budget"], "clocks": r.get("clock_budget", [])}, r["memory"], r["compiler"]
+    fb, mem, comp = ({**r["frame_budget"], "clocks": r.get("clock_budget", []), "examples": r.get("examples_budget", [])},
+                     r["memory"], r["compiler"])
     rows += _budget_rows(fb)
     rows += [
         ("servoc: ROM runtime bytes, 8 / 24 servos / 24 servos built for size (keyframes)", "", "",

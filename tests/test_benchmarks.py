@@ -156,6 +156,9 @@ def test_the_search_down_from_the_reported_period_stops_at_the_first_failure_not
     assert budget.holds_down_to(lambda p: p >= 1001, 1000, 1600) == 1001      # the lower bound is never tried
     with pytest.raises(AssertionError):
         budget.holds_down_to(lambda p: p > 1600, 1000, 1600)
+    calls.clear()
+    assert budget.holds_down_to(ok, 1000, 1600, 8) == 1508      # every 8 us, then every us above the failure
+    assert calls == [1600, *range(1592, 1503, -8), *range(1511, 1506, -1)]
 
 
 def test_keyframes_and_compile_stages():
@@ -199,6 +202,9 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
                                            "shortest_exact_p_us": 2540 * p, "difference_us": 60 * p,
                                            "resolution_us": 1, "over_pulses_cycles": 30, "default_p_us": 5300}
                                           for p in (1, 3)]},
+        "examples_budget": [{"program": "examples/biped.servo", "target": "at89c52 clock 22.1184MHz",
+                             "reported_min_p_us": 1810, "shortest_exact_p_us": 1800, "difference_us": 10,
+                             "resolution_us": 1}],
         "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "ram_bytes_8_servos": 196,
                    "ram_bytes_24_servos": 230,
                    **{f"{key}_{how}": {"bytes_per_item": 24.0, "runtime_bytes": 15, "estimate": 146, "confirmed": 146,
@@ -222,6 +228,17 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     assert ("| servoc: shortest P reported / shortest exact in ucsim / difference, worst case, 24 servos on P0-P2, "
             "run-time F (us) |  |  | 10020 / 9999 (to 8 us) / +21 (+0.2%) |") in text
     assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 (+2.4%) |" in text
+    assert ("difference, examples/biped.servo, at89c52 clock 22.1184MHz (us) |  |  | 1810 / 1800 / +10 (+0.6%) |"
+            in text)
+
+
+def test_the_examples_benchmark_builds_each_example_at_each_clock_and_period():
+    for line in budget.EXAMPLE_CLOCKS:
+        for name in budget.EXAMPLES:
+            text = budget.example_source(name, line, 9000)
+            assert text.count("frame ") == 1 and "frame 9000us" in text
+            _, plan = budget.plan_text(text, name)
+            assert plan.period_us == 9000 and (not line or line.split()[1] == plan.program.target.chip.name.lower())
 
 
 def test_sim_reports_all_port_writes_of_the_baselines():
