@@ -480,8 +480,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     uses = {"eased": bool(ctx.ease_tables), "repeats": ctx.repeats,
             "holds": any(r["flags"] & layout.FLAG["HOLDF"] for r in ctx.records),
             "nodur": any(r["flags"] & layout.FLAG["NODUR"] for r in ctx.records),
-            "fixed": any(not r["flags"] & (layout.FLAG["EASED"] | layout.FLAG["NODUR"] | layout.FLAG["HOLDF"])
-                         for r in ctx.records),
+            "kinds": {(bool(r["flags"] & layout.FLAG["EASED"]), bool(r["flags"] & layout.FLAG["NODUR"]))
+                      for r in ctx.records if not r["flags"] & layout.FLAG["HOLDF"]},
             "sends": serial is not None and (sends(plan.main, plan, ctx.sends_memo) or hosted(plan))}
     hosting = serial is not None and hosted(plan)
     rxq = host_queue(plan)
@@ -636,7 +636,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                   looks=ctx.looks, watch=watch, fcall=fcall,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables,
                   fneed=fneed if uses["nodur"] else [], ftables=fneed, pin_dmax=pin_dmax,
-                  fused=uses["fixed"] and plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"]),
+                  **_first_steps(uses["kinds"], plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"])),
                   h=host_ctx,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
@@ -735,6 +735,19 @@ def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
                     "cleared": watched[i:], "last": i == len(watched) - 1,
                     "next": f"fw{watched[i + 1]}" if i + 1 < len(watched) else ""})
     return out
+
+
+def _first_steps(kinds: set[tuple[bool, bool]], can: bool) -> dict:
+    """Which moves set each pin up and step its first frame in one call (`Plan.first_step`), from
+    the kinds of move records the program has, (eased, F found at run time): `fused` "linear"
+    where a linear move of known F is one of them (an eased one then goes the two passes), else
+    "eased" where an eased move of known F is, else None; `sx`: some record goes the two passes,
+    `dda`: a linear one among them (without, neither pass is laid out)."""
+    fused = None
+    if can:
+        fused = "linear" if (False, False) in kinds else "eased" if (True, False) in kinds else None
+    two = {k for k in kinds if fused is None or k[1] or (fused == "linear" and k[0])}
+    return {"fused": fused, "sx": bool(two) or not fused, "dda": any(not eased for eased, _ in two) or not kinds}
 
 
 def _hold(cycles: int) -> str:

@@ -296,7 +296,7 @@ class Plan:
                                             # for this plan hits (layout.LayoutError), found without assembling
     compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
                                             # does not fit the code memory): loops where the fast one is unrolled
-    first_step: bool = True                 # a linear move of known F sets each pin up and steps its first frame
+    first_step: bool = True                 # a move of known F sets each pin up and steps its first frame
                                             # in one call (setup_step); False: in two passes, where only the
                                             # fast build without it fits the code memory (api.choose_period)
     period_holds: bool = True               # the code generated holds P itself (below min_period_us it may not)

@@ -121,10 +121,11 @@ def test_a_program_that_fits_is_built_for_speed():
 
 
 def test_where_the_fast_build_does_not_fit_it_goes_without_first_step_before_going_for_size():
-    """180 random 24-servo keyframes: built for speed with `first_step` (a pin set up and first
-    stepped in one call) they need more than 8 KB; without it they fit, still built for speed
-    (not for size, whose period is longer), and their first moves verify."""
-    text = suite.keyframe_source(180)
+    """72 of the benchmark's hexapod gait steps (linear and eased moves): built for speed with
+    `first_step` (a linear move's pins set up and first stepped in one call; the eased moves'
+    pins in two passes) they need more than 8 KB; without it (both in two passes, less code) they
+    fit, still built for speed (not for size, whose period is longer), and their first moves verify."""
+    text = suite.gait_source(72)
     built = build_text(text)
     assert not built.plan.compact and not built.plan.first_step and built.firmware.rom_bytes <= 8192
     assert "setup_step" not in built.firmware.unit.text and "LCALL   dda_step" in built.firmware.unit.text

@@ -150,7 +150,8 @@ dm_fk:
         ORL     A, SEGF+1
         JNZ     dm_fe
         MOV     SEGF, #1
-dm_fe:
+dm_fe:  MOV     FLEFT, SEGF             ; linear, F known: each pin set up and stepped for the
+        MOV     FLEFT+1, SEGF+1         ; move's first frame in one call (setup_step)
         CLR     C                       ; ERR0 = floor(-F / 2), 16 bits: the DDA's start
         CLR     A
         SUBB    A, SEGF                 ; -F as 17 bits: C = 1 (F >= 1) is its sign
@@ -197,9 +198,7 @@ sf_11:
 sf_22:
         MOV     LPTR, DPL               ; the record list goes on after this record
         MOV     LPTR+1, DPH
-        MOV     FLEFT, SEGF             ; the move's first frame is stepped: on to frame_io
-        MOV     FLEFT+1, SEGF+1
-        LJMP    dm_io
+        LJMP    dm_io                   ; the move's first frame is stepped: on to frame_io
 dm_sx:
         JNB     0x50, su_8              ; 2  pan (P1.0)
         MOV     R0, #0x30            ; 1
@@ -325,13 +324,15 @@ dm_frame:
         MOV     A, SEGK
         JNZ     dm_k
         INC     SEGK+1
-dm_k:   CLR     LASTF
+dm_k:
+        CLR     LASTF
         MOV     A, FLEFT
         XRL     A, #1
         ORL     A, FLEFT+1
         JNZ     dm_ev
         SETB    LASTF
-dm_ev:  JNB     EASED, dm_step
+dm_ev:
+        JNB     EASED, dm_step
         JB      LASTF, dm_step
         MOV     A, ETAB                 ; EVAL = e(k/F) x 256 from the table
         ADD     A, SEGK
@@ -415,8 +416,9 @@ sp_up:  INC     R1
         XCH     A, @R0                  ; A = |delta| (for the F found at run time)
 sp_ret: RET
 
-; setup_step: setup_pin, then dda_step, in one call: one pin of a linear move whose F is known
-; (ERR0 set). In and out as setup_pin; a pin that moves leaves as dda_step does.
+; setup_step: setup_pin and the move's first frame in one call, for a pin of a linear move
+; whose F is known (ERR0 set; as dda_step goes on). In and out as setup_pin;
+; a pin that moves leaves as dda_step does.
 setup_step:
         CLR     A
         MOVC    A, @A+DPTR
@@ -436,7 +438,7 @@ ss_has: CLR     C
         INC     A
 ss_up:  INC     R1                      ; R1 -> |delta|'s place in STATE, A = |delta|
         JNB     F8, ds_big
-        SJMP    ds_q
+        SJMP    ds_q                    ; the DDA terms and the first frame
 ss_ret: RET
 
 ; The linear DDA terms of one moving pin, R1 -> its STATE (N0, |delta|):
@@ -524,7 +526,7 @@ step_eased:
         INC     R1
         MOV     A, @R1                  ; |delta|
         DEC     R1
-        JB      LASTF, se_move
+se_a:   JB      LASTF, se_move
         MOV     B, EVAL
         MUL     AB
         ADD     A, #0x80                ; round half up
