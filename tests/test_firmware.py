@@ -658,3 +658,30 @@ def test_a_linear_move_of_known_f_is_set_up_and_first_stepped_in_one_call():
     assert_exact(built.verify(400), "hexapod at its minimum")
     less, _ = front_end_text(_hexapod_at(HEXAPOD_11 + f"frame {plan.min_period_us - 1}us\n"))
     assert less.plan is None or less.plan.min_period_us > plan.min_period_us - 1
+
+
+def test_where_every_move_is_eased_those_take_the_one_call_and_no_linear_path_is_charged():
+    """A program whose moves are all eased (F known): their pins are set up and stepped for the
+    first frame in one call, no linear DDA code is laid out (so no linear path is charged), and the
+    work between frames is shorter than in two passes by at least 9 cycles a pin. It verifies
+    exactly at its reported minimum through both moves' first frames (1 us less refused)."""
+    head = "target stc89c52rc clock 11.0592MHz\n"
+    names = [f"s{i}" for i in range(16)]
+    body = ("".join(f"servo {n} = P{1 + i // 8}.{i % 8}\n" for i, n in enumerate(names))
+            + "pose lo { " + ", ".join(f"{n}: {10 + 7 * i}" for i, n in enumerate(names)) + " }\n"
+            + "pose hi { " + ", ".join(f"{n}: {240 - 9 * i}" for i, n in enumerate(names)) + " }\n"
+            + "main {\n  loop {\n    move hi in 1600ms ease in-out\n    move lo in 1600ms ease in\n  }\n}\n")
+    fe, diags = front_end_text(head + body)
+    plan = fe.plan
+    assert plan is not None and not [d.code for d in diags if d.severity not in ("note", "warning")], diags
+    assert all(m.step.ease != "linear" for m in plan.moves)      # (no `home`: its set-up is a linear move)
+    two = api.choose_period(plan.program, dataclasses.replace(plan, first_step=False), decide=False)
+    one_unit, two_unit = api.codegen.generate(plan), api.codegen.generate(two)
+    assert "SJMP    se_a" in one_unit.text and "setup_step" not in two_unit.text
+    assert "dda_step" not in one_unit.text and "dda_step" not in two_unit.text
+    assert one_unit.budget.work <= two_unit.budget.work - 9 * len(names)
+    built = build_text(head + f"frame {plan.min_period_us}us\n" + body)
+    assert built.plan.min_period_us == built.plan.period_us == plan.min_period_us
+    assert_exact(built.verify(sum(m.frames for m in built.plan.moves) + 10), "eased moves at the minimum")
+    less, _ = front_end_text(head + f"frame {plan.min_period_us - 1}us\n" + body)
+    assert less.plan is None or less.plan.min_period_us > plan.min_period_us - 1
