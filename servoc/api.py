@@ -127,9 +127,10 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
         if smaller.firmware_limit is None or \
                 {limit[0] for limit in smaller.firmware_limit} <= RAM_LIMITS:    # internal RAM were short (or
             result = smaller                                                      # more: say the least short)
-    if decide and not result.compact and result.firmware_limit is None and _overflow(result):
+    fast = decide and not result.compact and result.firmware_limit is None and _overflow(result)
+    if fast:
         result = _periods(program, dataclasses.replace(first, first_step=False))
-    if decide and not result.compact and result.firmware_limit is None and _overflow(result):
+    if fast and result.firmware_limit is None and _overflow(result):
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:
             over = _overflow(result)       # built for size, still too big: lint says so, as compile
@@ -184,8 +185,9 @@ def _overflow(p: Plan) -> tuple[str, str] | None:
     chip's code memory, else None: it fits when the size read from the text says so
     (`layout.rom_end`); else the assembler lays it out for the message (without the toolchain:
     taken to fit, as nothing can be built then)."""
+    last = _last_budgeted
     try:
-        unit = codegen.generate(p)
+        unit = last[1] if last is not None and last[0] is p else codegen.generate(p)
     except layout.LayoutError:
         return None                         # a resource limit: reported as such, whatever the build
     chip = unit.target.chip
@@ -271,16 +273,24 @@ def _least_period(program, at: Plan) -> int:
 def _budgeted(p: Plan) -> Plan:
     """`p` with `min_period_us` read from the firmware generated for it; when no firmware can be
     generated (a resource limit, reported later), P itself and the limit."""
+    global _last_budgeted
     try:
         unit = codegen.generate(p)
     except layout.LayoutError as exc:
         return dataclasses.replace(p, min_period_us=p.period_us,
                                    firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
-    return dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
-                               period_holds=unit.min_period_us is None or unit.period_holds,
-                               rise_offsets=unit.rise_offsets,
-                               rise_steps=unit.budget is not None and unit.budget.steps,
-                               rises_among_falls=unit.budget is not None and unit.budget.stagger)
+    result = dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
+                                 period_holds=unit.min_period_us is None or unit.period_holds,
+                                 rise_offsets=unit.rise_offsets,
+                                 rise_steps=unit.budget is not None and unit.budget.steps,
+                                 rises_among_falls=unit.budget is not None and unit.budget.stagger)
+    _last_budgeted = (result, unit)
+    return result
+
+
+# the last plan `_budgeted` returned and the code generated for it (the fields it sets are read
+# from that code, not by code generation): `_overflow` of that very plan does not generate it again
+_last_budgeted: tuple[Plan, codegen.AsmUnit] | None = None
 
 
 def lint(plan_: Plan, reporter: Reporter) -> None:
