@@ -130,7 +130,7 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
     fast = decide and not result.compact and result.firmware_limit is None and _overflow(result)
     if fast:
         result = _periods(program, dataclasses.replace(first, first_step=False))
-    if fast and result.firmware_limit is None and _overflow(result):
+    if fast and (result.firmware_limit is not None or _overflow(result)):
         result = _periods(program, dataclasses.replace(first, compact=True))
         if result.firmware_limit is None:
             over = _overflow(result)       # built for size, still too big: lint says so, as compile
