@@ -128,7 +128,7 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
                 {limit[0] for limit in smaller.firmware_limit} <= RAM_LIMITS:    # internal RAM were short (or
             result = smaller                                                      # more: say the least short)
     fast = decide and not result.compact and result.firmware_limit is None and _overflow(result)
-    if fast:
+    if fast and _two_passes_smaller(result):
         result = _periods(program, dataclasses.replace(first, first_step=False))
     if fast and (result.firmware_limit is not None or _overflow(result)):
         result = _periods(program, dataclasses.replace(first, compact=True))
@@ -150,6 +150,14 @@ def choose_period(program, first: Plan, decide: bool = True, least: bool = True)
 def _plan_at(program, period: int) -> Plan:
     """The program planned at `period`, whatever its own `frame` (a candidate for the shortest)."""
     return _plan.plan(dataclasses.replace(program, frame_us=None), None, period)
+
+
+def _two_passes_smaller(p: Plan) -> bool:
+    """Whether the build for speed without `first_step` can have less code than with it: where
+    with it some moves take the one call and others the two passes, so that both are laid out
+    (`codegen.first_steps`, from the kinds of moves: eased or not, F found at run time or not)."""
+    steps = codegen.first_steps({(m.step.ease != "linear", m.step.frames is None) for m in p.moves}, True)
+    return steps["fused"] is not None and steps["sx"]
 
 
 def _built_as(p: Plan, like: Plan) -> Plan:

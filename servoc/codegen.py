@@ -636,7 +636,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                   looks=ctx.looks, watch=watch, fcall=fcall,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables,
                   fneed=fneed if uses["nodur"] else [], ftables=fneed, pin_dmax=pin_dmax,
-                  **_first_steps(uses["kinds"], plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"])),
+                  **first_steps(uses["kinds"], plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"])),
                   h=host_ctx,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
@@ -737,7 +737,7 @@ def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
     return out
 
 
-def _first_steps(kinds: set[tuple[bool, bool]], can: bool) -> dict:
+def first_steps(kinds: set[tuple[bool, bool]], can: bool) -> dict:
     """Which moves set each pin up and step its first frame in one call (`Plan.first_step`), from
     the kinds of move records the program has, (eased, F found at run time): `fused` "linear"
     where a linear move of known F is one of them (an eased one then goes the two passes), else
