@@ -437,8 +437,8 @@ ss_has: CLR     C
         CPL     A                       ; |delta| = N0 - N1
         INC     A
 ss_up:  INC     R1                      ; R1 -> |delta|'s place in STATE, A = |delta|
-        JNB     F8, ds_big
-        SJMP    ds_q                    ; the DDA terms and the first frame
+        JB      F8, ds_q                ; the DDA terms and the first frame: F < 256
+        SJMP    ds_big                  ; F > 255
 ss_ret: RET
 
 ; The linear DDA terms of one moving pin, R1 -> its STATE (N0, |delta|):
