@@ -153,11 +153,19 @@ def _plan_at(program, period: int) -> Plan:
 
 
 def _two_passes_smaller(p: Plan) -> bool:
-    """Whether the build for speed without `first_step` can have less code than with it: where
-    with it some moves take the one call and others the two passes, so that both are laid out
-    (`codegen.first_steps`, from the kinds of moves: eased or not, F found at run time or not)."""
-    steps = codegen.first_steps({(m.step.ease != "linear", m.step.frames is None) for m in p.moves}, True)
-    return steps["fused"] is not None and steps["sx"]
+    """Whether the build for speed without `first_step` can have less code than the one generated
+    for `p`: where that lays out both the one call and the two passes (`AsmUnit.both_passes`)."""
+    try:
+        return _unit(p).both_passes
+    except layout.LayoutError:
+        return False
+
+
+def _unit(p: Plan) -> codegen.AsmUnit:
+    """The code generated for `p`: the one `_budgeted` generated, where `p` is the plan it returned
+    (the fields it sets are read from that code, not by code generation)."""
+    last = _last_budgeted
+    return last[1] if last is not None and last[0] is p else codegen.generate(p)
 
 
 def _built_as(p: Plan, like: Plan) -> Plan:
@@ -193,9 +201,8 @@ def _overflow(p: Plan) -> tuple[str, str] | None:
     chip's code memory, else None: it fits when the size read from the text says so
     (`layout.rom_end`); else the assembler lays it out for the message (without the toolchain:
     taken to fit, as nothing can be built then)."""
-    last = _last_budgeted
     try:
-        unit = last[1] if last is not None and last[0] is p else codegen.generate(p)
+        unit = _unit(p)
     except layout.LayoutError:
         return None                         # a resource limit: reported as such, whatever the build
     chip = unit.target.chip
@@ -296,8 +303,7 @@ def _budgeted(p: Plan) -> Plan:
     return result
 
 
-# the last plan `_budgeted` returned and the code generated for it (the fields it sets are read
-# from that code, not by code generation): `_overflow` of that very plan does not generate it again
+# the last plan `_budgeted` returned and the code generated for it (`_unit`)
 _last_budgeted: tuple[Plan, codegen.AsmUnit] | None = None
 
 

@@ -60,6 +60,8 @@ class AsmUnit:
     selects: tuple = ()             # (label, SelectStep) of each select laid out, for verify's probes
     period_holds: bool = True       # the code holds the plan's own period (the model evaluated there)
     xram_bytes: int = 0             # XRAM in use (flow.host_xram: the host's arrays, the motion state)
+    both_passes: bool = False       # some moves take the one call (Plan.first_step), others the two passes:
+                                    # both are laid out, so the build without first_step has less code
 
 
 _hex8 = layout.hex8
@@ -622,6 +624,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
             f"a frame of {plan.period_us} us is {period_cycles} machine cycles at {target.describe()}, "
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     host_ctx = _host(plan, chans, fneed, rxq, fbase, answers) if hosting else None
+    passes = _first_steps(uses["kinds"], plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"]))
     lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
                   ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2, playh_bit=framed_bit + 3,
@@ -636,7 +639,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                   looks=ctx.looks, watch=watch, fcall=fcall,
                   lists=ctx.lists, flag_end=layout.FLAG["ENDF"], ease_tables=ease_tables,
                   fneed=fneed if uses["nodur"] else [], ftables=fneed, pin_dmax=pin_dmax,
-                  **first_steps(uses["kinds"], plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"])),
+                  **passes,
                   h=host_ctx,
                   period_cycles=period_cycles,
                   ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
@@ -717,7 +720,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                    shortest,
                    target, plan.compact, tuple(ctx.selects), period_holds,
                    (flow_mod.HOST_XRAM_PER_SERVO * len(plan.channels) + layout.HOLD_BYTES * layout.host_holds(plan, in_xram)
-                    + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0)
+                    + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0,
+                   passes["fused"] is not None and passes["sx"])
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
@@ -737,7 +741,7 @@ def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
     return out
 
 
-def first_steps(kinds: set[tuple[bool, bool]], can: bool) -> dict:
+def _first_steps(kinds: set[tuple[bool, bool]], can: bool) -> dict:
     """Which moves set each pin up and step its first frame in one call (`Plan.first_step`), from
     the kinds of move records the program has, (eased, F found at run time): `fused` "linear"
     where a linear move of known F is one of them (an eased one then goes the two passes), else

@@ -130,7 +130,9 @@ def test_where_the_fast_build_does_not_fit_it_goes_without_first_step_before_goi
     assert not built.plan.compact and not built.plan.first_step and built.firmware.rom_bytes <= 8192
     assert "setup_step" not in built.firmware.unit.text and "LCALL   dda_step" in built.firmware.unit.text
     with_it = api.choose_period(built.plan.program, dataclasses.replace(built.plan, first_step=True), decide=False)
-    assert layout.rom_end(api.codegen.generate(with_it).text) > 8192
+    unit = api.codegen.generate(with_it)
+    assert layout.rom_end(unit.text) > 8192 and unit.both_passes
+    assert not api.codegen.generate(built.plan).both_passes
     size = api.choose_period(built.plan.program, dataclasses.replace(built.plan, compact=True), decide=False)
     assert built.plan.min_period_us < size.min_period_us
     moves = built.plan.moves[:2]

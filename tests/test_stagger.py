@@ -6,8 +6,6 @@ shortest period servoc reports for it, every pulse exact, and that period less 1
 """
 
 import dataclasses
-import re
-from pathlib import Path
 
 import pytest
 
@@ -18,7 +16,6 @@ from test_costs import at_period, own_minimum
 from test_spans import between_two_poses, check_at_minimum
 
 pytestmark = pytest.mark.toolchain
-ROOT = Path(__file__).resolve().parent.parent
 
 FAST = ["target at89c52 clock 22.1184MHz\n", "target stc89c52rc clock 11.0592MHz mode 6T\n"]
 SLOW = ["", "target stc89c52rc clock 11.0592MHz\n", "target at89c52 clock 18.432MHz\n"]
