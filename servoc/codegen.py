@@ -32,7 +32,7 @@ from . import flow as flow_mod, walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
-                   host_xram, hosted, move_starts,
+                   host_xram, hosted, move_starts, still_at_start,
                    port_motions, port_reach, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
@@ -136,6 +136,7 @@ class _Ctx:
     repeats: bool = False            # a `repeat` is laid out (it counts its passes with rep_next)
     host_watchers: set = field(default_factory=set)   # selects whose meanwhile body runs `host` (flow.host_watchers)
     fbase: str = "frame_io"          # the frame routine: frame_w with a meanwhile body (flow.watches)
+    still: dict = field(default_factory=dict)         # per move statement (id), the channels at its target at every start
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -156,7 +157,8 @@ class _Ctx:
 def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
     """The record of a move. `known` holds the targets set by the records before it in its list:
     a servo whose target is already the pose's is left out of the record (it does not move), and
-    `known` takes the move's targets."""
+    so is one at the pose's N at every start of the move (`flow.still_at_start`); `known` takes the
+    move's targets."""
     plan = ctx.plan
     frames = step.frames        # None: the plan found different F in different contexts
     notes: list[str] = [f"move {step.pose}", "F found at run time" if frames is None else f"F = {frames}"]
@@ -165,11 +167,13 @@ def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
         key = (step.ease, step.frames)
         label = ctx.ease_tables.setdefault(key, f"etab{len(ctx.ease_tables) + 1}")
         notes.append(f"ease {step.ease} table {label}")
-    targets = {ch: n for ch, n in step.targets if known.get(ch) != n}
+    still = ctx.still.get(id(step), frozenset())
+    targets = {ch: n for ch, n in step.targets if known.get(ch) != n and ch not in still}
     if len(step.targets) == len(plan.channels) and len(plan.ports) + len(targets) >= len(plan.channels):
         targets = dict(step.targets)    # naming every servo needs no masks: not longer than masks and the changed
     known.update(step.targets)
     masks = None
+    named = tuple(sum(1 << c.bit for c in on_port) for _, on_port in ctx.port_channels)
     if len(targets) == len(plan.channels):
         notes.append("every servo")
     else:
@@ -178,11 +182,13 @@ def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
             chans = [c for c in on_port if c.index in targets]
             masks.append(sum(1 << c.bit for c in chans))
             notes.append(f"P{port}: " + (", ".join(c.name for c in chans) or "none"))
+        named = tuple(masks)
     notes += [f"{plan.channels[ch].name} N {n}" for ch, n in sorted(targets.items())]
     if len(targets) < len(step.targets):
         notes.append(f"{len(step.targets) - len(targets)} already there")
     flags, data = layout.move_record(frames, label, targets, masks)
-    return {"flags": flags, "data": data, "notes": notes, "where": ctx.where(step.span), "owner": ctx.owner}
+    return {"flags": flags, "data": data, "notes": notes, "where": ctx.where(step.span), "owner": ctx.owner,
+            "names": named, "step": id(step)}
 
 
 def _hold_record(ctx: _Ctx, step: HoldStep) -> dict:
@@ -374,22 +380,30 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if stepping is not None or stagger is not None:
         staggered = bool(stagger) and can_stagger
         return _generate_answers(plan, source, hold_off, bool(stepping) and can and not staggered, staggered)
-    best = without = _generate_answers(plan, source, hold_off, False)
+    still = still_at_start(plan)
+    best = without = _generate_answers(plan, source, hold_off, False, still=still)
     if not can:
         return without
+    reason = None       # a build that holds a shorter period than `best` but not this one: why
     for kind, pays in (("stagger", can_stagger and _stagger_may_pay(without)), ("steps", _steps_may_pay(without))):
         if not pays:
             continue
         try:
-            other = _generate_answers(plan, source, hold_off, kind == "steps", kind == "stagger")
+            other = _generate_answers(plan, source, hold_off, kind == "steps", kind == "stagger", still)
         except layout.LayoutError as exc:       # dropped: its traceback would keep _generate's frame in a cycle
             for each in (exc, *getattr(exc, "errors", ())):
                 each.__traceback__ = None
+            shortest = getattr(exc, "shortest_us", None)
+            if shortest is not None and (reason is None or shortest < reason.shortest_us):
+                reason = exc
             continue
         if (other.min_period_us is not None and best.min_period_us is not None
                 and other.min_period_us < best.min_period_us
                 and layout.rom_end(other.text) + 512 * len(other.fneed_pages) <= other.target.chip.code_bytes):
             best = other
+    if (reason is not None and not best.period_holds and best.min_period_us is not None
+            and reason.shortest_us < best.min_period_us):
+        raise reason        # the program's shortest period is that build's: its limit is the reason
     return best
 
 
@@ -428,21 +442,23 @@ def _steps_may_pay(without: AsmUnit) -> bool:
 
 
 def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool,
-                      stagger: bool = False) -> AsmUnit:
-    """`generate`, with or without rises as steps (or among the falls before them: `stagger`)."""
+                      stagger: bool = False, still: dict | None = None) -> AsmUnit:
+    """`generate`, with or without rises as steps (or among the falls before them: `stagger`);
+    `still`: `flow.still_at_start` of the plan, where already found."""
+    still = still_at_start(plan) if still is None else still
     if not (plan.program.serial is not None and hosted(plan)):
-        return _generate(plan, source, hold_off, 1, stepping, stagger)
+        return _generate(plan, source, hold_off, 1, stepping, stagger, still)
     try:
-        return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger)
+        return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger, still)
     except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
-        return _generate(plan, source, hold_off, 1, stepping, stagger)
+        return _generate(plan, source, hold_off, 1, stepping, stagger, still)
 
 
 def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool,
-              stagger: bool = False) -> AsmUnit:
+              stagger: bool, still: dict) -> AsmUnit:
     """`generate`, with room for `answers` answers waiting in HAQ (with `host`), with or without
     rises as steps, or with each port's rise among the falls of the port before it (`stagger`)."""
-    ctx = _Ctx(plan, source, [], {})
+    ctx = _Ctx(plan, source, [], {}, still=still)
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)
     ctx.host_watchers = host_watchers(plan)
@@ -667,13 +683,17 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     if hosting:
         breakdown["host: the S table E(|delta|)"] = N_MAX + 1
     starts = move_starts(plan)
+    names = (None, {}) if plan.compact or hosting or not plan.ports else \
+        record_names(ctx.records, chans, plan.ports)
+
     def measure(text: str):
         return frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
                             tuple(costs.port_load(target, motions[p]) for p in plan.ports),
                             None if len(plan.ports) != 1 or starts[plan.ports[0]] is None
                             else costs.start_loads(target, starts[plan.ports[0]]),
                             0 if s is None else s["byte_cycles"], bport is not None,
-                            uses["sends"], uses["holds"], _pl_barred(plan, sequences) if hosting else None)
+                            uses["sends"], uses["holds"], _pl_barred(plan, sequences) if hosting else None,
+                            names)
     budget, work_from = measure(text)
     spans = e["spans"]
     if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
@@ -710,6 +730,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         try:
             _check_sends(plan, budget, period_cycles, shortest)
         except layout.SendOverrun as exc:
+            exc.shortest_us = shortest      # this build holds the sends from there on
             limits.append(exc)
     if limits:
         raise limits[0] if len(limits) == 1 else layout.Several(limits)
@@ -894,10 +915,38 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
     return max((code.stack_below(name, memo) for name in called), default=0)
 
 
+NAMES_MOST = 64     # distinct sets of named servos the analysis follows record by record (`record_names`)
+
+
+def record_names(records: list[dict], chans: list[dict], ports: tuple[int, ...]
+                 ) -> tuple[wcet.Names | None, dict]:
+    """wcet's `Names` fact for a build for speed without a host, and each move statement's indices
+    in its `sets`, by its id (a statement a frameless `repeat` writes out more than once can have several).
+    None where the records name more than NAMES_MOST distinct sets: each path is then charged as if
+    its record named every servo."""
+    named = [r for r in records if "names" in r]
+    sets = sorted({r["names"] for r in named})
+    if not sets or len(sets) > NAMES_MOST:
+        return None, {}
+    index = {v: i for i, v in enumerate(sets)}
+
+    def bits(kind: str, port: int) -> tuple[str | None, ...]:
+        by_bit = {c["pin"] - 8 * port: _hex8(c[kind]) for c in chans if c["pin"] // 8 == port}
+        return tuple(by_bit.get(b) for b in range(8))
+    every = tuple(sum(1 << (c["pin"] - 8 * port) for c in chans if c["pin"] // 8 == port) for port in ports)
+    names = wcet.Names(first=f"RMASK+{ports[0]}", rmask=tuple((f"RMASK+{p}", bits("rm_bit", p)) for p in ports),
+                       movb=tuple((f"MOVB+{p}", bits("mov_bit", p)) for p in ports), sets=tuple(sets), every=every)
+    of_step: dict = {}
+    for r in named:
+        of_step.setdefault(r["step"], set()).add(index[r["names"]])
+    return names, of_step
+
+
 def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loads: tuple[costs.PortLoad, ...],
                  starts: frozenset | None = None, byte_cycles: int = 0, last_in_b: bool = False,
                  sends: bool = False, holds: bool = True,
-                 barred: tuple[str, tuple[tuple[str, str], ...]] | None = None) -> tuple[costs.Budget | None, str]:
+                 barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,
+                 names: tuple[wcet.Names | None, dict] = (None, {})) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
     (costs.port_load); its sort is the longest path less the swaps no frame makes. `starts`: one
@@ -905,10 +954,12 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
     paired with that move's first frame (None: every path with the worst frame). `byte_cycles`:
     a byte's time on the serial line (0: the program has none); `sends`: the program has a `send`;
     `holds`: the code has hold records (without, every path that reads a record reads a move's);
-    `barred`: the code no RET returns to while a sequence `PL` started plays (`_pl_barred`)."""
+    `barred`: the code no RET returns to while a sequence `PL` started plays (`_pl_barred`);
+    `names`: which servos each record names, and each move statement's records (`record_names`),
+    so that a path that reads a record is charged for the servos that record names."""
     try:
         code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record),
-                         frozenset({"PLAYH"}), barred)
+                         frozenset({"PLAYH"}), barred, names[0])
         work, at = code.between_frames()
         fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
         # with rises among falls a port is sorted first, then its items written once the handler
@@ -922,12 +973,14 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
             by = code.by_record()
             moving = {tag: v for tag, v in by.items() if tag is not None and (("HOLDF", False) in tag or not holds)}
 
-            def work_of(eased: bool, runtime_f: bool) -> int:    # the paths a record of this kind can take
+            def work_of(eased: bool, runtime_f: bool, step) -> int:    # the paths this move's records can take
+                recs = names[1].get(step)
                 return max((v for tag, v in moving.items()
-                            if ("EASED", not eased) not in tag and ("NODUR", not runtime_f) not in tag), default=work)
+                            if ("EASED", not eased) not in tag and ("NODUR", not runtime_f) not in tag
+                            and (recs is None or dict(tag).get(wcet.REC, -1) in recs | {-1})), default=work)
 
-            paired = {"start_frame": max(work_of(e, r) + fs[0] - _unswapped(code, lines[0], sw) + falls
-                                         for falls, sw, e, r in starts),
+            paired = {"start_frame": max(work_of(e, r, step) + fs[0] - _unswapped(code, lines[0], sw) + falls
+                                         for falls, sw, e, r, step in starts),
                       "other_work": max((v for tag, v in by.items() if tag not in moving), default=0)}
         exits = {f"exit_p{p}" for p in ports} | {"exit_fall"}
         stepped = bool(ports) and f"emit_s{ports[0]}" in code.labels     # rises can come as steps

@@ -324,10 +324,10 @@ def port_load(target, motions: frozenset) -> PortLoad:
 def start_loads(target, starts: frozenset) -> frozenset:
     """For each move start on a port (`flow.move_starts`): (the handler's cycles for the falls of
     the frame before it, the comparators of its sort that swap on its first frame, the move is
-    eased, its F is found at run time)."""
+    eased, its F is found at run time, the move statement's id)."""
     widths = [target.width_cycles(n) for n in range(256)]
     return frozenset((edges_load(widths, [v for v in before if v is not None]), swaps([v or 0 for v in first]),
-                      eased, runtime_f) for before, first, eased, runtime_f in starts)
+                      eased, runtime_f, step) for before, first, eased, runtime_f, step in starts)
 
 
 def _lo(v) -> int:

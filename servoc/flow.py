@@ -577,9 +577,36 @@ def _power_up(plan: Plan) -> Iterator[tuple[tuple, tuple, MoveStep]]:
             on = tuple(after)
 
 
+def still_at_start(plan: Plan) -> dict[int, frozenset[int]]:
+    """Per move statement (by id), the channels that every start of it the program can reach (its
+    instances, and the power-up's states) has at its target N already: they do not move, so its
+    record may leave them out. A statement that can start where a line is not known (after an
+    interruption) has none there; a program with `host` none at all (the host moves the servos)."""
+    if hosted(plan):
+        return {}
+    out: dict[int, frozenset[int]] = {}
+
+    def add(before: tuple, step: MoveStep) -> None:
+        key = id(step)
+        if out.get(key, True):      # (none left: nothing to narrow)
+            # an N equals the target; None (no target yet) and a Reach (after an interruption) do not
+            here = frozenset(ch for ch, n in step.targets if before[ch] == n) \
+                if len(before) == len(plan.channels) else frozenset()
+            out[key] = here & out[key] if key in out else here
+
+    power = {id(st) for st in plan.power_up}
+    for before, _, st in _power_up(plan):
+        add(before, st)
+    for inst in plan.moves:
+        if id(inst.step) not in power:
+            add(inst.start, inst.step)
+    return out
+
+
 def move_starts(plan: Plan) -> dict[int, frozenset | None]:
     """Per port, each move's first frame with the frame before it (the last of whatever came before:
-    its start): (N before, N in its first frame, the move is eased, its F is found at run time), the
+    its start): (N before, N in its first frame, the move is eased, its F is found at run time, the
+    move statement's id), the
     N per line in channel order, None for a line without a target. None for the port when a move can
     start where one of its lines is not known (after an interruption). The power-up's moves count
     from the states it passes through (`port_motions`)."""
@@ -591,7 +618,7 @@ def move_starts(plan: Plan) -> dict[int, frozenset | None]:
                 continue
             pair = tuple(tuple(state[c.index] for c in plan.channels if c.port == port) for state in (before, first))
             if all(v is None or isinstance(v, int) for half in pair for v in half):
-                out[port].add(pair + (step.ease != "linear", step.frames is None))
+                out[port].add(pair + (step.ease != "linear", step.frames is None, id(step)))
             else:
                 out[port] = None
 

@@ -14,7 +14,8 @@ adds each port's sort and the handler's load; `Code.longest` reads those
 paths between labels). The analysis is interprocedural: a called routine is followed to
 its RET and back; a RET of the routine the path started in goes on behind
 every call of that routine. Conditional branches count both ways (so a move
-record is charged as if it named every servo and every pin carried). Code
+record is charged as if every servo it names moved and every pin carried;
+which servos it names is a fact from code generation: `Names`). Code
 that loops without reaching a frame is an error, not a guess: the only
 backward branches allowed are counted pad loops (`MOV Rn,#k` then `DJNZ
 Rn,.`), counted loops (`MOV Rn,#k` right before the label `L` of a later
@@ -103,6 +104,27 @@ def cycles_of(op: str, args: tuple[str, ...]) -> int:
 
 
 @dataclass(frozen=True)
+class Names:
+    """A fact of code generation about a build for speed without a host: which servos each move
+    record names. do_move writes each port's byte of RMASK from the record (`MOV RMASK+k, ...`,
+    the first port's first), and clears MOVB (`MOV MOVB+k, #0`) before any servo's setup writes
+    its bit; it then tests each servo's bit of them. Nothing else in such a build writes those
+    bytes, and no indirect write reaches them (no buffer is bit-addressable). So a path forks at
+    the first port's RMASK write into the records' sets of named servos (`sets`: those whose
+    ALLF matches what the path knows of it), each known as ("REC", index) from there to the next
+    frame, and every later test of a servo's RMASK or MOVB bit whose value the path knows goes
+    that way: a record is charged for the servos it names, not for every servo."""
+    first: str                                          # the first port's RMASK byte: the fork
+    rmask: tuple[tuple[str, tuple[str | None, ...]], ...]   # per port: its RMASK byte, bit 0..7's names
+    movb: tuple[tuple[str, tuple[str | None, ...]], ...]    # per port: its MOVB byte, bit 0..7's names
+    sets: tuple[tuple[int, ...], ...]                   # each distinct record's masks, per port
+    every: tuple[int, ...]                              # the masks of a record that names every servo
+
+
+REC = "REC"         # a path's fact: ("REC", i), it reads a record that names Names.sets[i]
+
+
+@dataclass(frozen=True)
 class Instr:
     index: int
     op: str
@@ -166,8 +188,8 @@ class Code:
     """The instructions of one assembly text, with their labels."""
 
     def __init__(self, text: str, flag_byte: str = "", flag_bits: frozenset[str] = frozenset(),
-                 state_bits: frozenset[str] = frozenset(), barred: tuple[str, tuple[tuple[str, str], ...]] | None = None
-                 ) -> None:
+                 state_bits: frozenset[str] = frozenset(), barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,
+                 names: Names | None = None) -> None:
         self.flag_byte = flag_byte      # a byte whose bits a path learns from its branches (`walk`)
         self.flag_bits = flag_bits
         self.state_bits = state_bits    # bits of other bytes a path learns the same way, which a write
@@ -182,6 +204,10 @@ class Code:
         self._call_targets = sorted({self.labels[i.args[0]] for i in self.instrs
                                      if i.op in _CALLS and i.args[0] in self.labels}
                                     | ({self.labels["main"]} if "main" in self.labels else set()))
+        self.names = names
+        self._fact_bytes: dict[str, tuple[str | None, ...]] = dict(names.rmask + names.movb) if names else {}
+        self._rm_port = {byte: k for k, (byte, _) in enumerate(names.rmask)} if names else {}
+        self._fact_bits = {b for bits in self._fact_bytes.values() for b in bits if b is not None}
         self._walk_memo: dict[tuple, dict] = {}
         self._frames: dict[int, dict] | None = None
         self._on_path: set[int] = set()
@@ -253,7 +279,7 @@ class Code:
         if ins.op in _CALLS:
             name = ins.args[0]
             if name == FRAME_ROUTINE:
-                return {("frame", known if WRITTEN in known else None): c}
+                return {("frame", self._tag(known) if WRITTEN in known else None): c}
             callee = self.walk(self.target(ins), clear, known)
             out = {key: c + v for key, v in callee.items() if key[0] == "frame"}
             if name in FRAME_REACHING:
@@ -283,6 +309,11 @@ class Code:
             if ins.op == "JB":      # set (behind a frame) unless cleared since
                 return _plus(self.walk(nxt if clear else self.target(ins), clear, known), c)
             raise WcetError(f"line {ins.line}: `{ins.op} {FRAME_FLAG}` outside frame_io")
+        if ins.args and (ins.args[0] in self._fact_bits or ins.args[0] in self._fact_bytes):
+            facts = self._facts(ins, clear, known)
+            if isinstance(facts, dict):
+                return facts
+            known = facts
         if ins.args and (ins.args[0] in self.flag_bits or ins.args[0] in self.state_bits):
             bit = ins.args[0]
             rest = frozenset(f for f in known if f[0] != bit)
@@ -313,6 +344,56 @@ class Code:
         if ins.op in _BRANCH2:
             return _plus(_merge(self.walk(nxt, clear, known), self.walk(self.target(ins), clear, known)), c)
         return _plus(self.walk(nxt, clear, known), c)
+
+    def _tag(self, known: frozenset) -> frozenset:
+        """What a path knows at its frame, as `by_record` tells it: the flag bits and the record
+        read (REC), not the servos' bits."""
+        return frozenset(f for f in known if f[0] not in self._fact_bits) if self._fact_bits else known
+
+    def _facts(self, ins: Instr, clear: bool, known: frozenset) -> dict | frozenset:
+        """`Names`: a test of a servo's RMASK or MOVB bit, or a write of one or of their bytes. The
+        paths out (as `_walk` gives them) where this instruction decides them, else what the path
+        knows after it (the bits it writes no longer known, unless from the value written)."""
+        arg, nxt, c = ins.args[0], ins.index + 1, ins.cycles
+        if arg in self._fact_bits:
+            was = dict(known).get(arg)
+            if ins.op in ("JB", "JNB") and was is not None:
+                taken = was == (ins.op == "JB")
+                return _plus(self.walk(self.target(ins) if taken else nxt, clear, known), c)
+            if ins.op in ("JB", "JNB"):
+                return known
+            rest = frozenset(f for f in known if f[0] != arg)
+            if ins.op in ("SETB", "CLR"):
+                return _plus(self.walk(nxt, clear, rest | {(arg, ins.op == "SETB")}), c)
+            return rest
+        bits = self._fact_bytes[arg]
+        rest = frozenset(f for f in known if f[0] not in bits)
+        if ins.op != "MOV":
+            return rest
+        def of(value: int) -> frozenset:
+            return frozenset((b, bool(value >> k & 1)) for k, b in enumerate(bits) if b is not None)
+        if arg in self._rm_port and self.names is not None:
+            k = self._rm_port[arg]
+            if arg == self.names.first:
+                allf = dict(known).get("ALLF")
+                rest = frozenset(f for f in rest if f[0] != REC)
+                ways = [self.walk(nxt, clear, rest | {(REC, i)} | of(masks[k]))
+                        for i, masks in enumerate(self.names.sets)
+                        if allf is None or allf == (masks == self.names.every)]
+                if not ways:
+                    return {}       # no record goes this way (ALLF)
+                out: dict = {}
+                for way in ways:
+                    out = _merge(out, way)
+                return _plus(out, c)
+            rec = dict(known).get(REC)
+            return rest if rec is None else _plus(self.walk(nxt, clear, rest | of(self.names.sets[rec][k])), c)
+        if ins.args[1].startswith("#"):
+            try:
+                return _plus(self.walk(nxt, clear, rest | of(int(ins.args[1][1:], 0))), c)
+            except ValueError:
+                pass
+        return rest
 
     def resume(self, i: int, clear: bool = False, known: frozenset = frozenset()) -> dict:
         """Longest cycles from instruction i to the next frame, going on behind the callers

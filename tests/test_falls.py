@@ -185,7 +185,7 @@ def test_every_move_start_is_among_the_pairs(name):
     assert plan is not None, diags
     starts = move_starts(plan)
     port = plan.ports[0]
-    pairs = {(b, f) for b, f, _, _ in starts[port]}
+    pairs = {(b, f) for b, f, *_ in starts[port]}
     moves = {st.span for st in steps(plan) if isinstance(st, MoveStep)}
     frames = [f for _, f in zip(range(2000), expand(plan))]
     seen = 0
@@ -196,7 +196,7 @@ def test_every_move_start_is_among_the_pairs(name):
             seen += 1
     assert seen >= 5
     if "eased" in name:     # the kinds: `move b` with its F found at run time, `move c` eased
-        assert {(e, r) for _, _, e, r in starts[port]} >= {(False, True), (True, False)}
+        assert {(e, r) for _, _, e, r, _ in starts[port]} >= {(False, True), (True, False)}
     else:                   # the power-up switches the servos on one at a time, each a frame of its own
         partial = [b for b, _ in pairs if None in b and any(v is not None for v in b)]
         assert len(partial) == 2, pairs

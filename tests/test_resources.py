@@ -86,32 +86,61 @@ def _without_tail_3(frame: str) -> str:
     return re.sub(r"^frame 20ms.*$", f"frame {frame}", text, flags=re.M)
 
 
-def _without_tails(frame: str) -> str:
+def _without_tails(frame: str, baud: int = 4800) -> str:
     text = re.sub(r"^servo tail_[23] .*\n", "", HEXAPOD, flags=re.M).replace(", tail_3", "").replace(", tail_2", "")
-    return re.sub(r"^frame 20ms.*$", f"frame {frame}", text, flags=re.M)
+    return re.sub(r"^frame 20ms.*$", f"frame {frame}", text, flags=re.M).replace("serial 4800", f"serial {baud}")
 
 
-@pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n", "target stc89c52rc clock 22.1184MHz\n"])
-def test_the_shortest_period_leaves_the_sends_their_time(clock):
-    """The hexapod sends two bytes a frame apart at 4800 baud: the frame model holds from a shorter
+@pytest.mark.parametrize("clock,baud", [("", 4800), ("target stc89c52rc clock 11.0592MHz\n", 4800),
+                                        ("target stc89c52rc clock 22.1184MHz\n", 2400)])
+def test_the_shortest_period_leaves_the_sends_their_time(clock, baud):
+    """The hexapod sends two bytes a frame apart at 4800 baud (2400 at 22.1184 MHz, where its work
+    between frames is short enough that 4800 baud's bytes are out within the shortest period the
+    frame model holds): the frame model holds from a shorter
     period on than the one at which those bytes are out before the next two are queued. The
     shortest period reported is the longer of the two, so that the program compiles there; 1 µs
     less is refused by `send-overrun`, and every period from the shortest on holds both."""
     from servoc import codegen
-    fe, diags = front_end_text(clock + _without_tails("20ms"))
+    fe, diags = front_end_text(clock + _without_tails("20ms", baud))
     assert fe.plan is not None, [d.message for d in diags if d.is_error]
     unit = codegen.generate(fe.plan)
     target, budget = fe.plan.program.target, unit.budget
     model = costs.frame_cycles(target, budget)
     shortest = fe.plan.min_period_us
     assert target.us_at_least(model) < shortest                 # the sends bind here, not the model
-    fe, diags = front_end_text(clock + _without_tails(f"{shortest}us"))
+    fe, diags = front_end_text(clock + _without_tails(f"{shortest}us", baud))
     assert not [d for d in diags if d.is_error], [d.message for d in diags if d.is_error]
-    _, diags = front_end_text(clock + _without_tails(f"{shortest - 1}us"))
+    _, diags = front_end_text(clock + _without_tails(f"{shortest - 1}us", baud))
     assert [d.code for d in diags if d.is_error] == ["send-overrun"], [d.message for d in diags if d.is_error]
     for period in (shortest + 1, shortest + 500, shortest + 1111, shortest + 2080, shortest + 4999):
-        fe, diags = front_end_text(clock + _without_tails(f"{period}us"))
+        fe, diags = front_end_text(clock + _without_tails(f"{period}us", baud))
         assert fe.plan.period_holds and not [d for d in diags if d.is_error], period
+
+
+def test_a_period_too_short_for_one_build_names_the_limit_of_the_build_with_the_shortest(monkeypatch):
+    """Where the build without steps does not hold the period asked for (its model needs more) and
+    the build with steps would, but for its sends, the error is that build's `send-overrun` (the
+    program's shortest period is that build's), not the other build's `period-too-short`; where the
+    sends' period is not the shorter, the build without steps keeps its own verdict."""
+    from servoc import codegen
+    fe, _ = front_end_text("target stc89c52rc clock 22.1184MHz\n" + _without_tails("20ms"))
+    plan = fe.plan
+    real = codegen._generate_answers(plan, None, 0, False)
+    without = dataclasses.replace(real, period_holds=False, min_period_us=5980)
+
+    def answers(plan, source, hold_off, stepping, stagger=False, still=None):
+        if not stepping and not stagger:
+            return without
+        exc = layout.SendOverrun("the sends")
+        exc.shortest_us = sends
+        raise exc
+    monkeypatch.setattr(codegen, "_generate_answers", answers)
+    monkeypatch.setattr(codegen, "_steps_may_pay", lambda unit: True)
+    sends = 5915
+    with pytest.raises(layout.SendOverrun):
+        codegen.generate(plan)
+    sends = 5981
+    assert codegen.generate(plan) is without
 
 
 @pytest.mark.toolchain
