@@ -118,3 +118,34 @@ def test_records_that_name_scattered_servos_on_three_ports_hold_their_minimum(mo
     assert_exact(built.verify(2 * sum(m.frames for m in built.plan.moves) + 10), "scattered records at the minimum")
     _, diags = front_end_text(_scattered(plan.min_period_us - 1))
     assert "period-too-short" in [d.code for d in diags]
+
+
+STILL = ("servo x = P1.0\nservo y = P1.1\nservo z = P1.2\nservo w = P1.3\n"
+         "pose a { x: 10, y: 20, z: 30, w: 40 }\npose b { x: 10, y: 100, z: 30, w: 40 }\n"
+         "pose c { x: 10, y: 200, z: 30, w: 40 }\npose m { x: 90, y: 30 }\n"
+         "main {\n  move a in 300ms\n  loop {\n    move b in 400ms\n    move c in 400ms\n  }\n}\n")
+
+
+def test_a_record_leaves_out_the_servos_at_its_pose_wherever_the_move_starts():
+    """`move b` starts after `move a` and after `move c`: x, z and w are at b's N at both, so b's
+    record, the first of the loop's list, names y only; `move a` starts from no target at all and
+    names every servo. After a select's meanwhile body cut by a press, where a line can
+    be anywhere between the N it passes, a move leaves none out."""
+    from servoc.flow import still_at_start
+    from servoc.steps import MoveStep, steps
+    fe, diags = front_end_text(STILL)
+    plan = fe.plan
+    moves = {st.pose: st for st in steps(plan) if isinstance(st, MoveStep)}
+    still = still_at_start(plan)
+    assert still[id(moves["b"])] == still[id(moves["c"])] == {0, 2, 3} and not still[id(moves["a"])]
+    unit = codegen.generate(plan)
+    assert unit.text.count("3 already there") == 2        # b (by still_at_start) and c (by the record before)
+    built = build_text(STILL)
+    assert_exact(built.verify(4 * sum(m.frames for m in built.plan.moves)), "records without the servos already there")
+    cut = STILL.replace("main {\n  move a in 300ms\n  loop {", "input k = P3.2\nmain {\n  move a in 300ms\n  loop {\n"
+                        "    select { on press k { move m in 300ms } meanwhile { loop { move c in 400ms; move b in 400ms } } }")
+    fe, diags = front_end_text(cut)
+    plan = fe.plan
+    assert plan is not None, diags
+    moves = [st for st in steps(plan) if isinstance(st, MoveStep) and st.pose == "m"]
+    assert moves and not still_at_start(plan).get(id(moves[0]))
