@@ -915,30 +915,33 @@ def runtime_stack(text: str, sequence_labels: list[str]) -> int:
     return max((code.stack_below(name, memo) for name in called), default=0)
 
 
-NAMES_MOST = 64     # distinct sets of named servos the analysis follows record by record (`record_names`)
+NAMES_MOST = 64     # distinct records (named servos, flags) the analysis follows one by one (`record_names`)
+_IN_RECORD = sum(f.value for f in layout.RECORD_FLAGS if f.in_record)
 
 
 def record_names(records: list[dict], chans: list[dict], ports: tuple[int, ...]
                  ) -> tuple[wcet.Names | None, dict]:
     """wcet's `Names` fact for a build for speed without a host, and each move statement's indices
     in its `sets`, by its id (a statement a frameless `repeat` writes out more than once can have several).
-    None where the records name more than NAMES_MOST distinct sets: each path is then charged as if
-    its record named every servo."""
+    None where the records have more than NAMES_MOST distinct pairs of named servos and flags:
+    each path is then charged as if its record named every servo."""
     named = [r for r in records if "names" in r]
-    sets = sorted({r["names"] for r in named})
-    if not sets or len(sets) > NAMES_MOST:
+    kinds = sorted({(r["names"], r["flags"] & _IN_RECORD) for r in named})
+    if not kinds or len(kinds) > NAMES_MOST:
         return None, {}
-    index = {v: i for i, v in enumerate(sets)}
+    index = {v: i for i, v in enumerate(kinds)}
 
     def bits(kind: str, port: int) -> tuple[str | None, ...]:
         by_bit = {c["pin"] - 8 * port: _hex8(c[kind]) for c in chans if c["pin"] // 8 == port}
         return tuple(by_bit.get(b) for b in range(8))
-    every = tuple(sum(1 << (c["pin"] - 8 * port) for c in chans if c["pin"] // 8 == port) for port in ports)
     names = wcet.Names(first=f"RMASK+{ports[0]}", rmask=tuple((f"RMASK+{p}", bits("rm_bit", p)) for p in ports),
-                       movb=tuple((f"MOVB+{p}", bits("mov_bit", p)) for p in ports), sets=tuple(sets), every=every)
+                       movb=tuple((f"MOVB+{p}", bits("mov_bit", p)) for p in ports),
+                       sets=tuple(masks for masks, _ in kinds),
+                       flags=tuple(frozenset((f.name, bool(flags & f.value)) for f in layout.RECORD_FLAGS if f.in_record)
+                                   for _, flags in kinds))
     of_step: dict = {}
     for r in named:
-        of_step.setdefault(r["step"], set()).add(index[r["names"]])
+        of_step.setdefault(r["step"], set()).add(index[(r["names"], r["flags"] & _IN_RECORD)])
     return names, of_step
 
 

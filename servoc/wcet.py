@@ -110,15 +110,16 @@ class Names:
     the first port's first), and clears MOVB (`MOV MOVB+k, #0`) before any servo's setup writes
     its bit; it then tests each servo's bit of them. Nothing else in such a build writes those
     bytes, and no indirect write reaches them (no buffer is bit-addressable). So a path forks at
-    the first port's RMASK write into the records' sets of named servos (`sets`: those whose
-    ALLF matches what the path knows of it), each known as ("REC", index) from there to the next
-    frame, and every later test of a servo's RMASK or MOVB bit whose value the path knows goes
-    that way: a record is charged for the servos it names, not for every servo."""
+    the first port's RMASK write into the records (`sets`: each distinct pair of the servos a
+    record names and its flags, those whose flags agree with what the path knows of the flag
+    byte), each known as ("REC", index) from there to the next frame, and every later test of a
+    servo's RMASK or MOVB bit whose value the path knows goes that way: a record is charged for
+    the servos it names, not for every servo."""
     first: str                                          # the first port's RMASK byte: the fork
     rmask: tuple[tuple[str, tuple[str | None, ...]], ...]   # per port: its RMASK byte, bit 0..7's names
     movb: tuple[tuple[str, tuple[str | None, ...]], ...]    # per port: its MOVB byte, bit 0..7's names
     sets: tuple[tuple[int, ...], ...]                   # each distinct record's masks, per port
-    every: tuple[int, ...]                              # the masks of a record that names every servo
+    flags: tuple[frozenset, ...]                        # and its flag bits, (name, value)
 
 
 REC = "REC"         # a path's fact: ("REC", i), it reads a record that names Names.sets[i]
@@ -209,6 +210,7 @@ class Code:
         self._rm_port = {byte: k for k, (byte, _) in enumerate(names.rmask)} if names else {}
         self._fact_bits = {b for bits in self._fact_bytes.values() for b in bits if b is not None}
         self._walk_memo: dict[tuple, dict] = {}
+        self._touch: list[bool] | None = None
         self._frames: dict[int, dict] | None = None
         self._on_path: set[int] = set()
         self._f0_memo: dict[int, bool] = {}
@@ -258,6 +260,16 @@ class Code:
         falls through. `known`: (bit, value) of the flag byte's bits the path has learned (from a
         `JB`/`JNB` on them, or a `SETB`/`CLR`) since the byte was last written whole: a later test of
         such a bit goes one way only."""
+        if self._fact_bits and known and not self._touches(i):
+            kept = frozenset(f for f in known if f[0] in self._fact_bits or f[0] == REC)
+            if kept:        # the walk from here is shared by every record: then each gets its own back
+                rec = frozenset(f for f in kept if f[0] == REC)
+                out: dict = {}
+                for key, v in self.walk(i, clear, known - kept).items():
+                    key = (("frame", None if key[1] is None else key[1] | rec) if key[0] == "frame"
+                           else ("ret", key[1], key[2] | kept))
+                    out[key] = max(out.get(key, v), v)
+                return out
         key = (i, clear, known)
         if key in self._walk_memo:
             return self._walk_memo[key]
@@ -345,6 +357,34 @@ class Code:
             return _plus(_merge(self.walk(nxt, clear, known), self.walk(self.target(ins), clear, known)), c)
         return _plus(self.walk(nxt, clear, known), c)
 
+    def _touches(self, i: int) -> bool:
+        """Whether a path from instruction i, until its frame or the RET of the routine i is in
+        (calls followed), may read or write a servo's RMASK or MOVB bit or byte or the flag byte,
+        or cut to a select: where it may not, what the path knows of them and its record cannot
+        change its cycles, and the walk from i is shared by every record."""
+        if self._touch is None:
+            n = len(self.instrs)
+            touch = [bool(ins.args) and (ins.args[0] in self._fact_bits or ins.args[0] in self._fact_bytes
+                                         or ins.args[0] == self.flag_byte)
+                     or (ins.op == "MOV" and bool(ins.args) and ins.args[0] == "SP") for ins in self.instrs]
+
+            def after(j: int) -> list[int]:
+                ins = self.instrs[j]
+                if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE:
+                    return []
+                if ins.op in _CALLS and ins.args[0] in FRAME_REACHING:
+                    return [self.target(ins)]
+                return [k for k in self._next(j) if k < n]
+            succ = [after(j) for j in range(n)]
+            changed = True
+            while changed:
+                changed = False
+                for j in range(n - 1, -1, -1):
+                    if not touch[j] and any(touch[k] for k in succ[j]):
+                        touch[j] = changed = True
+            self._touch = touch
+        return i < len(self._touch) and self._touch[i]
+
     def _tag(self, known: frozenset) -> frozenset:
         """What a path knows at its frame, as `by_record` tells it: the flag bits and the record
         read (REC), not the servos' bits."""
@@ -375,13 +415,12 @@ class Code:
         if arg in self._rm_port and self.names is not None:
             k = self._rm_port[arg]
             if arg == self.names.first:
-                allf = dict(known).get("ALLF")
                 rest = frozenset(f for f in rest if f[0] != REC)
                 ways = [self.walk(nxt, clear, rest | {(REC, i)} | of(masks[k]))
-                        for i, masks in enumerate(self.names.sets)
-                        if allf is None or allf == (masks == self.names.every)]
+                        for i, (masks, flags) in enumerate(zip(self.names.sets, self.names.flags))
+                        if not any((bit, not value) in known for bit, value in flags)]
                 if not ways:
-                    return {}       # no record goes this way (ALLF)
+                    return {}       # no record has the flags this path knows
                 out: dict = {}
                 for way in ways:
                     out = _merge(out, way)

@@ -32,7 +32,8 @@ BITS = ("0x50", "0x51") + (None,) * 6
 
 def _names(*sets: int) -> wcet.Names:
     return wcet.Names(first="RMASK+1", rmask=(("RMASK+1", BITS),),
-                      movb=(("MOVB+1", ("0x20", "0x21") + (None,) * 6),), sets=tuple((s,) for s in sets), every=(3,))
+                      movb=(("MOVB+1", ("0x20", "0x21") + (None,) * 6),), sets=tuple((s,) for s in sets),
+                      flags=(frozenset(),) * len(sets))
 
 
 def test_a_record_is_charged_for_the_servos_it_names():
