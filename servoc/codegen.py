@@ -32,7 +32,7 @@ from . import flow as flow_mod, walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
-                   host_xram, hosted, move_starts, still_at_start,
+                   host_xram, hosted, move_starts, still_at_start, targets_at_start,
                    port_motions, port_reach, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
@@ -137,6 +137,7 @@ class _Ctx:
     host_watchers: set = field(default_factory=set)   # selects whose meanwhile body runs `host` (flow.host_watchers)
     fbase: str = "frame_io"          # the frame routine: frame_w with a meanwhile body (flow.watches)
     still: dict = field(default_factory=dict)         # per move statement (id), the channels at its target at every start
+    targets: dict = field(default_factory=dict)       # and those with a target, and without one, at every start
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -187,8 +188,11 @@ def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
     if len(targets) < len(step.targets):
         notes.append(f"{len(step.targets) - len(targets)} already there")
     flags, data = layout.move_record(frames, label, targets, masks)
+    on, off = ctx.targets.get(id(step), (frozenset(), frozenset()))
+    act = tuple((sum(1 << c.bit for c in chans if c.index in on), sum(1 << c.bit for c in chans if c.index in off))
+                for _, chans in ctx.port_channels)
     return {"flags": flags, "data": data, "notes": notes, "where": ctx.where(step.span), "owner": ctx.owner,
-            "names": named, "step": id(step)}
+            "names": named, "act": act, "step": id(step)}
 
 
 def _hold_record(ctx: _Ctx, step: HoldStep) -> dict:
@@ -380,7 +384,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if stepping is not None or stagger is not None:
         staggered = bool(stagger) and can_stagger
         return _generate_answers(plan, source, hold_off, bool(stepping) and can and not staggered, staggered)
-    still = still_at_start(plan)
+    still = (still_at_start(plan), targets_at_start(plan))
     best = without = _generate_answers(plan, source, hold_off, False, still=still)
     if not can:
         return without
@@ -442,10 +446,10 @@ def _steps_may_pay(without: AsmUnit) -> bool:
 
 
 def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool,
-                      stagger: bool = False, still: dict | None = None) -> AsmUnit:
+                      stagger: bool = False, still: tuple | None = None) -> AsmUnit:
     """`generate`, with or without rises as steps (or among the falls before them: `stagger`);
-    `still`: `flow.still_at_start` of the plan, where already found."""
-    still = still_at_start(plan) if still is None else still
+    `still`: `flow.still_at_start` and `flow.targets_at_start` of the plan, where already found."""
+    still = (still_at_start(plan), targets_at_start(plan)) if still is None else still
     if not (plan.program.serial is not None and hosted(plan)):
         return _generate(plan, source, hold_off, 1, stepping, stagger, still)
     try:
@@ -455,10 +459,10 @@ def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, step
 
 
 def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool,
-              stagger: bool, still: dict) -> AsmUnit:
+              stagger: bool, still: tuple) -> AsmUnit:
     """`generate`, with room for `answers` answers waiting in HAQ (with `host`), with or without
     rises as steps, or with each port's rise among the falls of the port before it (`stagger`)."""
-    ctx = _Ctx(plan, source, [], {}, still=still)
+    ctx = _Ctx(plan, source, [], {}, still=still[0], targets=still[1])
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)
     ctx.host_watchers = host_watchers(plan)
@@ -926,7 +930,7 @@ def record_names(records: list[dict], chans: list[dict], ports: tuple[int, ...]
     None where the records have more than NAMES_MOST distinct pairs of named servos and flags:
     each path is then charged as if its record named every servo."""
     named = [r for r in records if "names" in r]
-    kinds = sorted({(r["names"], r["flags"] & _IN_RECORD) for r in named})
+    kinds = sorted({(r["names"], r["flags"] & _IN_RECORD, r["act"]) for r in named})
     if not kinds or len(kinds) > NAMES_MOST:
         return None, {}
     index = {v: i for i, v in enumerate(kinds)}
@@ -936,12 +940,13 @@ def record_names(records: list[dict], chans: list[dict], ports: tuple[int, ...]
         return tuple(by_bit.get(b) for b in range(8))
     names = wcet.Names(first=f"RMASK+{ports[0]}", rmask=tuple((f"RMASK+{p}", bits("rm_bit", p)) for p in ports),
                        movb=tuple((f"MOVB+{p}", bits("mov_bit", p)) for p in ports),
-                       sets=tuple(masks for masks, _ in kinds),
+                       sets=tuple(masks for masks, _, _ in kinds),
                        flags=tuple(frozenset((f.name, bool(flags & f.value)) for f in layout.RECORD_FLAGS if f.in_record)
-                                   for _, flags in kinds))
+                                   for _, flags, _ in kinds),
+                       act=tuple((f"ACT+{p}", bits("act_bit", p)) for p in ports), acts=tuple(act for _, _, act in kinds))
     of_step: dict = {}
     for r in named:
-        of_step.setdefault(r["step"], set()).add(index[(r["names"], r["flags"] & _IN_RECORD)])
+        of_step.setdefault(r["step"], set()).add(index[(r["names"], r["flags"] & _IN_RECORD, r["act"])])
     return names, of_step
 
 

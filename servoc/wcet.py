@@ -114,15 +114,32 @@ class Names:
     record names and its flags, those whose flags agree with what the path knows of the flag
     byte), each known as ("REC", index) from there to the next frame, and every later test of a
     servo's RMASK or MOVB bit whose value the path knows goes that way: a record is charged for
-    the servos it names, not for every servo."""
+    the servos it names, not for every servo. Where every start of a record's move has a servo
+    with a target, or every one without (`acts`), its ACT bit is known from the fork on too (only
+    the set-up's `SETB` writes it), and with it the carry flag that `MOV C, bit` copies from it,
+    until an instruction that may write the carry: a servo's first target is charged as set at once."""
     first: str                                          # the first port's RMASK byte: the fork
     rmask: tuple[tuple[str, tuple[str | None, ...]], ...]   # per port: its RMASK byte, bit 0..7's names
     movb: tuple[tuple[str, tuple[str | None, ...]], ...]    # per port: its MOVB byte, bit 0..7's names
     sets: tuple[tuple[int, ...], ...]                   # each distinct record's masks, per port
     flags: tuple[frozenset, ...]                        # and its flag bits, (name, value)
+    act: tuple[tuple[str, tuple[str | None, ...]], ...] = ()    # per port: its ACT byte, bit 0..7's names
+    acts: tuple[tuple[tuple[int, int], ...], ...] = ()  # per record, per port: the servos that have a
+                                                        # target, and those that have none, wherever it starts
 
 
 REC = "REC"         # a path's fact: ("REC", i), it reads a record that names Names.sets[i]
+CARRY = "CARRY"     # a path's fact: ("CARRY", value), the carry flag as `MOV C, bit` set it from a known bit
+
+# Instructions that leave the carry flag as it is (and do not write PSW): anything else may write it.
+_CARRY_KEPT = {"MOV", "MOVC", "MOVX", "INC", "DEC", "CLR", "SETB", "CPL", "PUSH", "POP", "NOP", "LCALL", "ACALL",
+               "RET", "SJMP", "LJMP", "AJMP", "JMP", "JZ", "JNZ", "JB", "JNB", "JC", "JNC", "DJNZ", "XCH", "XCHD",
+               "SWAP", "RL", "RR", "ANL", "ORL", "XRL"}
+
+
+def _keeps_carry(ins: Instr) -> bool:
+    """Whether `ins` surely leaves the carry flag as it is."""
+    return ins.op in _CARRY_KEPT and not any(a in ("C", "CY", "PSW", "PSW.7", "0xD7", "0xD0") for a in ins.args)
 
 
 @dataclass(frozen=True)
@@ -206,7 +223,7 @@ class Code:
                                      if i.op in _CALLS and i.args[0] in self.labels}
                                     | ({self.labels["main"]} if "main" in self.labels else set()))
         self.names = names
-        self._fact_bytes: dict[str, tuple[str | None, ...]] = dict(names.rmask + names.movb) if names else {}
+        self._fact_bytes: dict[str, tuple[str | None, ...]] = dict(names.rmask + names.movb + names.act) if names else {}
         self._rm_port = {byte: k for k, (byte, _) in enumerate(names.rmask)} if names else {}
         self._fact_bits = {b for bits in self._fact_bytes.values() for b in bits if b is not None}
         self._walk_memo: dict[tuple, dict] = {}
@@ -263,6 +280,7 @@ class Code:
         if self._fact_bits and known and not self._touches(i):
             kept = frozenset(f for f in known if f[0] in self._fact_bits or f[0] == REC)
             if kept:        # the walk from here is shared by every record: then each gets its own back
+                            # (the carry stays: it lives a few instructions)
                 rec = frozenset(f for f in kept if f[0] == REC)
                 out: dict = {}
                 for key, v in self.walk(i, clear, known - kept).items():
@@ -321,6 +339,17 @@ class Code:
             if ins.op == "JB":      # set (behind a frame) unless cleared since
                 return _plus(self.walk(nxt if clear else self.target(ins), clear, known), c)
             raise WcetError(f"line {ins.line}: `{ins.op} {FRAME_FLAG}` outside frame_io")
+        if self._fact_bits and any(f[0] == CARRY for f in known):
+            was = dict(known)[CARRY]
+            if ins.op in ("JC", "JNC"):
+                taken = was == (ins.op == "JC")
+                return _plus(self.walk(self.target(ins) if taken else nxt, clear, known), c)
+            if not _keeps_carry(ins):
+                known = frozenset(f for f in known if f[0] != CARRY)
+        if self._fact_bits and ins.op == "MOV" and ins.args[0] == "C" and ins.args[1] in self._fact_bits:
+            value = dict(known).get(ins.args[1])
+            if value is not None:
+                return _plus(self.walk(nxt, clear, known | {(CARRY, value)}), c)
         if ins.args and (ins.args[0] in self._fact_bits or ins.args[0] in self._fact_bytes):
             facts = self._facts(ins, clear, known)
             if isinstance(facts, dict):
@@ -357,6 +386,17 @@ class Code:
             return _plus(_merge(self.walk(nxt, clear, known), self.walk(self.target(ins), clear, known)), c)
         return _plus(self.walk(nxt, clear, known), c)
 
+    def _acts(self, rec: int) -> frozenset:
+        """The ACT bits record `rec` knows at its fork: set where every start of its move has a target."""
+        if self.names is None or not self.names.acts:
+            return frozenset()
+        out = set()
+        for (_, bits), (on, off) in zip(self.names.act, self.names.acts[rec]):
+            for k, b in enumerate(bits):
+                if b is not None and (on >> k & 1 or off >> k & 1):
+                    out.add((b, bool(on >> k & 1)))
+        return frozenset(out)
+
     def _touches(self, i: int) -> bool:
         """Whether a path from instruction i, until its frame or the RET of the routine i is in
         (calls followed), may read or write a servo's RMASK or MOVB bit or byte or the flag byte,
@@ -364,8 +404,8 @@ class Code:
         change its cycles, and the walk from i is shared by every record."""
         if self._touch is None:
             n = len(self.instrs)
-            touch = [bool(ins.args) and (ins.args[0] in self._fact_bits or ins.args[0] in self._fact_bytes
-                                         or ins.args[0] == self.flag_byte)
+            touch = [any(a in self._fact_bits or a in self._fact_bytes for a in ins.args)
+                     or (bool(ins.args) and ins.args[0] == self.flag_byte)
                      or (ins.op == "MOV" and bool(ins.args) and ins.args[0] == "SP") for ins in self.instrs]
 
             def after(j: int) -> list[int]:
@@ -416,7 +456,7 @@ class Code:
             k = self._rm_port[arg]
             if arg == self.names.first:
                 rest = frozenset(f for f in rest if f[0] != REC)
-                ways = [self.walk(nxt, clear, rest | {(REC, i)} | of(masks[k]))
+                ways = [self.walk(nxt, clear, rest | {(REC, i)} | of(masks[k]) | self._acts(i))
                         for i, (masks, flags) in enumerate(zip(self.names.sets, self.names.flags))
                         if not any((bit, not value) in known for bit, value in flags)]
                 if not ways:

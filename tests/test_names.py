@@ -150,3 +150,45 @@ def test_a_record_leaves_out_the_servos_at_its_pose_wherever_the_move_starts():
     assert plan is not None, diags
     moves = [st for st in steps(plan) if isinstance(st, MoveStep) and st.pose == "m"]
     assert moves and not still_at_start(plan).get(id(moves[0]))
+
+
+# After a frame: flags (1), MOVB cleared (2), RMASK written (1: the fork), pin 0 named (JNB 2); its
+# ACT bit copied to the carry (1), the set-up called (2): a servo with a target moves (JC 2, MUL 4
+# x 2, RET 2), one without is set at once (JC 2, RET 2); SETB 1, SJMP 2, LCALL frame_io 2.
+ACTED = """
+main:   LCALL   frame_io
+        MOV     FLAGS, A
+        MOV     MOVB+1, #0
+        MOV     RMASK+1, A
+        JNB     0x50, p0
+        MOV     C, 0x08
+        LCALL   setup
+        SETB    0x08
+p0:     SJMP    main
+setup:  JC      has
+        RET
+has:    MUL     AB
+        MUL     AB
+        RET
+frame_io:
+        RET
+"""
+
+
+def _acted(on: int, off: int) -> wcet.Names:
+    return wcet.Names(first="RMASK+1", rmask=(("RMASK+1", BITS),), movb=(("MOVB+1", ("0x20",) + (None,) * 7),),
+                      sets=((1,),), flags=(frozenset(),), act=(("ACT+1", ("0x08",) + (None,) * 7),),
+                      acts=(((on, off),),))
+
+
+def test_a_servo_without_a_target_at_every_start_is_charged_as_set_at_once():
+    """The record's move starts where pin 0 has no target (its ACT bit clear): 18 cycles; where it
+    has one: 26; where it can be either: 26. An instruction that may write the carry between the
+    copy and the test (ADD, 1 cycle) leaves the carry unknown: 27 both ways."""
+    def cycles(text: str, on: int, off: int) -> int:
+        return wcet.Code(text, "FLAGS", frozenset(), frozenset(), None, _acted(on, off)).between_frames()[0]
+    assert (cycles(ACTED, 0, 1), cycles(ACTED, 1, 0), cycles(ACTED, 0, 0)) == (18, 26, 26)
+    added = ACTED.replace("setup:  JC      has", "setup:  ADD     A, #1\n        JC      has")
+    assert cycles(added, 0, 1) == cycles(added, 1, 0) == 27
+    kept = ACTED.replace("setup:  JC      has", "setup:  MOV     A, R0\n        INC     DPTR\n        JC      has")
+    assert cycles(kept, 0, 1) == 18 + 1 + 2

@@ -400,11 +400,11 @@ def test_a_program_that_never_sends_is_charged_for_received_bytes_only(clock):
     assert not quiet.firmware.unit.budget.serial_sends and answering.firmware.unit.budget.serial_sends
     assert quiet.plan.min_period_us < answering.plan.min_period_us
     target = quiet.plan.program.target
-    pulses_us = 3 * costs.port_span(target, 250, quiet.firmware.unit.budget.steps) * target.cycle_us
+    pulses = 3 * costs.port_span(target, 250, quiet.firmware.unit.budget.steps)     # machine cycles
     lines = [f"{60 + 700 * k + 1.07 * k:.3f}ms \"h\" \"l\" \"h\" \"l\"" for k in range(4)]
-    assert answering.plan.min_period_us > pulses_us        # the work and its serial runs set it
+    assert target.cycles(answering.plan.min_period_us) > pulses        # the work and its serial runs set it
     for reply, built in (("", quiet), ('; send "H"', answering)):
-        assert built.plan.period_us == built.plan.min_period_us >= pulses_us
+        assert built.plan.period_us == built.plan.min_period_us and target.cycles(built.plan.min_period_us) >= pulses
         plan, trace, evs, report = run(program(reply), "\n".join(lines) + "\n", int(3_000_000 / built.plan.period_us))
         assert report.ok, (reply, [str(m) for m in report.mismatches[:3]])
         assert report.pulses > 0
