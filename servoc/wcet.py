@@ -454,8 +454,9 @@ class Code:
             return frozenset((b, bool(value >> k & 1)) for k, b in enumerate(bits) if b is not None)
         if arg in self._rm_port and self.names is not None:
             k = self._rm_port[arg]
-            if arg == self.names.first:
-                rest = frozenset(f for f in rest if f[0] != REC)
+            if arg == self.names.first:     # a record read: what was known of the one before goes
+                acts = {b for _, bits in self.names.act for b in bits if b is not None}
+                rest = frozenset(f for f in rest if f[0] != REC and f[0] not in acts)
                 ways = [self.walk(nxt, clear, rest | {(REC, i)} | of(masks[k]) | self._acts(i))
                         for i, (masks, flags) in enumerate(zip(self.names.sets, self.names.flags))
                         if not any((bit, not value) in known for bit, value in flags)]
