@@ -32,7 +32,7 @@ from . import flow as flow_mod, walk, wcet
 from . import target as target_mod
 from .target import DEFAULT as DEFAULT_TARGET, Target, fmt_us
 from .flow import (UNBOUNDED, edge_ports, frame_wrapped, fewest_frames, fewest_frames_in_code, host_passes, host_queue, host_watchers,
-                   host_xram, hosted, move_starts, still_at_start, targets_at_start,
+                   host_xram, hosted, move_starts, at_start,
                    port_motions, port_reach, select_ram, select_slots, send_gap, send_run, sends, takes_frames, tx_queue, watches)
 from .source import SourceFile
 from .steps import (AfterBranch, HoldStep, HostStep, LoopStep, MoveStep, Plan, PlayStep, RepeatStep, SelectStep, SendStep,
@@ -136,8 +136,7 @@ class _Ctx:
     repeats: bool = False            # a `repeat` is laid out (it counts its passes with rep_next)
     host_watchers: set = field(default_factory=set)   # selects whose meanwhile body runs `host` (flow.host_watchers)
     fbase: str = "frame_io"          # the frame routine: frame_w with a meanwhile body (flow.watches)
-    still: dict = field(default_factory=dict)         # per move statement (id), the channels at its target at every start
-    targets: dict = field(default_factory=dict)       # and those with a target, and without one, at every start
+    at_start: dict = field(default_factory=dict)      # per move statement (id), what holds wherever it starts
 
     def __post_init__(self) -> None:
         self.port_channels = tuple((port, tuple(c for c in self.plan.channels if c.port == port))
@@ -158,7 +157,7 @@ class _Ctx:
 def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
     """The record of a move. `known` holds the targets set by the records before it in its list:
     a servo whose target is already the pose's is left out of the record (it does not move), and
-    so is one at the pose's N at every start of the move (`flow.still_at_start`); `known` takes the
+    so is one at the pose's N at every start of the move (`flow.at_start`); `known` takes the
     move's targets."""
     plan = ctx.plan
     frames = step.frames        # None: the plan found different F in different contexts
@@ -168,8 +167,8 @@ def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
         key = (step.ease, step.frames)
         label = ctx.ease_tables.setdefault(key, f"etab{len(ctx.ease_tables) + 1}")
         notes.append(f"ease {step.ease} table {label}")
-    still = ctx.still.get(id(step), frozenset())
-    targets = {ch: n for ch, n in step.targets if known.get(ch) != n and ch not in still}
+    start = ctx.at_start.get(id(step), flow_mod.AtStart(frozenset(), frozenset(), frozenset()))
+    targets = {ch: n for ch, n in step.targets if known.get(ch) != n and ch not in start.still}
     if len(step.targets) == len(plan.channels) and len(plan.ports) + len(targets) >= len(plan.channels):
         targets = dict(step.targets)    # naming every servo needs no masks: not longer than masks and the changed
     known.update(step.targets)
@@ -188,8 +187,7 @@ def _move_record(ctx: _Ctx, step: MoveStep, known: dict[int, int]) -> dict:
     if len(targets) < len(step.targets):
         notes.append(f"{len(step.targets) - len(targets)} already there")
     flags, data = layout.move_record(frames, label, targets, masks)
-    on, off = ctx.targets.get(id(step), (frozenset(), frozenset()))
-    act = tuple((sum(1 << c.bit for c in chans if c.index in on), sum(1 << c.bit for c in chans if c.index in off))
+    act = tuple((sum(1 << c.bit for c in chans if c.index in start.on), sum(1 << c.bit for c in chans if c.index in start.off))
                 for _, chans in ctx.port_channels)
     return {"flags": flags, "data": data, "notes": notes, "where": ctx.where(step.span), "owner": ctx.owner,
             "names": named, "act": act, "step": id(step)}
@@ -384,8 +382,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if stepping is not None or stagger is not None:
         staggered = bool(stagger) and can_stagger
         return _generate_answers(plan, source, hold_off, bool(stepping) and can and not staggered, staggered)
-    still = (still_at_start(plan), targets_at_start(plan))
-    best = without = _generate_answers(plan, source, hold_off, False, still=still)
+    facts = at_start(plan)
+    best = without = _generate_answers(plan, source, hold_off, False, facts=facts)
     if not can:
         return without
     reason = None       # a build that holds a shorter period than `best` but not this one: why
@@ -393,12 +391,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
         if not pays:
             continue
         try:
-            other = _generate_answers(plan, source, hold_off, kind == "steps", kind == "stagger", still)
+            other = _generate_answers(plan, source, hold_off, kind == "steps", kind == "stagger", facts)
         except layout.LayoutError as exc:       # dropped: its traceback would keep _generate's frame in a cycle
             for each in (exc, *getattr(exc, "errors", ())):
                 each.__traceback__ = None
-            shortest = getattr(exc, "shortest_us", None)
-            if shortest is not None and (reason is None or shortest < reason.shortest_us):
+            if isinstance(exc, layout.SendOverrun) and exc.shortest_us is not None and (
+                    reason is None or exc.shortest_us < reason.shortest_us):
                 reason = exc
             continue
         if (other.min_period_us is not None and best.min_period_us is not None
@@ -446,23 +444,23 @@ def _steps_may_pay(without: AsmUnit) -> bool:
 
 
 def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool,
-                      stagger: bool = False, still: tuple | None = None) -> AsmUnit:
+                      stagger: bool = False, facts: dict | None = None) -> AsmUnit:
     """`generate`, with or without rises as steps (or among the falls before them: `stagger`);
-    `still`: `flow.still_at_start` and `flow.targets_at_start` of the plan, where already found."""
-    still = (still_at_start(plan), targets_at_start(plan)) if still is None else still
+    `facts`: `flow.at_start` of the plan, where already found."""
+    facts = at_start(plan) if facts is None else facts
     if not (plan.program.serial is not None and hosted(plan)):
-        return _generate(plan, source, hold_off, 1, stepping, stagger, still)
+        return _generate(plan, source, hold_off, 1, stepping, stagger, facts)
     try:
-        return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger, still)
+        return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger, facts)
     except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
-        return _generate(plan, source, hold_off, 1, stepping, stagger, still)
+        return _generate(plan, source, hold_off, 1, stepping, stagger, facts)
 
 
 def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool,
-              stagger: bool, still: tuple) -> AsmUnit:
+              stagger: bool, facts: dict) -> AsmUnit:
     """`generate`, with room for `answers` answers waiting in HAQ (with `host`), with or without
     rises as steps, or with each port's rise among the falls of the port before it (`stagger`)."""
-    ctx = _Ctx(plan, source, [], {}, still=still[0], targets=still[1])
+    ctx = _Ctx(plan, source, [], {}, at_start=facts)
     ctx.slots = select_slots(plan)
     ctx.edge_ports = edge_ports(plan)
     ctx.host_watchers = host_watchers(plan)
@@ -985,7 +983,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                 recs = names[1].get(step)
                 return max((v for tag, v in moving.items()
                             if ("EASED", not eased) not in tag and ("NODUR", not runtime_f) not in tag
-                            and (recs is None or dict(tag).get(wcet.REC, -1) in recs | {-1})), default=work)
+                            and (recs is None or dict(tag).get(wcet.REC) in recs | {None})), default=work)
 
             paired = {"start_frame": max(work_of(e, r, step) + fs[0] - _unswapped(code, lines[0], sw) + falls
                                          for falls, sw, e, r, step in starts),

@@ -577,51 +577,43 @@ def _power_up(plan: Plan) -> Iterator[tuple[tuple, tuple, MoveStep]]:
             on = tuple(after)
 
 
-def _move_befores(plan: Plan) -> Iterator[tuple[tuple, MoveStep]]:
-    """Each start of each move statement the program can reach: the state before it (per channel an
-    N, None: no target yet, or a Reach after an interruption), from its instances and the
-    power-up's states."""
+def _starts(plan: Plan) -> Iterator[tuple[tuple, tuple, MoveStep]]:
+    """Each start of each move statement the program can reach: the state before it and the move's
+    first frame (per channel an N, None: no target yet, or a Reach after an interruption), from
+    its instances and the power-up's states."""
     power = {id(st) for st in plan.power_up}
-    for before, _, st in _power_up(plan):
-        yield before, st
+    yield from _power_up(plan)
     for inst in plan.moves:
         if id(inst.step) not in power:
-            yield inst.start, inst.step
+            yield inst.start, inst.first, inst.step
 
 
-def still_at_start(plan: Plan) -> dict[int, frozenset[int]]:
-    """Per move statement (by id), the channels that every start of it the program can reach has
-    at its target N already: they do not move, so its record may leave them out. A statement that
-    can start where a line is not known (after an interruption) has none there; a program with
-    `host` none at all (the host moves the servos)."""
+@dataclass(frozen=True)
+class AtStart:
+    """What holds wherever a move statement starts (`at_start`)."""
+    still: frozenset[int]       # the channels already at its target N: they do not move
+    on: frozenset[int]          # the channels that have a target
+    off: frozenset[int]         # the channels that have none (a line's first target is set at once)
+
+
+def at_start(plan: Plan) -> dict[int, AtStart]:
+    """Per move statement (by id), what every start of it the program can reach has in common.
+    Where a line can be anywhere (after an interruption) it is none of `still`, and of `on` only if
+    it surely has a target. Nothing for a program with `host` (the host moves the servos)."""
     if hosted(plan):
         return {}
-    out: dict[int, frozenset[int]] = {}
-    for before, step in _move_befores(plan):
-        key = id(step)
-        if out.get(key, True):      # (none left: nothing to narrow)
-            # an N equals the target; None (no target yet) and a Reach (after an interruption) do not
-            here = frozenset(ch for ch, n in step.targets if before[ch] == n) \
-                if len(before) == len(plan.channels) else frozenset()
-            out[key] = here & out[key] if key in out else here
-    return out
-
-
-def targets_at_start(plan: Plan) -> dict[int, tuple[frozenset[int], frozenset[int]]]:
-    """Per move statement (by id): the channels that have a target wherever it starts, and those
-    that have none wherever it starts (a line's first target is set at once). None of either in a
-    program with `host`."""
-    if hosted(plan):
-        return {}
-    out: dict[int, tuple[frozenset[int], frozenset[int]]] = {}
-    for before, step in _move_befores(plan):
+    out: dict[int, AtStart] = {}
+    for before, _, step in _starts(plan):
         if len(before) == len(plan.channels):
-            on = frozenset(ch for ch, v in enumerate(before) if isinstance(v, int) or (isinstance(v, Reach) and not v.unset))
-            off = frozenset(ch for ch, v in enumerate(before) if v is None)
+            # an N equals the target; None (no target yet) and a Reach (after an interruption) do not
+            here = AtStart(frozenset(ch for ch, n in step.targets if before[ch] == n),
+                           frozenset(ch for ch, v in enumerate(before)
+                                     if isinstance(v, int) or (isinstance(v, Reach) and not v.unset)),
+                           frozenset(ch for ch, v in enumerate(before) if v is None))
         else:
-            on = off = frozenset()
-        key = id(step)
-        out[key] = (on & out[key][0], off & out[key][1]) if key in out else (on, off)
+            here = AtStart(frozenset(), frozenset(), frozenset())
+        was = out.get(id(step))
+        out[id(step)] = here if was is None else AtStart(was.still & here.still, was.on & here.on, was.off & here.off)
     return out
 
 
@@ -644,12 +636,8 @@ def move_starts(plan: Plan) -> dict[int, frozenset | None]:
             else:
                 out[port] = None
 
-    power = {id(st) for st in plan.power_up}
-    for before, after, st in _power_up(plan):
-        add(before, after, st)
-    for inst in plan.moves:
-        if id(inst.step) not in power:
-            add(inst.start, inst.first, inst.step)
+    for before, first, st in _starts(plan):
+        add(before, first, st)
     if hosted(plan):        # host moves start wherever the servos are
         out = {port: None for port in plan.ports}
     return {port: None if pairs is None else frozenset(pairs) for port, pairs in out.items()}

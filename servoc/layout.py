@@ -267,6 +267,7 @@ class SendOverrun(LayoutError):
     """`send` could find the transmit queue full."""
     code = "send-overrun"
     help = "put a frame (a move or a hold) between the sends, or send fewer bytes at a time"
+    shortest_us: int | None = None      # the shortest period at which the build that raised it holds the sends
 
 
 # A select's `after` F is counted in 16 bits: F + 1 looks (one as it is reached, one after each

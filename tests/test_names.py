@@ -132,15 +132,16 @@ def test_a_record_leaves_out_the_servos_at_its_pose_wherever_the_move_starts():
     record, the first of the loop's list, names y only; `move a` starts from no target at all and
     names every servo. After a select's meanwhile body cut by a press, where a line can
     be anywhere between the N it passes, a move leaves none out."""
-    from servoc.flow import still_at_start
+    from servoc.flow import at_start
     from servoc.steps import MoveStep, steps
     fe, diags = front_end_text(STILL)
     plan = fe.plan
     moves = {st.pose: st for st in steps(plan) if isinstance(st, MoveStep)}
-    still = still_at_start(plan)
-    assert still[id(moves["b"])] == still[id(moves["c"])] == {0, 2, 3} and not still[id(moves["a"])]
+    start = at_start(plan)
+    assert start[id(moves["b"])].still == start[id(moves["c"])].still == {0, 2, 3} and not start[id(moves["a"])].still
+    assert start[id(moves["a"])].off == {0, 1, 2, 3} and start[id(moves["b"])].on == {0, 1, 2, 3}
     unit = codegen.generate(plan)
-    assert unit.text.count("3 already there") == 2        # b (by still_at_start) and c (by the record before)
+    assert unit.text.count("3 already there") == 2        # b (by at_start) and c (by the record before)
     built = build_text(STILL)
     assert_exact(built.verify(4 * sum(m.frames for m in built.plan.moves)), "records without the servos already there")
     cut = STILL.replace("main {\n  move a in 300ms\n  loop {", "input k = P3.2\nmain {\n  move a in 300ms\n  loop {\n"
@@ -149,7 +150,7 @@ def test_a_record_leaves_out_the_servos_at_its_pose_wherever_the_move_starts():
     plan = fe.plan
     assert plan is not None, diags
     moves = [st for st in steps(plan) if isinstance(st, MoveStep) and st.pose == "m"]
-    assert moves and not still_at_start(plan).get(id(moves[0]))
+    assert moves and not at_start(plan)[id(moves[0])].still
 
 
 # After a frame: flags (1), MOVB cleared (2), RMASK written (1: the fork), pin 0 named (JNB 2); its

@@ -128,7 +128,7 @@ def test_a_period_too_short_for_one_build_names_the_limit_of_the_build_with_the_
     real = codegen._generate_answers(plan, None, 0, False)
     without = dataclasses.replace(real, period_holds=False, min_period_us=5980)
 
-    def answers(plan, source, hold_off, stepping, stagger=False, still=None):
+    def answers(plan, source, hold_off, stepping, stagger=False, facts=None):
         if not stepping and not stagger:
             return without
         exc = layout.SendOverrun("the sends")
