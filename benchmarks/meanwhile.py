@@ -102,7 +102,8 @@ def latency() -> list[str]:
     return rows
 
 
-HEAD = ("frame 10ms\nservo pan = P2.0\nservo tilt = P2.1\ninput button = P3.2\n"
+# 100,000 frames of distinct moves are some 20 KB of moves: a chip with 32 KB of code memory
+HEAD = ("target stc89c58rd clock 12MHz\nframe 10ms\nservo pan = P2.0\nservo tilt = P2.1\ninput button = P3.2\n"
         "pose rest { pan: 122, tilt: 122 }\npose left { pan: 118, tilt: 120 }\npose right { pan: 126, tilt: 120 }\n")
 
 
