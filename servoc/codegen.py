@@ -411,8 +411,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
 
 def _can_stagger(plan: Plan) -> bool:
     """Whether a build can have each port's rise among the falls of the port before it: two ports
-    or more, and a clock whose DIV leaves room for it (`costs.stagger_ok`)."""
-    return len(plan.ports) >= 2 and costs.stagger_ok(plan.program.target)
+    or more (at a clock whose DIV is less than 2 STEP cycles, the rise beside a fall:
+    `costs.beside`)."""
+    return len(plan.ports) >= 2
 
 
 def _stagger_may_pay(without: AsmUnit) -> bool:
@@ -660,7 +661,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                   **passes,
                   h=host_ctx,
                   period_cycles=period_cycles,
-                  ctab=None if target.grid else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
+                  ctab=None if target.grid and not stagger else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
                                                  "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},
                   target_text=target.describe(), cycle_text=fmt_us(target.cycle_us),
                   div_text=f"{float(target.div_cycles):g}",
@@ -695,7 +696,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                             else costs.start_loads(target, starts[plan.ports[0]]),
                             0 if s is None else s["byte_cycles"], bport is not None,
                             uses["sends"], uses["holds"], _pl_barred(plan, sequences) if hosting else None,
-                            names)
+                            names, costs.beside_extra(target))
     budget, work_from = measure(text)
     spans = e["spans"]
     if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
@@ -861,7 +862,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "steps": stepping, "rs_off": costs.SLED + 21, "rstep_off": costs.SLED + 29,
         "rsled": costs.RSLED, "rise_step": costs.RISE_STEP, "rsled_end": costs.RSLED + costs.RISE_STEP,
         # stagger: each window's fall code, its exits, then a sled and the next port's rise
-        "stagger": stagger, "step": costs.STEP, "rfar_off": costs.SLED + 10, "end_off": costs.SLED + 13,
+        "stagger": stagger, "step": costs.STEP, "beside": costs.BESIDE, "rfar_off": costs.SLED + 10, "end_off": costs.SLED + 13,
         "rs_base": costs.SLED + 16, "rland": 2 * costs.SLED + 16, "rsled_add": (2 * costs.SLED + 24) % 0x100,
         "first_off": 2 * costs.SLED + 24,
         "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
@@ -902,10 +903,44 @@ def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) 
         # (the last port's, or one whose span its sort made longer, can be 256 cycles or more after)
         far = p["nstar"] >= 0 and p["rnext"] - target.width_cycles(p["nstar"]) >= costs.SPLIT
         p["near_rise"] = 0 if far else e["near_dn"]
+        _set_beside(e, p, target)
     for k, p in enumerate(e["ports"]):
         before = e["ports"][k - 1]
         p["prev_port"], p["prev_rnext"] = before["port"], before["rnext"]
     e["spans"] = spans
+
+
+def _set_beside(e: dict, p: dict, target) -> None:
+    """Where rises come beside falls (`costs.beside`), port p's rise among its falls may come BESIDE
+    cycles after the fall of N j = nstar (`combo`): the blocks of its window that put out that fall
+    and the rise (FR), both and the fall of j + 1 (FRF), or the rise and the fall of j + 1 (RF), each
+    entered as a step of exactly its gap from an edge at N j - 1, and the items stagger_emit writes
+    for them. Their offsets (after the rise, and in the first port's window the first frame's rise)
+    and the NOPs that make each gap. Every port of such a build has the same code whatever its rise:
+    where the rise is STEP or more from every fall, no N is j (the spans are fitted after a first
+    layout, and the code must keep its cycles)."""
+    p["beside"] = e["stagger"] and costs.beside(target)
+    if not p["beside"]:
+        return
+    c = target.width_cycles
+    j = p["nstar"]
+    p["combo"] = j >= 1 and p["rnext"] - c(j) == costs.BESIDE
+    g_fr, g_rf, d2 = costs.STEP, costs.STEP, 3
+    if p["combo"]:
+        g_fr, g_rf = c(j) - c(j - 1), p["rnext"] - c(j - 1)
+        if j < N_MAX:
+            d2 = c(j + 1) - p["rnext"]          # the rise to the fall of j + 1
+    assert g_fr >= costs.STEP and d2 >= 3, (g_fr, d2)
+    never = 0xFE                                 # no N is 0xFE
+    combo, pairs = p["combo"], p["combo"] and j < N_MAX
+    base = e["first_off"] + (8 if p is e["ports"][0] else 0)
+    fr = g_fr - costs.STEP + 11
+    frf = g_fr - costs.STEP + 15 + d2 - 3
+    p.update(bj=j if combo else never, bjm=j - 1 if combo else never, bj1=j + 1 if pairs else never,
+             bj1q=j + 1 if pairs else never, bcjm=c(j - 1) & 0xFF if combo else 0, bcj1=c(j + 1) & 0xFF if pairs else 0,
+             fr_nops=g_fr - costs.STEP, rf_nops=g_rf - costs.STEP, d2_nops=d2 - 3,
+             fr_off=base, frf_off=base + fr, rf_off=base + fr + frf)
+    assert p["rf_off"] <= 0xFF, "a rise beside a fall: the window's blocks are out of a jump's reach"
 
 
 def runtime_stack(text: str, sequence_labels: list[str]) -> int:
@@ -952,7 +987,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                  starts: frozenset | None = None, byte_cycles: int = 0, last_in_b: bool = False,
                  sends: bool = False, holds: bool = True,
                  barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,
-                 names: tuple[wcet.Names | None, dict] = (None, {})) -> tuple[costs.Budget | None, str]:
+                 names: tuple[wcet.Names | None, dict] = (None, {}), beside: int = 0) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
     (costs.port_load); its sort is the longest path less the swaps no frame makes. `starts`: one
@@ -962,7 +997,8 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
     `holds`: the code has hold records (without, every path that reads a record reads a move's);
     `barred`: the code no RET returns to while a sequence `PL` started plays (`_pl_barred`);
     `names`: which servos each record names, and each move statement's records (`record_names`),
-    so that a path that reads a record is charged for the servos that record names."""
+    so that a path that reads a record is charged for the servos that record names. `beside`: what
+    a rise beside a fall adds to the handler's cycles for its port (`costs.beside_extra`)."""
     try:
         code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record),
                          frozenset({"PLAYH"}), barred, names[0])
@@ -995,7 +1031,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
         if staggered:   # from the last edge: the step's read and jump (4), LJMP (2), the handover to the RETI
             emits = tuple(costs.ENTRY + 6 + code.longest(f"emit_s{p}", {"exit_timer"})
                           + code.longest_exit({"exit_timer"}) for p in ports)
-            rises = tuple(costs.SPLIT - 1 + v - costs.ENTRY for v in emits)
+            rises = tuple(costs.SPLIT - 1 + beside + v - costs.ENTRY for v in emits)
         else:
             rises = tuple((costs.RISE_HEAD if stepped else costs.ENTRY + 2) + code.longest(f"emit_p{p}", exits)
                           + code.longest_exit(exits) for p in ports)

@@ -129,17 +129,48 @@ def stagger_ok(target) -> bool:
     return all(target.width_cycles(n + 1) - target.width_cycles(n) >= 2 * STEP for n in range(250))
 
 
+# Where a DIV is less than 2 STEP cycles (12 MHz, 11.0592 MHz) no time between two falls one DIV
+# apart is STEP from both, so a rise among the falls comes BESIDE cycles after the fall of some N j
+# (1 <= j <= 250), in one block of the port's window with that fall and the next N's: the fall of j,
+# BESIDE cycles later the rise (MOV A,RISEM; XRL), the fall of j + 1 C(j + 1) - C(j) - BESIDE cycles
+# after the rise (at least 3: MOV A,@R0; INC R0; XRL). Each block is entered as a step of exactly
+# its gap from an edge at N j - 1 (a fall there, or one with no line when that port has none): so
+# its sled is that gap's own NOPs (irq.asm.j2, stagger_emit.asm.j2).
+BESIDE = 2
+
+
+def beside(target) -> bool:
+    """Whether a rise among the falls comes beside a fall (`BESIDE`): where no time between two falls
+    one DIV apart is STEP from both (not `stagger_ok`)."""
+    return not stagger_ok(target)
+
+
+def beside_extra(target) -> int:
+    """The handler's most cycles in a frame that a rise beside a fall adds to its port's falls and
+    the rise's own entry (`rises`): the edge with no line at N j - 1 before the block, at most its
+    gap to the block's first edge (C(j) - C(j - 1), or BESIDE more to a rise that comes first); 0
+    where rises do not come beside falls."""
+    if not beside(target):
+        return 0
+    return max(target.width_cycles(n + 1) - target.width_cycles(n) for n in range(250)) + BESIDE
+
+
 def rise_slot(target, top: int, at_least: int, bottom: int = 0) -> int:
     """The first time from `at_least` on (cycles after a port's rise) at least STEP cycles from the
     fall of every N from `bottom` to `top` (the N its lines can fall at): where the next port's rise
-    can come among this port's falls as a step on either side, or before or after them."""
+    can come among this port's falls as a step on either side, or before or after them. Where a rise
+    comes `beside` a fall, also BESIDE cycles after the fall of any N j from 1 to 250, the earlier."""
     widths = [target.width_cycles(n) for n in range(bottom, top + 1)]
     d = at_least
     while True:
         near = [c for c in widths if abs(c - d) < STEP]
         if not near:
-            return d
+            break
         d = max(near) + STEP
+    if beside(target):
+        by = next((c + BESIDE for c in (target.width_cycles(j) for j in range(1, 251)) if c + BESIDE >= at_least), d)
+        d = min(d, by)
+    return d
 
 
 def stagger_span(target, top: int, emit: int, last: bool, bottom: int = 0, next_bottom: int = 0) -> int:
@@ -572,7 +603,7 @@ def _stagger_stretch(target, budget: Budget, need: int) -> int:
                  else first) - budget.emits[n]
         if after < need:
             return 1 << 20
-        worst = max(worst, SPLIT * (budget.lines[k] + 1) + budget.emits[n] - ENTRY)
+        worst = max(worst, SPLIT * (budget.lines[k] + 1) + beside_extra(target) + budget.emits[n] - ENTRY)
     return worst
 
 

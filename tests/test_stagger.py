@@ -41,14 +41,29 @@ def test_a_rise_among_the_falls_is_at_least_a_step_from_every_fall(clock):
 
 
 @pytest.mark.parametrize("clock", SLOW)
-def test_where_a_div_is_less_than_two_steps_no_rise_comes_among_the_falls(clock):
+def test_where_a_div_is_less_than_two_steps_a_rise_comes_beside_a_fall(clock):
     """At 12 MHz (8 cycles a DIV), 11.0592 MHz (7.37) and 18.432 MHz (12.29) no time between two
-    falls one DIV apart is STEP from both: those builds pulse the ports one after another."""
+    falls one DIV apart is STEP from both, so rise_slot also takes BESIDE cycles after the fall of
+    any N j from 1 up (costs.beside): the earlier of that and the first time STEP from every fall.
+    Below it no time is either. A rise beside the fall of j is at least 3 cycles before the fall of
+    j + 1 (the block's MOV A,@R0; INC R0; XRL after the rise), and 7 or more from every other."""
     t = target_of(clock)
-    assert not costs.stagger_ok(t)
-    assert costs.rise_slot(t, 250, t.width_cycles(0)) == t.width_cycles(250) + costs.STEP
-    built = build_text(clock + ports(8, 8, tops=(250, 250)).replace("{1P}", "20000"))
-    assert not built.firmware.unit.budget.stagger
+    assert not costs.stagger_ok(t) and costs.beside(t)
+    widths = [t.width_cycles(n) for n in range(251)]
+    beside = {c + costs.BESIDE: j for j, c in enumerate(widths) if j >= 1}
+
+    def clear(d: int, top: int) -> bool:
+        return all(abs(c - d) >= costs.STEP for c in widths[:top + 1])
+    for top in (0, 37, 120, 249, 250):
+        for start in range(widths[0] - 20, widths[top] + 20, 7):
+            d = costs.rise_slot(t, top, start)
+            assert d >= start and (clear(d, top) or d in beside)
+            assert not any(clear(x, top) or x in beside for x in range(start, d))
+            if d in beside and not clear(d, top):
+                j = beside[d]
+                assert all(abs(c - d) >= costs.STEP for n, c in enumerate(widths) if n not in (j, j + 1))
+                assert j == 250 or widths[j + 1] - d >= 3
+    assert costs.rise_slot(t, 250, widths[0]) == widths[1] + costs.BESIDE
 
 
 def ports(*per_port: int, tops: tuple[int, ...] = (), crossing: bool = False) -> str:
@@ -290,3 +305,68 @@ def test_the_handovers_cycles_quoted_in_the_docs_are_the_codes():
     assert len(emits) == 1
     text = (Path(__file__).resolve().parent.parent / "docs" / "language.md").read_text(encoding="utf-8")
     assert f"the entry's {costs.ENTRY} cycles included: {emits.pop()})" in text
+
+
+def beside_check(built) -> None:
+    """Each port's rise but the last's is STEP or more from every fall its port can have, or BESIDE
+    after the fall of some N j (costs.beside), at least 3 before the fall of j + 1."""
+    b, t = built.firmware.unit.budget, built.plan.program.target
+    for k in range(len(b.spans) - 1):
+        near = [n for n in range(b.bottoms[k], b.tops[k] + 1) if abs(t.width_cycles(n) - b.spans[k]) < costs.STEP]
+        if near:
+            j = near[0] if t.width_cycles(near[0]) < b.spans[k] else near[0] - 1
+            assert costs.beside(t) and b.spans[k] - t.width_cycles(j) == costs.BESIDE and set(near) <= {j, j + 1}
+        assert b.spans[k] >= t.width_cycles(b.tops[k]) - t.width_cycles(b.bottoms[k + 1]) + b.emits[k + 1]
+
+
+BESIDE_CASES = ["24 lines one DIV apart across three ports", "N 0 and N 250 on every port", "all 24 lines at N 250",
+                "lines within 1 to 2 ms (N 62 to 187)"]
+
+
+@pytest.mark.parametrize("clock,case", [("", c) for c in BESIDE_CASES] + [(SLOW[1], BESIDE_CASES[1]), (SLOW[2], BESIDE_CASES[0])])
+def test_rises_beside_falls_verify_at_the_minimum(clock, case):
+    """Where a DIV is less than 2 STEP cycles the rises come among the falls too (a rise beside a
+    fall where no time is STEP from both): each program runs in ucsim at the shortest period
+    servoc reports, every pulse exact, 1 us less refused, shorter than the ports pulsed one after
+    another."""
+    built, period = check_at_minimum(clock + CASES[case], 12000)
+    assert built.firmware.unit.budget.stagger and built.plan.rises_among_falls
+    beside_check(built)
+    assert codegen.generate(built.plan, stepping=True).min_period_us > period
+
+
+def block_program(clock: str, shape: tuple) -> tuple[str, int]:
+    """Held lines on P0, P1 and P2 such that P0's rise among its falls comes beside the fall of an
+    N j, with P0's lines at j + each offset in `shape`, its others at N 0 (or, where `shape` starts
+    with 'first', none below) and 250: found by building until the rise stays where the lines put it."""
+    values = [[0, 250, 10, 20, 30, 40, 50, 60], [100, 250, 120, 130, 140, 150, 160, 170],
+              [100, 250, 180, 190, 200, 210, 220, 230]]
+    offsets = [o for o in shape if o != "first"]
+    for _ in range(8):
+        template = clock + held(values)
+        fe, diags = front_end_text(at_period(template, 12000))
+        assert fe.plan is not None, diags
+        t, span = fe.plan.program.target, codegen.generate(fe.plan).budget.spans[0]
+        j = max(n for n in range(251) if t.width_cycles(n) < span)
+        lines = [j + o for o in offsets]
+        want = lines + ([250] * (8 - len(lines)) if "first" in shape else values[0][len(lines):])
+        if want == values[0] and span - t.width_cycles(j) == costs.BESIDE:
+            return template, j
+        values[0] = want
+    raise AssertionError(f"the rise did not settle beside the lines: {values[0]}")
+
+
+@pytest.mark.parametrize("clock", SLOW[:2])
+@pytest.mark.parametrize("shape", [(-1, 0, 5), (-4, 1, 2), (-3, 0, 1), ("first", 0, 3, 4), ("first", 0, 1, 9)],
+                         ids=["FR after the fall at j-1", "RF after no line at j-1", "FRF after no line at j-1", "FR first",
+                              "FRF first"])
+def test_each_block_of_a_rise_beside_a_fall_puts_every_edge_exactly(clock, shape):
+    """The blocks of a rise beside the fall of j: the fall of j and the rise (FR), and the fall of
+    j + 1 (FRF), or the rise and the fall of j + 1 (RF); each after the fall at j - 1, or one with
+    no line written there for it, or as the port's first edge after the header N j - 1 with no line.
+    Every pulse exact at the minimum, 1 us less refused."""
+    template, j = block_program(clock, shape)
+    built, period = check_at_minimum(template, 12000)
+    beside_check(built)
+    b, t = built.firmware.unit.budget, built.plan.program.target
+    assert b.spans[0] - t.width_cycles(j) == costs.BESIDE
