@@ -129,9 +129,9 @@ def _build(text: str, how: str) -> tuple[api.FrontEnd, api.Firmware | None, list
 
 
 def _leanest(text: str, how: str) -> int:
-    """The ROM bytes of `text` built `how` without rises as steps (codegen.generate) and, built for
-    speed, without `first_step` where that is smaller (api.choose_period): where the code with them
-    might not fit, the build goes without them."""
+    """The ROM bytes of `text` built `how` without rises as steps or among falls (codegen.generate)
+    and, built for speed, without `first_step` where that is smaller (api.choose_period): where the
+    code with them might not fit, the build goes without them."""
     fe, _, _ = _build(text, how)
     plans = [fe.plan]
     if not fe.plan.compact:
@@ -151,9 +151,10 @@ def most_that_fit(make_source, k: int, how: str, say) -> dict:
     (_, fw_k, err_k), (_, fw_2k, err_2k) = _build(make_source(k), est), _build(make_source(2 * k), est)
     if fw_k is None or fw_2k is None:
         raise BuildError(f"{k} and {2 * k} items did not compile: {err_k} {err_2k}")
-    per_item = (fw_2k.rom_bytes - fw_k.rom_bytes) / k
-    fixed = fw_k.rom_bytes - k * per_item
-    fixed -= fw_k.rom_bytes - min(fw_k.rom_bytes, _leanest(make_source(k), est))    # what the build drops near the limit
+    # near the limit the build drops what it can (`_leanest`): the bytes per item and the rest from those
+    lean_k, lean_2k = (min(fw.rom_bytes, _leanest(make_source(n), est)) for fw, n in ((fw_k, k), (fw_2k, 2 * k)))
+    per_item = (lean_2k - lean_k) / k
+    fixed = lean_k - k * per_item
     estimate = int((ROM_SIZE - fixed) // per_item)
     say(f"  built {how}: estimate {estimate}, confirming by compiling")
     fits: dict[int, bool] = {}

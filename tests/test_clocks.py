@@ -10,7 +10,7 @@ from fractions import Fraction
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from conftest import assert_exact, build_text, front_end_text
+from conftest import assert_exact, build_engine, build_text, front_end_text
 from servoc import api, costs, target, toolchain
 
 pytestmark = pytest.mark.toolchain
@@ -117,8 +117,9 @@ def test_the_longest_period_compile_accepts_verifies(line):
 
 def test_ports_follow_each_other_as_the_budget_counts():
     """Measured in ucsim at 11.0592 MHz: P1 rises C(250) + SPLIT cycles after P0 (2304 + 93), or
-    C(250) + RISE_STEP (2304 + 21) in firmware whose rises can be steps."""
-    built = build_text(program("target stc89c52rc clock 11.0592MHz", [r[:16] for r in ROWS]))
+    C(250) + RISE_STEP (2304 + 21) in firmware whose rises can be steps (the ports pulsed one after
+    another: test_stagger.py has them overlapping)."""
+    built = build_engine(program("target stc89c52rc clock 11.0592MHz", [r[:16] for r in ROWS]), stepping=True)
     steps = built.firmware.unit.budget.steps
     span = costs.port_span(built.plan.program.target, 250, steps)
     assert span == 2304 + (costs.RISE_STEP if steps else costs.SPLIT)

@@ -17,7 +17,7 @@ import pytest
 from servoc import layout, api, codegen, costs
 from servoc.diagnostics import Reporter
 
-from conftest import assert_exact, build_text, compile_file, parse_listing, pose, servo_decls
+from conftest import assert_exact, build_engine, build_text, compile_file, parse_listing, pose, servo_decls
 
 pytestmark = pytest.mark.toolchain
 
@@ -163,7 +163,7 @@ def handler_firmware():
         for sizes in [(1, 2, 3), (8, 5, 4), (6, 7, 8)]:
             pins = [(port, b) for port, s in enumerate(sizes) for b in range(s)]
             text = line + servo_decls(pins) + pose("p", {f"s{p}_{b}": 17 for p, b in pins}) + "main { move p }\n"
-            out.append((sizes, build_text(text)))
+            out.append((sizes, build_engine(text)))       # the ports pulsed one after another
     return out
 
 
@@ -240,9 +240,7 @@ def stepping_firmware():
     for line, ports in (("", (0, 1, 2)), ("target stc89c52rc clock 11.0592MHz\n", (1, 2))):
         pins = [(port, b) for port in ports for b in range(2)]
         text = line + servo_decls(pins) + pose("p", {f"s{p}_{b}": 250 - 9 * b for p, b in pins}) + "main { move p }\n"
-        built = build_text(text)
-        assert built.firmware.unit.budget.steps
-        out.append((ports, built))
+        out.append((ports, build_engine(text, stepping=True)))
     return out
 
 

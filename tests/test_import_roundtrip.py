@@ -156,13 +156,14 @@ def test_an_export_faster_than_any_frame_meets_one_frame_in_step(tmp_path, capsy
 
 @pytest.mark.toolchain
 def test_twenty_four_channels_on_three_ports_verify(tmp_path, capsys):
-    """Channels 0-23 fill P1, P2 and P0; at 30 fps the frame is 1/30 s over 4 (the default on three
-    ports is longer than 1/30 s over 5), and the firmware sends every pulse as planned."""
+    """Channels 0-23 fill P1, P2 and P0; at 30 fps the frame is 1/30 s over 5 (the default on three
+    ports, their pulses overlapping, is longer than 1/30 s over 6), and the firmware sends every
+    pulse as planned."""
     src, out = tmp_path / "all.json", tmp_path / "all.servo"
     blender_json(src, 30, ids=tuple(str(i) for i in range(24)))
     assert cli.main(["import", str(src), "-o", str(out)]) == 0
     text = out.read_text()
-    assert "frame 8.333ms\n" in text and "servo servo_23 = P0.7" in text and "servo servo_8 = P2.0" in text
+    assert "frame 6.667ms\n" in text and "servo servo_23 = P0.7" in text and "servo servo_8 = P2.0" in text
     source, reporter = api.load_source(str(out))
     fe, firmware = api.build(source, reporter)
     assert firmware is not None

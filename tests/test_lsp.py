@@ -427,10 +427,13 @@ def test_references_of_an_input_through_edges_and_until(editor: Editor):
                                                   where(text, "move a", into=5)]
 
 
-@pytest.mark.parametrize("clock,overlap", [("target at89c52 clock 22.1184MHz\n", True), ("", False)])
-def test_hover_on_frame_says_where_the_ports_pulses_begin(editor: Editor, clock, overlap):
+@pytest.mark.parametrize("clock,top,overlap", [("target at89c52 clock 22.1184MHz\n", 250, True), ("", 250, True),
+                                               ("", 40, False)])
+def test_hover_on_frame_says_where_the_ports_pulses_begin(editor: Editor, clock, top, overlap):
+    """Where the lines reach N 250 the pulses bound the period and overlap; lines below N 40 leave
+    the work bounding it, and the ports pulse one after another."""
     text = (clock + "frame 10ms\n" + "".join(f"servo s{p}{b} = P{p}.{b}\n" for p in (1, 2) for b in range(3))
-            + "pose a { " + ", ".join(f"s{p}{b}: {250 - 20 * b}" for p in (1, 2) for b in range(3)) + " }\n"
+            + "pose a { " + ", ".join(f"s{p}{b}: {top - 20 * b}" for p in (1, 2) for b in range(3)) + " }\n"
             + "main { move a }\n")
     uri, _ = editor.open("hover-frame.servo", text)
     value = editor.hover(uri, *where(text, "frame 10ms", into=2)).contents.value

@@ -226,9 +226,9 @@ def test_the_rise_sled_puts_the_rise_exactly_its_gap_after_the_fall_before_it():
 def test_plan_says_the_ports_pulses_overlap(tmp_path, capsys):
     from servoc import cli
     import json
-    for clock, overlap in ((FAST[0], True), ("", False)):
-        path = tmp_path / "p.servo"
-        path.write_text(clock + ports(4, 4).replace("{1P}", "20000"))
+    for clock, tops, overlap in ((FAST[0], (), True), ("", (), True), ("", (40, 40), False)):
+        path = tmp_path / "p.servo"        # (lines below N 40: the work bounds the period, not the pulses)
+        path.write_text(clock + ports(4, 4, tops=tops).replace("{1P}", "20000"))
         assert cli.main(["plan", str(path)]) == 0
         out = capsys.readouterr().out
         assert ("the ports' pulses overlap" in out) == overlap

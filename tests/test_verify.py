@@ -18,7 +18,7 @@ from intelhex import IntelHex
 from servoc import api, costs, verify
 
 from servoc.plan import expand
-from conftest import assert_exact, build_text, parse_listing
+from conftest import assert_exact, build_engine, build_text, parse_listing
 
 pytestmark = pytest.mark.toolchain
 
@@ -43,7 +43,7 @@ EXPECTED = {"a": 10, "b": 120, "c": 250, "d": 33}
 
 @pytest.fixture(scope="module")
 def good():
-    built = build_text(PROGRAM)
+    built = build_engine(PROGRAM)       # the ports pulsed one after another: the code the patches below expect
     assert_exact(built.verify(), PROGRAM)
     return built
 
@@ -160,7 +160,7 @@ def other(text_changes: dict[str, str]):
     for old, new in text_changes.items():
         assert old in text
         text = text.replace(old, new)
-    return build_text(text)
+    return build_engine(text)       # the same handler as `good`
 
 
 def test_trace_of_another_plan_is_caught(good):
