@@ -918,28 +918,26 @@ def _set_beside(e: dict, p: dict, target) -> None:
     and the rise (FR), both and the fall of j + 1 (FRF), or the rise and the fall of j + 1 (RF), each
     entered as a step of exactly its gap from an edge at N j - 1, and the items stagger_emit writes
     for them. Their offsets (after the rise, and in the first port's window the first frame's rise)
-    and the NOPs that make each gap. Every port of such a build has the same code whatever its rise:
-    where the rise is STEP or more from every fall, no N is j (the spans are fitted after a first
-    layout, and the code must keep its cycles)."""
+    and the NOPs that make each gap (`costs.beside_gaps`). Every port of such a build has the same
+    code whatever its rise, but for immediates: where the rise is STEP or more from every fall, no N
+    is j (the spans are fitted after a first layout, and the code keeps its cycles: wcet.same_cycles)."""
     p["beside"] = e["stagger"] and costs.beside(target)
     if not p["beside"]:
         return
     c = target.width_cycles
     j = p["nstar"]
-    p["combo"] = j >= 1 and p["rnext"] - c(j) == costs.BESIDE
-    g_fr, g_rf, d2 = costs.STEP, costs.STEP, 3
-    if p["combo"]:
-        g_fr, g_rf = c(j) - c(j - 1), p["rnext"] - c(j - 1)
-        if j < N_MAX:
-            d2 = c(j + 1) - p["rnext"]          # the rise to the fall of j + 1
+    g_fr, g_j = costs.beside_gaps(target)        # C(j) - C(j - 1), C(j + 1) - C(j): the same for every j
+    g_rf, d2 = g_fr + costs.BESIDE, g_j - costs.BESIDE     # the edge at j - 1 to the rise, the rise to j + 1
+    # (a last port's next rise, a frame later, can be BESIDE after the fall of an N its lines never reach)
+    combo = p["combo"] = (1 <= j < N_MAX and p["rnext"] - c(j) == costs.BESIDE
+                          and (c(j) - c(j - 1), c(j + 1) - c(j)) == (g_fr, g_j))
     assert g_fr >= costs.STEP and d2 >= 3, (g_fr, d2)
     never = 0xFE                                 # no N is 0xFE
-    combo, pairs = p["combo"], p["combo"] and j < N_MAX
     base = e["first_off"] + (8 if p is e["ports"][0] else 0)
     fr = g_fr - costs.STEP + 11
     frf = g_fr - costs.STEP + 15 + d2 - 3
-    p.update(bj=j if combo else never, bjm=j - 1 if combo else never, bj1=j + 1 if pairs else never,
-             bj1q=j + 1 if pairs else never, bcjm=c(j - 1) & 0xFF if combo else 0, bcj1=c(j + 1) & 0xFF if pairs else 0,
+    p.update(bj=j if combo else never, bjm=j - 1 if combo else never, bj1=j + 1 if combo else never,
+             bcjm=c(j - 1) & 0xFF if combo else 0, bcj1=c(j + 1) & 0xFF if combo else 0,
              fr_nops=g_fr - costs.STEP, rf_nops=g_rf - costs.STEP, d2_nops=d2 - 3,
              fr_off=base, frf_off=base + fr, rf_off=base + fr + frf)
     assert p["rf_off"] <= 0xFF, "a rise beside a fall: the window's blocks are out of a jump's reach"

@@ -64,7 +64,7 @@ import dataclasses
 from dataclasses import dataclass
 from functools import lru_cache
 
-from .units import DEFAULT_PERIOD_FLOOR_US
+from .units import DEFAULT_PERIOD_FLOOR_US, N_MAX
 
 # The entry latency the handler's pad absorbs: 3 to 9 cycles on an 8051 (an instruction under
 # way, up to a 4-cycle MUL, and one more after a RETI or a write to IE; nothing else holds the
@@ -139,6 +139,19 @@ def stagger_ok(target) -> bool:
 BESIDE = 2
 
 
+@lru_cache(maxsize=16)
+def beside_gaps(target) -> tuple[int, int]:
+    """The gaps C(j) - C(j - 1) and C(j + 1) - C(j) around every N j a rise may come beside: the
+    pair most N from 1 to 249 have (at 12 MHz every N's: 8 and 8), so that the blocks' code is the
+    same whatever j the spans give (only immediates change when the code is laid out again)."""
+    c = target.width_cycles
+    pairs: dict[tuple[int, int], int] = {}
+    for j in range(1, N_MAX):
+        pair = (c(j) - c(j - 1), c(j + 1) - c(j))
+        pairs[pair] = pairs.get(pair, 0) + 1
+    return max(pairs, key=lambda pair: (pairs[pair], pair))
+
+
 def beside(target) -> bool:
     """Whether a rise among the falls comes beside a fall (`BESIDE`): where no time between two falls
     one DIV apart is STEP from both (not `stagger_ok`)."""
@@ -159,7 +172,8 @@ def rise_slot(target, top: int, at_least: int, bottom: int = 0) -> int:
     """The first time from `at_least` on (cycles after a port's rise) at least STEP cycles from the
     fall of every N from `bottom` to `top` (the N its lines can fall at): where the next port's rise
     can come among this port's falls as a step on either side, or before or after them. Where a rise
-    comes `beside` a fall, also BESIDE cycles after the fall of any N j from 1 to 250, the earlier."""
+    comes `beside` a fall, also BESIDE cycles after the fall of an N j from 1 to 249 whose gaps to the
+    N before and after it are `beside_gaps`, the earlier."""
     widths = [target.width_cycles(n) for n in range(bottom, top + 1)]
     d = at_least
     while True:
@@ -168,7 +182,9 @@ def rise_slot(target, top: int, at_least: int, bottom: int = 0) -> int:
             break
         d = max(near) + STEP
     if beside(target):
-        by = next((c + BESIDE for c in (target.width_cycles(j) for j in range(1, 251)) if c + BESIDE >= at_least), d)
+        c, gaps = target.width_cycles, beside_gaps(target)
+        by = next((c(j) + BESIDE for j in range(1, N_MAX) if c(j) + BESIDE >= at_least
+                   and (c(j) - c(j - 1), c(j + 1) - c(j)) == gaps), d)
         d = min(d, by)
     return d
 

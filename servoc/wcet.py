@@ -156,22 +156,51 @@ _LABEL = re.compile(r"^([A-Za-z_.$][\w.$]*)::?\s*(.*)$")
 
 def same_cycles(a: str, b: str) -> bool:
     """Whether two assembly texts surely take the same cycles on every path: line for line the
-    same but for comments and the values of immediates (`#...`), none of them a `MOV Rn,#k`
-    (a counted or pad loop's count). False says nothing: measure both."""
+    same but for comments and the values of immediates (`#...`), none of them a counted or pad
+    loop's count (a `MOV Rn,#k` right before `DJNZ Rn,.` or before the label of a `DJNZ Rn,label`)
+    nor a byte written whole (`MOV direct,#k`: the analysis follows what some such writes say).
+    False says nothing: measure both."""
     lines_a, lines_b = a.splitlines(), b.splitlines()
     if len(lines_a) != len(lines_b):
         return False
-    for x, y in zip(lines_a, lines_b):
-        x, y = x.split(";", 1)[0], y.split(";", 1)[0]
+    code = [line.split(";", 1)[0] for line in lines_a]
+    counts = None
+    for i, (x, y) in enumerate(zip(code, lines_b)):
+        y = y.split(";", 1)[0]
         if x == y:
             continue
-        if _IMMEDIATE.sub("#", x) != _IMMEDIATE.sub("#", y) or _COUNT.match(x) or x.lstrip().startswith("."):
+        if _IMMEDIATE.sub("#", x) != _IMMEDIATE.sub("#", y) or x.lstrip().startswith(".") or _WHOLE.match(x):
             return False
+        if _COUNT.match(x):
+            counts = _loop_counts(code) if counts is None else counts
+            if i in counts:
+                return False
     return True
 
 
+def _loop_counts(code: list[str]) -> set[int]:
+    """The lines (comments cut) that give a counted or pad loop its count: a `MOV Rn,#k` whose next
+    line with code is `DJNZ Rn,.`, or carries a label that some `DJNZ Rn,label` jumps to."""
+    loops = {(m.group(1).upper(), m.group(2)) for line in code if (m := _DJNZ.search(line))}
+    out = set()
+    for i, line in enumerate(code):
+        m = _COUNT.match(line)
+        if not m:
+            continue
+        reg = m.group(2).upper()
+        after = next((x for x in code[i + 1:] if x.strip()), "")
+        label = _LABEL_AT.match(after)
+        djnz = _DJNZ.search(after)
+        if (djnz and djnz.group(1).upper() == reg and djnz.group(2) == ".") or (label and (reg, label.group(1)) in loops):
+            out.add(i)
+    return out
+
+
 _IMMEDIATE = re.compile(r"#[^,\s]+")
-_COUNT = re.compile(r"\s*(\w+:\s*)?MOV\s+R[0-7]\s*,", re.I)
+_COUNT = re.compile(r"\s*(\w+:\s*)?MOV\s+(R[0-7])\s*,", re.I)
+_WHOLE = re.compile(r"\s*(\w+:\s*)?MOV\s+(?!(?:A|R[0-7]|@R[01]|DPTR)\s*,)\S[^,]*,\s*#", re.I)
+_DJNZ = re.compile(r"\bDJNZ\s+(R[0-7])\s*,\s*(\S+)", re.I)
+_LABEL_AT = re.compile(r"\s*(\w+):")
 
 
 @functools.lru_cache(maxsize=4)

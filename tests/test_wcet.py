@@ -245,3 +245,18 @@ def test_a_call_that_clears_the_flag_guarding_it_is_charged_once_per_loop():
 def test_a_call_in_a_loop_is_charged_every_pass_unless_it_surely_runs_once(change, passes):
     code = wcet.Code(ONCE.replace(change, passes))
     assert code.longest("start", set()) >= 1 + 1 + 6 * 26 - 6
+
+
+def test_same_cycles_knows_a_loop_count_from_any_other_register_immediate():
+    """A `MOV Rn,#k` is a count only right before `DJNZ Rn,.` or before the label of a `DJNZ Rn,label`
+    (wcet's counted loops): other register immediates (a rise's time, an N compared with) may
+    change, so a build laid out again for its spans is not measured twice. A byte written whole
+    (`MOV direct,#k`) may not: the analysis follows what some such writes say (RMASK, MOVB)."""
+    text = ("f:      MOV     R4, #7\n        MOV     R7, #5\nhead:   MOV     A, @R0\n        INC     R0\n"
+            "        CJNE    A, #48, next\nnext:   DJNZ    R7, head\n        MOV     R5, #<884\n"
+            "        MOV     MOVB+1, #0x03\n        RET\n")
+    changed = text.replace("#7", "#9").replace("#48", "#123").replace("#<884", "#<1478")
+    assert wcet.same_cycles(text, changed)
+    assert wcet.Code(text).longest("f", set()) == wcet.Code(changed).longest("f", set())
+    assert not wcet.same_cycles(text, text.replace("R7, #5", "R7, #6"))            # a counted loop's count
+    assert not wcet.same_cycles(text, text.replace("#0x03", "#0x07"))              # a byte written whole

@@ -609,8 +609,7 @@ fe1_b: MOV     R0, #WN
         SETB    F0                      ; P2's rise is still to be placed
 ; Where a rise comes beside a fall (2 cycles after the fall of N j), that fall, the rise and a fall
 ; of N j + 1 are one block of the window (FR, FRF or RF), a step from an edge at N j - 1 (a fall with
-; no line there where the port has none). Here the rise is 7 cycles or more from every
-; fall P1 can have: no N is j (254: never).
+; no line there where the port has none). Here no N is j (254): the rise is 7 cycles or more from every fall.
         MOV     R4, #0xFE               ; R4: N of the edge before (0xFE: none yet)
         MOV     A, @R0                  ; the first N (0xFF: none)
         INC     R0
@@ -661,7 +660,7 @@ fb1_b: CJNE    A, #254, fb1_f
 fb1_q: CJNE    A, #254, fb1_e          ; after FR, N j + 1 makes the block FRF
         DEC     R1
         DEC     R1
-        MOV     @R1, #213            ; FRF: the fall of N j, the rise, the fall of N j + 1
+        MOV     @R1, #214            ; FRF: the fall of N j, the rise, the fall of N j + 1
         INC     R1
         INC     R1
         LCALL   bj11                ; the lines of N j + 1
@@ -709,8 +708,7 @@ fe2_b: MOV     R0, #WN
         SETB    F0                      ; P1's rise is still to be placed
 ; Where a rise comes beside a fall (2 cycles after the fall of N j), that fall, the rise and a fall
 ; of N j + 1 are one block of the window (FR, FRF or RF), a step from an edge at N j - 1 (a fall with
-; no line there where the port has none). Here the rise is 7 cycles or more from every
-; fall P2 can have: no N is j (254: never).
+; no line there where the port has none). Here no N is j (254): the rise is 7 cycles or more from every fall.
         MOV     R4, #0xFE               ; R4: N of the edge before (0xFE: none yet)
         MOV     A, @R0                  ; the first N (0xFF: none)
         INC     R0
@@ -1082,8 +1080,10 @@ win_p1:
         NOP                             ; 1
         XRL     P1, A                 ; 1  EDGE: the rise (every line was low)
         LJMP    emit_p1                 ; (the first frame's rise)
-; (P2's rise is 7 cycles or more from every fall of P1: the items never enter
-; these blocks)
+; P2's rise beside a fall of P1 (2 cycles after the fall of N j): each block is a step of
+; exactly its gap from the edge at N j - 1 before it (a fall there, or one with no line), so its sled
+; is that gap's own NOPs. Here the items never enter them: the rise is 7 cycles or more from every fall.
+        NOP                             ; 1
         MOV     A, @R0                  ; 1  FR (offset 202): the lines that fall at N j
         INC     R0                      ; 1
         XRL     P1, A                 ; 1  EDGE
@@ -1092,23 +1092,33 @@ win_p1:
         MOV     A, @R0                  ; 1  the next item
         INC     R0                      ; 1
         JMP     @A+DPTR                 ; 2
-        MOV     A, @R0                  ; 1  FRF (offset 213): the lines that fall at N j
+        NOP                             ; 1
+        MOV     A, @R0                  ; 1  FRF (offset 214): the lines that fall at N j
         INC     R0                      ; 1
         XRL     P1, A                 ; 1  EDGE
         MOV     A, RISEM                ; 1
         XRL     P2, A                 ; 1  EDGE: P2's rise
         MOV     A, @R0                  ; 1  the lines that fall at N j + 1
         INC     R0                      ; 1
-        XRL     P1, A                 ; 1  EDGE: 3 cycles after the rise
+        NOP                             ; 1
+        NOP                             ; 1
+        NOP                             ; 1
+        XRL     P1, A                 ; 1  EDGE: 6 cycles after the rise
         MOV     A, @R0                  ; 1  the next item
         INC     R0                      ; 1
         JMP     @A+DPTR                 ; 2
-        MOV     A, RISEM                ; 1  RF (offset 228): P2's lines with a target
+        NOP                             ; 1
+        NOP                             ; 1
+        NOP                             ; 1
+        MOV     A, RISEM                ; 1  RF (offset 233): P2's lines with a target
         NOP                             ; 1  (the same 3 cycles to the edge as a fall's)
         XRL     P2, A                 ; 1  EDGE: P2's rise
         MOV     A, @R0                  ; 1  the lines that fall at N j + 1
         INC     R0                      ; 1
-        XRL     P1, A                 ; 1  EDGE: 3 cycles after the rise
+        NOP                             ; 1
+        NOP                             ; 1
+        NOP                             ; 1
+        XRL     P1, A                 ; 1  EDGE: 6 cycles after the rise
         MOV     A, @R0                  ; 1  the next item
         INC     R0                      ; 1
         JMP     @A+DPTR                 ; 2
@@ -1300,8 +1310,10 @@ win_p2:
         MOV     A, @R0                  ; 1  the next item: a sled offset or an exit
         INC     R0                      ; 1
         JMP     @A+DPTR                 ; 2
-; (P1's rise is 7 cycles or more from every fall of P2: the items never enter
-; these blocks)
+; P1's rise beside a fall of P2 (2 cycles after the fall of N j): each block is a step of
+; exactly its gap from the edge at N j - 1 before it (a fall there, or one with no line), so its sled
+; is that gap's own NOPs. Here the items never enter them: the rise is 7 cycles or more from every fall.
+        NOP                             ; 1
         MOV     A, @R0                  ; 1  FR (offset 194): the lines that fall at N j
         INC     R0                      ; 1
         XRL     P2, A                 ; 1  EDGE
@@ -1310,23 +1322,33 @@ win_p2:
         MOV     A, @R0                  ; 1  the next item
         INC     R0                      ; 1
         JMP     @A+DPTR                 ; 2
-        MOV     A, @R0                  ; 1  FRF (offset 205): the lines that fall at N j
+        NOP                             ; 1
+        MOV     A, @R0                  ; 1  FRF (offset 206): the lines that fall at N j
         INC     R0                      ; 1
         XRL     P2, A                 ; 1  EDGE
         MOV     A, RISEM                ; 1
         XRL     P1, A                 ; 1  EDGE: P1's rise
         MOV     A, @R0                  ; 1  the lines that fall at N j + 1
         INC     R0                      ; 1
-        XRL     P2, A                 ; 1  EDGE: 3 cycles after the rise
+        NOP                             ; 1
+        NOP                             ; 1
+        NOP                             ; 1
+        XRL     P2, A                 ; 1  EDGE: 6 cycles after the rise
         MOV     A, @R0                  ; 1  the next item
         INC     R0                      ; 1
         JMP     @A+DPTR                 ; 2
-        MOV     A, RISEM                ; 1  RF (offset 220): P1's lines with a target
+        NOP                             ; 1
+        NOP                             ; 1
+        NOP                             ; 1
+        MOV     A, RISEM                ; 1  RF (offset 225): P1's lines with a target
         NOP                             ; 1  (the same 3 cycles to the edge as a fall's)
         XRL     P1, A                 ; 1  EDGE: P1's rise
         MOV     A, @R0                  ; 1  the lines that fall at N j + 1
         INC     R0                      ; 1
-        XRL     P2, A                 ; 1  EDGE: 3 cycles after the rise
+        NOP                             ; 1
+        NOP                             ; 1
+        NOP                             ; 1
+        XRL     P2, A                 ; 1  EDGE: 6 cycles after the rise
         MOV     A, @R0                  ; 1  the next item
         INC     R0                      ; 1
         JMP     @A+DPTR                 ; 2
@@ -1721,7 +1743,7 @@ brf1__m:   MOV     @R1, #0                 ; no line
         INC     R1
         SJMP    brf1_s
 brf1_s:
-        MOV     @R1, #228
+        MOV     @R1, #233
         INC     R1
 bj11:  MOV     A, @R0                  ; the lines of N j + 1, the edge before the next
         INC     R0
@@ -1842,7 +1864,7 @@ brf2__m:   MOV     @R1, #0                 ; no line
         INC     R1
         SJMP    brf2_s
 brf2_s:
-        MOV     @R1, #220
+        MOV     @R1, #225
         INC     R1
 bj12:  MOV     A, @R0                  ; the lines of N j + 1, the edge before the next
         INC     R0
