@@ -1,12 +1,12 @@
 """The frame budget in ucsim: the shortest frame period P at which a firmware verifies exactly.
 
-Two searches with a predicate ok(P) ("the firmware built at P verifies
-exactly"): `holds_down_to`, down from the P servoc reports 1 us at a time to
-the first P that fails (the shortest P from which every P up to the reported
-one holds), and `shortest_period`, a binary search to 1 us or to a coarser
-step in quick mode, for the held pose, whose search starts from no reported
-P. They run on two kinds of programs, built at P with servoc's own budget
-bypassed (`build_unchecked`) so that P can go below it:
+One search with a predicate ok(P) ("the firmware built at P verifies
+exactly"): `holds_down_to`, down from the P servoc reports 1 us at a time (or
+a coarser step, then 1 us) to the first P that fails: the shortest P from
+which every P up to the reported one holds (no bisection: where the ports'
+pulses overlap, a shorter P can hold by chance). It runs on two kinds of
+programs, built at P with servoc's own budget bypassed (`build_unchecked`)
+so that P can go below it:
 
 - stress programs (`stress_source`): every servo moves on every frame
   (one-frame moves), so each frame reads a new move record, computes DDA
@@ -26,6 +26,8 @@ code) and the default P it picks.
 
 from __future__ import annotations
 
+import dataclasses
+
 import time
 from pathlib import Path
 
@@ -44,23 +46,6 @@ SPAN = costs.port_span(_T12)
 
 def pulse_floor(ports: int) -> int:
     return SPAN * ports
-QUICK_STEP = 8
-"""Resolution (us) of the stress programs' search in quick mode; the figure is then an upper bound."""
-
-
-def shortest_period(ok, lo: int, hi: int, step: int = 1) -> int:
-    """Smallest P in (lo, hi] with ok(P), to within `step`; ok must be monotone, ok(lo) false, ok(hi) true."""
-    if lo >= hi:
-        raise AssertionError(f"nothing to search: the lower bound {lo} us is not below {hi} us")
-    if not ok(hi):
-        raise AssertionError(f"not exact even at P = {hi} us")
-    while hi - lo > step:
-        mid = (lo + hi) // 2
-        if ok(mid):
-            hi = mid
-        else:
-            lo = mid
-    return hi
 
 
 def holds_down_to(ok, lo: int, hi: int, step: int = 1) -> int:
@@ -97,12 +82,17 @@ def plan_text(text: str, name: str = "bench", below_budget: bool = False) -> tup
     return source, fe.plan
 
 
-def build_unchecked(text: str, name: str) -> tuple[Plan, api.Firmware]:
+def build_unchecked(text: str, name: str, build: dict | None = None) -> tuple[Plan, api.Firmware]:
     """Plan and assemble `text` at its own `frame`, also below the shortest P servoc allows
-    (`api.generate` refuses that, so the code comes from `codegen.generate` itself)."""
+    (`api.generate` refuses that, so the code comes from `codegen.generate` itself). `build` given
+    (codegen.generate's `stepping`, `stagger`): that build, not the one whose period is shortest,
+    and the plan with its ports' rises."""
     source, plan = plan_text(text, name, below_budget=True)
     reporter = Reporter(source)
-    fw = api.assemble(codegen.generate(plan, source), reporter)
+    unit = codegen.generate(plan, source, **(build or {}))
+    if build:
+        plan = dataclasses.replace(plan, rise_offsets=unit.rise_offsets, rises_among_falls=unit.budget.stagger)
+    fw = api.assemble(unit, reporter)
     if fw is None:
         raise BuildError(f"{name}: " + "; ".join(d.message for d in reporter.diagnostics))
     return plan, fw
@@ -200,11 +190,12 @@ def hold_exact_at(ports: int, period: int, frames: int = 150) -> bool:
 
 
 def hold_shortest(ports: int, quick: bool) -> tuple[int, int]:
-    """(shortest exact P, resolution) of the held pose: the port routines and a little more."""
+    """(shortest exact P, resolution) of the held pose: down from the P servoc reports for it
+    (`holds_down_to`; where the ports' pulses overlap, shorter periods can hold by chance)."""
     step = 2 if quick else 1
     frames = 100 if quick else 150
-    lo = (ports - 1) * _T12.width_cycles(250) + _T12.width_cycles(max(POSITIONS))    # a rise before a last fall
-    p = shortest_period(lambda q: hold_exact_at(ports, q, frames), lo, pulse_floor(ports) + 512, step)
+    reported = plan_text(hold_source(ports, None), "hold")[1].min_period_us
+    p = holds_down_to(lambda q: hold_exact_at(ports, q, frames), _T12.width_cycles(max(POSITIONS)), reported, step)
     return p, step
 
 
@@ -297,7 +288,8 @@ def frame_budget(quick: bool, progress=None) -> dict:
     """Shortest exact P against servoc's reported and default P, worst case and pose held.
 
     Full: 1, 2 and 3 ports, with and without run-time F. Quick: 1 and 3 ports, fewer frames, the
-    held pose to QUICK_STEP us. The stress programs' search is `holds_down_to` (1 us)."""
+    held pose every 2 us down to its first failure, then every us (`holds_down_to`); the stress
+    programs' every us."""
     say = progress or (lambda s: None)
     out: dict = {"port_span_cycles": SPAN, "worst_case": [], "steady_state": []}
     for ports in (1, 3) if quick else (1, 2, 3):

@@ -41,10 +41,12 @@ its window: the whole frame, or from the rise it starts at to the first
 port's next rise. `tests/test_costs.py` runs adversarial programs in ucsim at
 their own minimum.
 
-Where a DIV is 2 STEP cycles or more (`stagger_ok`: 22.1184 MHz, 6T mode), a build may make each
-port's rise come among the falls of the port before it (`stagger_span`, irq_stagger.asm.j2): at a
-time STEP or more from every fall that port can have (`rise_slot`), so that the rise is a step of
-its own in that port's list (a second sled in its window) or an entry of its own. The
+A build may make each port's rise come among the falls of the port before it (`stagger_span`,
+irq_stagger.asm.j2): at a time STEP or more from every fall that port can have (`rise_slot`), so
+that the rise is a step of its own in that port's list (a second sled in its window) or an entry
+of its own; or, where a DIV is less than 2 STEP cycles (`beside`: 12 MHz, 11.0592 MHz), BESIDE
+cycles after the fall of an N j, in one block of straight code with that fall and the fall of
+j + 1 (irq_beside.asm.j2), a step from an edge at N j - 1. The
 background writes each port's items after its sort (frame_irq.asm.j2, stagger_emit.asm.j2: the
 sort's term includes it) into the one of two buffers the handler does not use; the handler takes
 them after the last edge of the port before (its handover, `handovers`), a run that must end

@@ -129,16 +129,6 @@ def test_hold_search_brackets():
     # with the next frame's rise at the last fall nothing is exact; with a longer frame the held pose is
     assert not budget.hold_exact_at(1, target.DEFAULT.width_cycles(max(baselines.POSITIONS)), 20)
     assert budget.hold_exact_at(1, budget.pulse_floor(1) + 512, 20)
-    calls = []
-
-    def ok(p):
-        calls.append(p)
-        return p >= 1234
-
-    assert budget.shortest_period(ok, 1000, 2000) == 1234
-    assert budget.shortest_period(ok, 1000, 2000, 8) - 1234 in range(0, 8)
-    with pytest.raises(AssertionError):
-        budget.shortest_period(ok, 0, 1000)
 
 
 def test_the_search_down_from_the_reported_period_stops_at_the_first_failure_not_at_a_chance():
@@ -152,7 +142,6 @@ def test_the_search_down_from_the_reported_period_stops_at_the_first_failure_not
 
     assert budget.holds_down_to(ok, 1000, 1600) == 1508
     assert calls == list(range(1600, 1506, -1))     # one build per us down to the first failure
-    assert budget.shortest_period(ok, 1000, 1600) == 1400   # a bisection takes the chance
     assert budget.holds_down_to(lambda p: p >= 1001, 1000, 1600) == 1001      # the lower bound is never tried
     with pytest.raises(AssertionError):
         budget.holds_down_to(lambda p: p > 1600, 1000, 1600)
