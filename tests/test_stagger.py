@@ -377,3 +377,27 @@ def test_each_block_of_a_rise_beside_a_fall_puts_every_edge_exactly(clock, shape
     beside_check(built)
     b, t = built.firmware.unit.budget, built.plan.program.target
     assert b.spans[0] - t.width_cycles(j) == costs.BESIDE
+
+
+@pytest.mark.parametrize("hold", [4, 10])
+def test_a_rise_beside_a_fall_keeps_every_edge_with_interrupts_held_off(hold):
+    """The blocks of a rise beside a fall run inside one entry of the edge handler, after its pad:
+    with interrupts held off for up to 10 cycles at several points of the background (test_irq.py),
+    every edge of a build whose rise comes beside the fall of j, with lines at j and j + 1, stays on
+    its cycle at that build's own shortest period."""
+    from servoc import api
+    from servoc.diagnostics import Reporter
+    template, j = block_program("", (-3, 0, 1))
+    period = 12000
+    for _ in range(6):
+        fe, diags = front_end_text(at_period(template, period))
+        unit = codegen.generate(fe.plan, fe.source, hold_off=hold, stagger=True)
+        if unit.min_period_us == period:
+            break
+        period = unit.min_period_us
+    t = fe.plan.program.target
+    assert unit.text.count("CLR     EA") >= 4 and unit.budget.spans[0] - t.width_cycles(j) == costs.BESIDE
+    firmware = api.assemble(unit, Reporter(fe.source))
+    plan = dataclasses.replace(fe.plan, rise_offsets=unit.rise_offsets, rises_among_falls=True)
+    report = api.verify(plan, firmware, 200)
+    assert report.ok and report.max_error_cycles == 0, (hold, report.summary(), [str(m) for m in report.mismatches[:5]])
