@@ -387,7 +387,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if not can:
         return without
     reason = None       # a build that holds a shorter period than `best` but not this one: why
-    for kind, pays in (("stagger", can_stagger and _stagger_may_pay(without)), ("steps", _steps_may_pay(without))):
+    for kind in ("stagger", "steps"):
+        pays = (can_stagger and _stagger_may_pay(without)) if kind == "stagger" else _steps_may_pay(without, best)
         if not pays:
             continue
         try:
@@ -427,13 +428,14 @@ def _stagger_may_pay(without: AsmUnit) -> bool:
     return without.target.us_at_least(least) < without.min_period_us
 
 
-def _steps_may_pay(without: AsmUnit) -> bool:
-    """Whether the build with rises as steps can hold a shorter period than `without`: its spans
-    are at least each port's longest pulse and RISE_STEP, each rise at least RISE_HEAD - ENTRY - 2
-    cycles longer (the same emit, reached later) and its other cycles at least `without`'s, so the
+def _steps_may_pay(without: AsmUnit, best: AsmUnit) -> bool:
+    """Whether the build with rises as steps can hold a shorter period than `best` (`without`, or
+    the build with rises among falls where that is shorter): its spans are at least each port's
+    longest pulse and RISE_STEP, each rise at least RISE_HEAD - ENTRY - 2 cycles longer than
+    `without`'s (the same emit, reached later) and its other cycles at least `without`'s, so the
     frame that budget needs bounds its period from below."""
     b = without.budget
-    if b is None or without.min_period_us is None or not b.tops:
+    if b is None or without.min_period_us is None or best.min_period_us is None or not b.tops:
         return True
     tight = tuple(costs.port_span(without.target, top, True) for top in b.tops)
     rises = tuple(r + costs.RISE_HEAD - costs.ENTRY - 2 for r in b.rises)
@@ -441,7 +443,7 @@ def _steps_may_pay(without: AsmUnit) -> bool:
         least = costs.frame_cycles(without.target, dataclasses.replace(b, spans=tight, rises=rises, steps=True))
     except costs.TooSlow:
         return False
-    return without.target.us_at_least(least) < without.min_period_us
+    return without.target.us_at_least(least) < best.min_period_us
 
 
 def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool,

@@ -135,7 +135,7 @@ def test_a_period_too_short_for_one_build_names_the_limit_of_the_build_with_the_
         exc.shortest_us = sends
         raise exc
     monkeypatch.setattr(codegen, "_generate_answers", answers)
-    monkeypatch.setattr(codegen, "_steps_may_pay", lambda unit: True)
+    monkeypatch.setattr(codegen, "_steps_may_pay", lambda *units: True)
     sends = 5915
     with pytest.raises(layout.SendOverrun):
         codegen.generate(plan)
