@@ -151,10 +151,14 @@ def most_that_fit(make_source, k: int, how: str, say) -> dict:
     (_, fw_k, err_k), (_, fw_2k, err_2k) = _build(make_source(k), est), _build(make_source(2 * k), est)
     if fw_k is None or fw_2k is None:
         raise BuildError(f"{k} and {2 * k} items did not compile: {err_k} {err_2k}")
-    # near the limit the build drops what it can (`_leanest`): the bytes per item and the rest from those
-    lean_k, lean_2k = (min(fw.rom_bytes, _leanest(make_source(n), est)) for fw, n in ((fw_k, k), (fw_2k, 2 * k)))
-    per_item = (lean_2k - lean_k) / k
-    fixed = lean_k - k * per_item
+    # near the limit the build drops what it can (`_leanest`): the bytes per item from two builds of
+    # the same kind (else from the leanest of each), the rest from the leanest
+    kind = lambda fw: (fw.unit.budget.steps, fw.unit.budget.stagger) if fw.unit.budget else None   # noqa: E731
+    if kind(fw_k) == kind(fw_2k):
+        per_item = (fw_2k.rom_bytes - fw_k.rom_bytes) / k
+    else:
+        per_item = (_leanest(make_source(2 * k), est) - _leanest(make_source(k), est)) / k
+    fixed = min(fw_k.rom_bytes, _leanest(make_source(k), est)) - k * per_item
     estimate = int((ROM_SIZE - fixed) // per_item)
     say(f"  built {how}: estimate {estimate}, confirming by compiling")
     fits: dict[int, bool] = {}

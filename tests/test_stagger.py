@@ -1,8 +1,10 @@
-"""Each port's rise among the falls of the port before it (costs.stagger_span): at clocks whose DIV
-is 2 STEP cycles or more, a port rises before the port before it has finished its pulses, at a time
-at least STEP cycles from every fall that port can have; the program writes its items after its
-sort, and the handler takes them after the port before's last edge. The ports' pulses overlap. Each program here runs in ucsim at exactly the
-shortest period servoc reports for it, every pulse exact, and that period less 1 us is refused.
+"""Each port's rise among the falls of the port before it (costs.stagger_span): a port rises before
+the port before it has finished its pulses, at a time at least STEP cycles from every fall that port
+can have, or, at clocks whose DIV is less than 2 STEP cycles, BESIDE cycles after the fall of an N j
+in one block with it and the fall of j + 1 (costs.beside); the program writes its items after its
+sort, and the handler takes them after the port before's last edge. The ports' pulses overlap. Each
+program here runs in ucsim at exactly the shortest period servoc reports for it, every pulse exact,
+and that period less 1 us is refused.
 """
 
 import dataclasses
