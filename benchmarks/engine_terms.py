@@ -15,9 +15,10 @@ clock, from one budget read from its generated code (`costs.Budget`), side by si
   and, side by side at 12 MHz, the build servoc does not choose there, the ports pulsed one after
   another (rises as steps);
 - the pulses' term: the sum of the ports' spans: each port's longest pulse and a step to the
-  next port's rise; where a DIV is 14 cycles or more (22.1184 MHz, 6T) each port after the first
-  rises among the falls of the port before it, its span that port's longest pulse less C(0) and
-  the handler's run that takes the rising port's edges (the last port's pulses whole);
+  next port's rise; where the build has rises among falls (at 22.1184 MHz and 6T at least 7
+  cycles from every fall, at 12 MHz beside one) each port after the first rises among the falls of
+  the port before it, its span that port's longest pulse less C(0) and the handler's run that
+  takes the rising port's edges (the last port's pulses whole);
 - the CPU's term: everything the frame's cycles must hold whatever the order of the ports'
   pulses: the work between two frames (W), the ports' sorts, the edge handler's rise entries
   (with the writing of each port's items; with rises among falls the rise's edge and the
