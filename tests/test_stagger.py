@@ -414,3 +414,50 @@ def test_with_a_serial_line_the_rises_come_beside_falls_at_the_minimum(clock):
     built, period = check_at_minimum(clock + CASES["lines within 1 to 2 ms (N 62 to 187)"], 12000)
     assert built.firmware.unit.budget.stagger and costs.beside(built.plan.program.target)
     beside_check(built)
+
+
+def answering(clock: str, baud: int) -> str:
+    """Twelve servos, four on each port at N 20, 70, 120, 170 (each fall an entry of its own, the
+    edge handler's longest hold on the CPU), moved there and back by bytes that get an answer."""
+    servos = [f"s{p}{b}" for p in range(3) for b in range(4)]
+    text = clock + f"serial {baud}\n"
+    text += "".join(f"servo {s} = P{s[1]}.{s[2]} speed 0.05s/60deg\n" for s in servos)
+    text += "pose lo { " + ", ".join(f"{s}: {20 + 50 * int(s[2])}" for s in servos) + " }\n"
+    text += "pose hi { " + ", ".join(f"{s}: {230 - 50 * int(s[2])}" for s in servos) + " }\n"
+    return text + ('main {\n  move lo\n  loop {\n    select {\n'
+                   '      on "h" { move hi in 150ms; send "H" }\n      on "l" { move lo in 150ms; send "L" }\n'
+                   '    }\n  }\n}\n')
+
+
+@pytest.mark.parametrize("clock, baud, faster", [("target stc89c52rc clock 11.0592MHz\n", 14400, 19200),
+                                                 ("", 4800, None)])
+def test_serial_bytes_at_the_highest_rate_the_overlap_takes_during_the_densest_edges(clock, baud, faster):
+    """The issue's bad case for rises among falls: bytes at the highest rate with which the program
+    still takes the build with rises beside falls (at 11.0592 MHz 14400 baud: at 19200 that build's
+    handler would keep a byte waiting too long; at 12 MHz 4800, the fastest rate the chip makes),
+    at the program's own shortest period, every line's fall an entry of its own: bursts of four
+    bytes at eight phases of the frame, each an eighth of a frame later than the one before. Every
+    byte is answered, in order, and every pulse is exact."""
+    from test_serial import run, sent
+    from servoc import layout
+    from servoc.target import working_bauds
+
+    template = answering(clock, baud)
+    period = own_minimum(template, 12000)
+    built = build_text(at_period(template, period))
+    unit, plan = built.firmware.unit, built.plan
+    assert unit.budget.stagger and plan.period_us == unit.min_period_us == period
+    assert costs.serial_latency(unit.target, unit.budget) <= costs.rx_gap(unit.budget.byte_cycles)
+    rates = working_bauds(plan.program.target)
+    if faster is None:
+        assert baud == max(rates)
+    else:
+        assert faster == min(r for r in rates if r > baud)
+        fe, _ = front_end_text(at_period(answering(clock, faster), period))
+        with pytest.raises(layout.SerialTooFast):
+            codegen.generate(fe.plan, fe.source, stagger=True)
+    bursts = [f'{60_000 + 700_000 * k + k * period // 8}us "h" "l" "h" "l"' for k in range(8)]
+    plan, trace, evs, report = run(at_period(template, period), "\n".join(bursts) + "\n",
+                                   int(5_800_000 / period))
+    assert report.ok and report.pulses > 0, [str(m) for m in report.mismatches[:5]]
+    assert sent(trace) == "HLHL" * 8
