@@ -451,19 +451,46 @@ def frame_cycles(target, budget: Budget) -> int:
     With a serial line its handler's runs come on top, in each window of the frame as many as
     bytes can come and go in it: the windows' lengths depend on the period, so the need is a step
     function of it. It is found again until it no longer grows, and then every step above is
-    checked: where a longer period needs more than it has, the search goes on from there."""
-    period = _settle(target, budget, _frame_cycles(target, budget, 0))
-    while budget.byte_cycles:
+    checked: where a longer period needs more than it has, the search goes on from there.
+    Without the serial line's runs the need only shrinks as the period grows (with two ports and
+    rises among falls the last port's handover of the frame before comes earlier: `_items_start`),
+    so the shortest period that holds is found by bisection and every longer one holds too; with
+    the runs, the search starts from there and from the need at P = 0, and takes the shorter."""
+    if not budget.byte_cycles:
+        return _least(target, budget)
+    return min(_holding_from(target, budget, start)
+               for start in {_least(target, budget), _frame_cycles(target, budget, 0)})
+
+
+def _holding_from(target, budget: Budget, start: int) -> int:
+    """With a serial line: the first period from `start` on that holds, and every longer one."""
+    period = _settle(target, budget, start)
+    while True:
         fails = _first_failing(target, budget, period)
         if fails is None:
             return period
         period = _settle(target, budget, fails)
-    return period
 
 
 def holds(target, budget: Budget, period: int) -> bool:
     """Whether the code holds a frame of `period` machine cycles (the model evaluated at it)."""
     return _frame_cycles(target, budget, period) <= period
+
+
+def _least(target, budget: Budget) -> int:
+    """The shortest period that holds what the code needs without the serial line's runs: the need
+    evaluated at a period P never grows with P, so P - need(P) grows and the first P where it is 0
+    or more is found by bisection between the need of the longest frame and the need at P = 0
+    (which holds at itself)."""
+    quiet = dataclasses.replace(budget, byte_cycles=0) if budget.byte_cycles else budget
+    lo, hi = _frame_cycles(target, quiet, 1 << 16) - 1, _frame_cycles(target, quiet, 0)
+    while hi - lo > 1:          # _frame_cycles(lo) > lo, _frame_cycles(hi) <= hi
+        mid = (lo + hi) // 2
+        if _frame_cycles(target, quiet, mid) <= mid:
+            hi = mid
+        else:
+            lo = mid
+    return hi
 
 
 def _settle(target, budget: Budget, period: int) -> int:

@@ -461,3 +461,39 @@ def test_serial_bytes_at_the_highest_rate_the_overlap_takes_during_the_densest_e
                                    int(5_800_000 / period))
     assert report.ok and report.pulses > 0, [str(m) for m in report.mismatches[:5]]
     assert sent(trace) == "HLHL" * 8
+
+
+TWO_PORTS = """\
+servo a0 = P0.0 speed 0.0001s/60deg
+servo a3 = P0.3 speed 0.0001s/60deg
+servo a4 = P0.4 speed 0.0001s/60deg
+servo a5 = P0.5 speed 0.0001s/60deg
+""" + "".join(f"servo c{b} = P2.{b} speed 0.0001s/60deg\n" for b in range(8)) + """\
+pose p0 { a0: 115, a3: 115, a4: 115, a5: 115, """ + ", ".join(f"c{b}: 115" for b in range(8)) + """ }
+pose p1 { a0: 96, a3: 96, a4: 96, a5: 96, """ + ", ".join(f"c{b}: 96" for b in range(8)) + """ }
+main {
+  move p0
+  loop {
+    move p1 in 134ms ease in-out
+    hold 27ms
+    move p0 in 87ms ease out
+  }
+}
+"""
+
+
+@pytest.mark.parametrize("clock", SLOW[:2])
+def test_with_two_ports_the_reported_minimum_is_the_shortest_period_the_code_holds(clock):
+    """With two ports and rises among falls, the last port's items wait for its handover in the
+    frame before, which comes earlier as the period grows (costs._items_start): the need shrinks
+    with the period. The shortest period reported is the first that holds (costs._least), not the
+    need evaluated at P = 0, which is longer: every period from it on holds, none below it, every
+    pulse is exact there and 1 us less is refused."""
+    built, period = check_at_minimum(clock + TWO_PORTS, 6000)
+    unit, t = built.firmware.unit, built.plan.program.target
+    b = unit.budget
+    assert b.stagger and len(b.lines) == 2
+    least = t.cycles(period)
+    assert costs._frame_cycles(t, b, 0) > least         # the need at P = 0 asks for more
+    for p in range(least - 40, least + 40):
+        assert costs.holds(t, b, p) == (p >= costs.frame_cycles(t, b)), p
