@@ -725,8 +725,11 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         except layout.SerialTooFast as exc:
             limits.append(exc)
     try:
-        shortest = None if budget is None else target.us_at_least(_send_floor(plan, budget, costs.frame_cycles(target, budget)))
-        period_holds = budget is None or costs.holds(target, budget, period_cycles)
+        least = None if budget is None else costs.frame_cycles(target, budget)
+        shortest = None if least is None else target.us_at_least(_send_floor(plan, budget, least))
+        # a period below the shortest that holds by chance (with a serial line the need is a step
+        # function of it) is refused too: every period accepted is one the minimum reported covers
+        period_holds = least is None or (period_cycles >= least and costs.holds(target, budget, period_cycles))
     except costs.TooSlow as exc:
         if s is None:
             raise layout.HandlerTooSlow(str(exc)) from None

@@ -455,11 +455,16 @@ def frame_cycles(target, budget: Budget) -> int:
     Without the serial line's runs the need only shrinks as the period grows (with two ports and
     rises among falls the last port's handover of the frame before comes earlier: `_items_start`),
     so the shortest period that holds is found by bisection and every longer one holds too; with
-    the runs, the search starts from there and from the need at P = 0, and takes the shorter."""
+    the runs, the search starts from there, and from the period found goes down while each
+    period holds (the need is then no longer monotone: a search up from below can step past the
+    first period that holds)."""
+    least = _least(target, budget)
     if not budget.byte_cycles:
-        return _least(target, budget)
-    return min(_holding_from(target, budget, start)
-               for start in {_least(target, budget), _frame_cycles(target, budget, 0)})
+        return least
+    period = _holding_from(target, budget, least)
+    while period > least and holds(target, budget, period - 1):
+        period -= 1
+    return period
 
 
 def _holding_from(target, budget: Budget, start: int) -> int:
@@ -554,10 +559,14 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     if budget.last_in_b:        # the last port's sort, then the first's, after the last port's rise
         need.append(hand[m - 1] + budget.sorts[-1] + budget.sorts[0] + load[-1] + runs(last))
     elif budget.items:      # stagger: a port is sorted before the wait, its items written after it
-        need.append(hand[m - 1] + budget.items[0] + load[-1] + runs(last))
+        # (a window from port j's handover holds its handover and falls, not its rise's edge, which
+        # comes before; it ends ENTRY before the first port's next rise, where the handler takes
+        # over from the items being written)
+        after = [ld - rise_edge(budget, j) + ENTRY for j, ld in enumerate(load)]
+        need.append(hand[m - 1] + budget.items[0] + after[-1] + runs(last))
         if m >= 2:
             need.append(min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
-                        + budget.items[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
+                        + budget.items[-1] + budget.work + budget.sorts[0] + after[-2] + load[-1]
                         + runs(period - hand[m - 2]))
     else:
         need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
@@ -570,6 +579,14 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
                           f"handler's {runs(span[j - 1])}) does not fit between the rise before it and its own")
     return max(need)
+
+
+def rise_edge(budget: Budget, j: int) -> int:
+    """With rises among falls: the part of port j's rise entry (`Budget.rises`) that comes before its
+    handover: the rise's edge, its entry and exit (SPLIT - 1), and the edge with no line before a
+    rise beside a fall (`beside_extra`). The rise is an edge of the port before's list, so it comes
+    at or before that list's last edge, after which the handover runs (`Budget.emits`, the rest)."""
+    return budget.rises[j] - (budget.emits[j] - ENTRY)
 
 
 def _items_start(budget: Budget, hand: list[int], rise: list[int], load: list[int], period: int, runs) -> int:

@@ -497,3 +497,49 @@ def test_with_two_ports_the_reported_minimum_is_the_shortest_period_the_code_hol
     assert costs._frame_cycles(t, b, 0) > least         # the need at P = 0 asks for more
     for p in range(least - 40, least + 40):
         assert costs.holds(t, b, p) == (p >= costs.frame_cycles(t, b)), p
+
+
+SERIAL_TWO_PORTS = """\
+target stc89c52rc clock 11.0592MHz
+serial 9600
+""" + "".join(f"servo s{p}{b} = P{p}.{b} speed 0.0001s/60deg\n" for p, b in
+              ((0, 0), (0, 2), (0, 3), (0, 5), (0, 6), (2, 0), (2, 1), (2, 4), (2, 6))) + """\
+pose p0 { s00: 161, s02: 224, s03: 139, s05: 61, s06: 237, s20: 68, s21: 142, s24: 5, s26: 52 }
+pose p1 { s00: 3, s02: 6, s03: 104, s05: 7, s06: 11, s20: 167, s21: 8, s24: 6, s26: 5 }
+main {
+  move p0
+  loop {
+    select {
+      on "h" { move p1 in 41ms; send "H" }
+      on "l" { move p0 in 67ms; send "L" }
+    }
+  }
+}
+"""
+
+
+def test_with_a_serial_line_the_minimum_is_the_first_period_from_which_every_one_holds():
+    """With a serial line the need is a step function of the period (the serial handler's runs
+    in each window), and with two ports and rises among falls it also shrinks as the period grows:
+    a search up from below steps past the first period that holds. The minimum is the first period
+    from which every longer one holds (costs.frame_cycles goes down from the one it found while
+    each holds), no period below it is accepted (codegen: `period_holds`), and there, with bytes
+    in bursts at four phases of the frame, every pulse is exact and every byte answered."""
+    from test_serial import run, sent
+
+    period = own_minimum(SERIAL_TWO_PORTS, 12000)
+    built = build_text(at_period(SERIAL_TWO_PORTS, period))
+    unit, t = built.firmware.unit, built.plan.program.target
+    b = unit.budget
+    assert b.stagger and len(b.lines) == 2 and b.byte_cycles and unit.min_period_us == period
+    least = costs.frame_cycles(t, b)
+    assert costs._holding_from(t, b, costs._least(t, b)) > least          # the search up steps past it
+    assert all(costs.holds(t, b, p) for p in range(least, least + 3000))
+    for p in (period - 1, period - 3, period - 9, period - 40):
+        fe, diags = front_end_text(at_period(SERIAL_TWO_PORTS, p))
+        assert "period-too-short" in [d.code for d in diags if d.is_error], p
+    bursts = [f'{60_000 + 300_000 * k + k * period // 4}us "h" "l"' for k in range(4)]
+    plan, trace, evs, report = run(at_period(SERIAL_TWO_PORTS, period), "\n".join(bursts) + "\n",
+                                   int(1_500_000 / period))
+    assert report.ok and report.pulses > 0, [str(m) for m in report.mismatches[:5]]
+    assert sent(trace) == "HL" * 4
