@@ -54,7 +54,9 @@ before the rising port's earliest fall: the span is C(top) - C(bottom) and that 
 (Budget.emits), `bottom` the lowest N the rising port's lines fall at (flow.port_reach).
 The last port's span holds its pulses whole (C(top) + STEP), so that every period from the
 shortest on holds. In the terms above, each port's rise is then its handover, and each sort
-must fit between the handover before it and its port's rise. The handler never reads the sort
+must fit between the handover before it and its port's rise; a window from a port's handover holds
+its handover and falls, not its rise's edge, which comes before (`rise_edge`), and ends ENTRY
+before the first port's next rise. The handler never reads the sort
 buffer then: frame_io sorts a port before it waits, and writes only its items (Budget.items) after
 the handler took the port before's, so the last port's sort can end before its wait
 (`_items_start`).
