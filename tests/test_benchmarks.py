@@ -276,3 +276,25 @@ def test_engine_terms_goal_program_and_its_terms():
     b = api.codegen.generate(plan).budget
     assert t["cpu_cycles"] == sum(b.sorts) + b.work + sum(costs.handler_load(r, f) for r, f in zip(b.rises, b.falls))
     assert t["reported_us"] >= max(t["pulses_us"], t["cpu_us"])
+
+
+def test_each_stretch_of_the_background_measured_in_ucsim_is_within_what_the_budget_charges():
+    """benchmarks/background.py: the goal program of engine_terms.py with short moves, built with
+    rises among falls at its own shortest period and run in ucsim with probes at frame_io's labels
+    and at every run of the edge handler. The background's own cycles in each stretch (W, each
+    port's sort and items) and the wall time of the work after the last sort are at most what the
+    budget read from the code charges for them, and within a fifth of it (the probes are where the
+    budget says its parts begin and end)."""
+    _load("engine_terms", "engine_terms.py")
+    background = _load("background", "background.py")
+    engine_terms = sys.modules["engine_terms"]
+    text = re.sub(r"(servo s\d+ = P\d\.\d)( speed \S+)?", lambda m: m.group(1) + (
+        " speed 0.0002s/60deg" if m.group(2) else " speed 0.0001s/60deg"),       # two speed classes, fast
+        engine_terms.goal_source("", 7472)).replace("1200ms", "150ms")
+    fe_plan = budget.plan_text(text, "goal", below_budget=True)[1]
+    period = api.codegen.generate(fe_plan, stagger=True).min_period_us
+    r = background.measure(period, text.replace("frame 7472us", f"frame {period}us"))
+    parts, charged = r["parts"], r["charged"]
+    assert set(charged) == set(parts) - {"chain handler"} and parts["chain handler"] > 0
+    for name, cycles in charged.items():
+        assert 0.8 * cycles <= parts[name] <= cycles, (name, parts[name], cycles, parts)
