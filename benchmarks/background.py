@@ -20,9 +20,10 @@ frames, beside what the budget charges for it (`costs.Budget`, read from the gen
   beside the budget's term for it from its start: the last port's items, W, the first port's
   sort and items, and the handler's loads of the last two ports in it.
 
-The handler's runs here take the latency ucsim gives an interrupt (1 or 2 cycles); the budget
-charges every entry the 12 a real chip may need (`costs.LATENCY`), so an entry measured here
-is up to 11 cycles shorter than the one charged.
+A run of the handler is measured from its vector's call: the cycles before it, in which the
+background's instruction under way ends (1 or 2 in ucsim), are the background's. The budget
+charges an entry from the timer's overflow (`costs.ENTRY`, the same whatever the latency: the
+handler pads itself to it) and the longest exit.
 """
 
 from __future__ import annotations
