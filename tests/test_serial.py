@@ -152,23 +152,21 @@ def test_hexapod_example_verifies_over_serial():
     assert rc == 0
 
 
+def answering(ms_hi: int = 150, ms_lo: int = 150, hi: str = "hi", lo: str = "lo") -> str:
+    """A main that moves to `lo`, then forever: on "h" to `hi` in `ms_hi` ms, answering "H"; on "l"
+    back to `lo` in `ms_lo` ms, answering "L"."""
+    return (f'main {{\n  move {lo}\n  loop {{\n    select {{\n'
+            f'      on "h" {{ move {hi} in {ms_hi}ms; send "H" }}\n      on "l" {{ move {lo} in {ms_lo}ms; send "L" }}\n'
+            '    }\n  }\n}\n')
+
+
 SPREAD = 16     # N apart: 118 cycles at 11.0592 MHz, so each line falls in an edge-handler entry of its own
 FAST = """\
 target stc89c52 clock 11.0592MHz
 serial 14400
 """ + "".join(f"servo s{p}{b} = P{p}.{b} speed 0.05s/60deg\n" for p in range(3) for b in range(6)) + """\
 pose lo { """ + ", ".join(f"s{p}{b}: {SPREAD * b}" for p in range(3) for b in range(6)) + """ }
-pose hi { """ + ", ".join(f"s{p}{b}: {250 - SPREAD * b}" for p in range(3) for b in range(6)) + """ }
-main {
-  move lo
-  loop {
-    select {
-      on "h" { move hi in 200ms; send "H" }
-      on "l" { move lo in 200ms; send "L" }
-    }
-  }
-}
-"""
+pose hi { """ + ", ".join(f"s{p}{b}: {250 - SPREAD * b}" for p in range(3) for b in range(6)) + " }\n" + answering(200, 200)
 
 
 def test_the_fastest_rate_at_11_0592_mhz_with_bursts():
@@ -370,8 +368,7 @@ def test_the_fastest_rate_at_11_0592_mhz_holds_its_period_under_bursts():
     text += "".join(f"servo {s} = P{s[1]}.{s[2]} speed 0.05s/60deg\n" for s in servos)
     text += "pose lo { " + ", ".join(f"{s}: {20 + 14 * int(s[2])}" for s in servos) + " }\n"
     text += "pose hi { " + ", ".join(f"{s}: {250 - 14 * int(s[2])}" for s in servos) + " }\n"
-    text += ('main {\n  move lo\n  loop {\n    select {\n      on "h" { move hi in 150ms; send "H" }\n'
-             '      on "l" { move lo in 150ms; send "L" }\n    }\n  }\n}\n')
+    text += answering()
     built = build_text(text)
     assert built.plan.period_us == built.plan.min_period_us
     lines = [f'{60 + 800 * k + 0.53 * k:.3f}ms "h" "l" "h" "l"' for k in range(8)]

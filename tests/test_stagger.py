@@ -15,6 +15,7 @@ from conftest import build_text, front_end_text, parse_listing
 from servoc import codegen, costs
 from servoc.flow import port_reach
 from test_costs import at_period, own_minimum
+from test_serial import answering
 from test_spans import between_two_poses, check_at_minimum
 
 pytestmark = pytest.mark.toolchain
@@ -416,7 +417,7 @@ def test_with_a_serial_line_the_rises_come_beside_falls_at_the_minimum(clock):
     beside_check(built)
 
 
-def answering(clock: str, baud: int) -> str:
+def twelve_answering(clock: str, baud: int) -> str:
     """Twelve servos, four on each port at N 20, 70, 120, 170 (each fall an entry of its own, the
     edge handler's longest hold on the CPU), moved there and back by bytes that get an answer."""
     servos = [f"s{p}{b}" for p in range(3) for b in range(4)]
@@ -424,9 +425,7 @@ def answering(clock: str, baud: int) -> str:
     text += "".join(f"servo {s} = P{s[1]}.{s[2]} speed 0.05s/60deg\n" for s in servos)
     text += "pose lo { " + ", ".join(f"{s}: {20 + 50 * int(s[2])}" for s in servos) + " }\n"
     text += "pose hi { " + ", ".join(f"{s}: {230 - 50 * int(s[2])}" for s in servos) + " }\n"
-    return text + ('main {\n  move lo\n  loop {\n    select {\n'
-                   '      on "h" { move hi in 150ms; send "H" }\n      on "l" { move lo in 150ms; send "L" }\n'
-                   '    }\n  }\n}\n')
+    return text + answering()
 
 
 @pytest.mark.parametrize("clock, baud, faster", [("target stc89c52rc clock 11.0592MHz\n", 14400, 19200),
@@ -442,7 +441,7 @@ def test_serial_bytes_at_the_highest_rate_the_overlap_takes_during_the_densest_e
     from servoc import layout
     from servoc.target import working_bauds
 
-    template = answering(clock, baud)
+    template = twelve_answering(clock, baud)
     period = own_minimum(template, 12000)
     built = build_text(at_period(template, period))
     unit, plan = built.firmware.unit, built.plan
@@ -453,7 +452,7 @@ def test_serial_bytes_at_the_highest_rate_the_overlap_takes_during_the_densest_e
         assert baud == max(rates)
     else:
         assert faster == min(r for r in rates if r > baud)
-        fe, _ = front_end_text(at_period(answering(clock, faster), period))
+        fe, _ = front_end_text(at_period(twelve_answering(clock, faster), period))
         with pytest.raises(layout.SerialTooFast):
             codegen.generate(fe.plan, fe.source, stagger=True)
     bursts = [f'{60_000 + 700_000 * k + k * period // 8}us "h" "l" "h" "l"' for k in range(8)]
@@ -506,16 +505,7 @@ serial 9600
               ((0, 0), (0, 2), (0, 3), (0, 5), (0, 6), (2, 0), (2, 1), (2, 4), (2, 6))) + """\
 pose p0 { s00: 161, s02: 224, s03: 139, s05: 61, s06: 237, s20: 68, s21: 142, s24: 5, s26: 52 }
 pose p1 { s00: 3, s02: 6, s03: 104, s05: 7, s06: 11, s20: 167, s21: 8, s24: 6, s26: 5 }
-main {
-  move p0
-  loop {
-    select {
-      on "h" { move p1 in 41ms; send "H" }
-      on "l" { move p0 in 67ms; send "L" }
-    }
-  }
-}
-"""
+""" + answering(41, 67, hi="p1", lo="p0")
 
 
 def test_with_a_serial_line_the_minimum_is_the_first_period_from_which_every_one_holds():
