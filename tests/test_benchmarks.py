@@ -150,7 +150,7 @@ def test_the_search_down_from_the_reported_period_stops_at_the_first_failure_not
     assert calls == [1600, *range(1592, 1503, -8), *range(1511, 1506, -1)]
 
 
-def test_keyframes_and_compile_stages():
+def test_keyframes():
     mem = suite.memory(quick=True)
     for key in ("keyframes", "gait_steps"):
         speed, compiled = mem[f"{key}_speed"], mem[f"{key}_compile"]
@@ -166,6 +166,8 @@ def test_keyframes_and_compile_stages():
     assert mem["keyframes_compile"]["confirmed"] >= 250
     assert 0 < mem["ram_bytes_8_servos"] <= mem["ram_bytes_24_servos"] <= 256
 
+
+def test_compile_stages():
     comp = suite.compiler_time(quick=True)
     assert set(comp["seconds"]) == set(suite.STAGES)
     assert all(t > 0 for t in comp["seconds"].values())
