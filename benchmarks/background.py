@@ -36,6 +36,7 @@ import sys
 from budget import build_unchecked
 from engine_terms import goal_source
 from servoc import api, costs, sim
+from servoc.observe import listing_lines
 
 _LABEL = re.compile(r"^([A-Za-z_]\w*)::?")
 VEC, RET = 1000, 1001     # the probes' tags for the handler's runs
@@ -45,21 +46,18 @@ TIMER0 = 0x000B             # the Timer0 vector
 def addresses(listing: str) -> tuple[dict[str, int], list[int], int]:
     """Each label's code address, the addresses of the RETI instructions, and the address of the
     Timer0 vector's second instruction (a probe at the vector itself is not hit at every entry
-    in ucsim), from a listing."""
+    in ucsim), from a listing (`servoc.observe.listing_lines`)."""
     labels, retis, code = {}, [], []
-    for line in listing.splitlines():
-        head, src = line[:39], line[40:]
-        if not head[34:39].strip().isdigit() or not head[6:12].strip():
+    for addr, text, raw in listing_lines(listing):
+        if addr is None:
             continue
-        addr = int(head[6:12].strip(), 16)
-        text = src.split(";", 1)[0].strip()
         m = _LABEL.match(text)
         if m:
             labels[m.group(1)] = addr
             text = text[m.end():].strip()
         if text.upper() == "RETI":
             retis.append(addr)
-        if head[13:30].split("[")[0].strip():
+        if raw:
             code.append(addr)
     return labels, retis, min(a for a in code if a > TIMER0)
 
@@ -110,7 +108,7 @@ def measure(period: int, text: str | None = None) -> dict:
             cur[n] = p.cycle          # a wait loop's label: its first pass
     first, last = ports[0], ports[-1]
     parts: dict[str, int] = {"W": 0, "chain wall": 0, "chain handler": 0}
-    for k, p in enumerate(ports):
+    for p in ports:
         parts[f"sort P{p}"] = parts[f"items P{p}"] = 0
     for a, b in zip(calls[1:], calls[2:]):
         if "fi_done" not in a or f"ft{first}" not in b or f"fs{ports[1]}" not in b:
@@ -151,14 +149,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"goal program at 12 MHz, rises among falls, P = {r['period_us']} us (reported {r['reported_us']} us)")
     print("| part | the budget charges (cycles) | the most measured in ucsim (cycles) |")
     print("|---|---|---|")
-    for name, value in r["parts"].items():
-        if name == "chain handler":
-            continue
-        shown = value
+    parts, charged = r["parts"], r["charged"]
+    for name, cycles in charged.items():
+        shown = parts[name]
         if name == "chain wall":
             name = "the work after the last sort: handover to the first port's items done (wall)"
-            shown = f"{value} (the handler's runs in it: {r['parts']['chain handler']})"
-        print(f"| {name} | {r['charged'].get(name, r['charged'].get('chain wall'))} | {shown} |")
+            shown = f"{shown} (the handler's runs in it: {parts['chain handler']})"
+        print(f"| {name} | {cycles} | {shown} |")
     return 0
 
 

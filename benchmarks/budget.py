@@ -26,8 +26,6 @@ code) and the default P it picks.
 
 from __future__ import annotations
 
-import dataclasses
-
 import time
 from pathlib import Path
 
@@ -91,7 +89,7 @@ def build_unchecked(text: str, name: str, build: dict | None = None) -> tuple[Pl
     reporter = Reporter(source)
     unit = codegen.generate(plan, source, **(build or {}))
     if build:
-        plan = dataclasses.replace(plan, rise_offsets=unit.rise_offsets, rises_among_falls=unit.budget.stagger)
+        plan = api.with_rises(plan, unit)
     fw = api.assemble(unit, reporter)
     if fw is None:
         raise BuildError(f"{name}: " + "; ".join(d.message for d in reporter.diagnostics))

@@ -294,13 +294,18 @@ def _budgeted(p: Plan) -> Plan:
     except layout.LayoutError as exc:
         return dataclasses.replace(p, min_period_us=p.period_us,
                                    firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
-    result = dataclasses.replace(p, min_period_us=unit.min_period_us or p.period_us,
-                                 period_holds=unit.min_period_us is None or unit.period_holds,
-                                 rise_offsets=unit.rise_offsets,
-                                 rise_steps=unit.budget is not None and unit.budget.steps,
-                                 rises_among_falls=unit.budget is not None and unit.budget.stagger)
+    result = dataclasses.replace(with_rises(p, unit), min_period_us=unit.min_period_us or p.period_us,
+                                 period_holds=unit.min_period_us is None or unit.period_holds)
     _last_budgeted = (result, unit)
     return result
+
+
+def with_rises(p: Plan, unit: codegen.AsmUnit) -> Plan:
+    """`p` with where the ports of `unit`'s code rise: their offsets, and whether a rise is a step
+    of the last fall's run or comes among the falls of the port before it."""
+    return dataclasses.replace(p, rise_offsets=unit.rise_offsets,
+                               rise_steps=unit.budget is not None and unit.budget.steps,
+                               rises_among_falls=unit.budget is not None and unit.budget.stagger)
 
 
 # the last plan `_budgeted` returned and the code generated for it (`_unit`)

@@ -58,7 +58,7 @@ class Probes:
     code: dict[int, bytes] = field(default_factory=dict)   # address -> the code bytes there, to check a HEX
 
 
-def _listing_lines(listing: str):
+def listing_lines(listing: str):
     """(address or None, source text without comment) of each source line of a listing."""
     for line in listing.splitlines():
         head, src = line[:39], line[40:]
@@ -79,7 +79,7 @@ def probes_for(listing: str, asm_text: str, selects: tuple) -> Probes:
     current = None                             # the select label whose look routine we are in
     before = ""                                # the instruction before, in that routine
     names = {lab for lab, _ in selects}
-    for addr, text, raw in _listing_lines(listing):
+    for addr, text, raw in listing_lines(listing):
         m = _LABEL.match(text)
         if m and addr is not None:
             lab = m.group(1)

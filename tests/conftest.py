@@ -6,7 +6,6 @@ test_verify.py). Every helper needs SDCC and ucsim; they never skip.
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import re
 import tempfile
@@ -71,8 +70,7 @@ def build_engine(text: str, stepping: bool = False, stagger: bool = False) -> Bu
     reporter = Reporter(fe.source)
     fw = api.assemble(unit, reporter)
     assert fw is not None, reporter.diagnostics
-    plan = dataclasses.replace(fe.plan, rise_offsets=unit.rise_offsets,     # where this code's ports rise
-                               rises_among_falls=unit.budget.stagger)
+    plan = api.with_rises(fe.plan, unit)       # where this code's ports rise
     return Built(fe.source, plan, fw, tuple(diags))
 
 

@@ -402,7 +402,7 @@ def test_a_rise_beside_a_fall_keeps_every_edge_with_interrupts_held_off(hold):
     t = fe.plan.program.target
     assert unit.text.count("CLR     EA") >= 4 and unit.budget.spans[0] - t.width_cycles(j) == costs.BESIDE
     firmware = api.assemble(unit, Reporter(fe.source))
-    plan = dataclasses.replace(fe.plan, rise_offsets=unit.rise_offsets, rises_among_falls=True)
+    plan = api.with_rises(fe.plan, unit)
     report = api.verify(plan, firmware, 200)
     assert report.ok and report.max_error_cycles == 0, (hold, report.summary(), [str(m) for m in report.mismatches[:5]])
 
