@@ -1005,9 +1005,16 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
     so that a path that reads a record is charged for the servos that record names. `beside`: what
     a rise beside a fall adds to the handler's cycles for its port (`costs.beside_extra`)."""
     try:
-        code = wcet.Code(text, "FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record),
-                         frozenset({"PLAYH"}), barred, names[0])
-        work, at = code.between_frames()
+        facts = ("FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record), frozenset({"PLAYH"}),
+                 barred, names[0])
+        code = wcet.Code(text, *facts)
+        frames, index = wcet.frames_code(text, *facts)      # the work between frames: shared by the builds
+        try:
+            work, at = frames.between_frames()
+            at = index(at)
+        except wcet.WcetError:
+            frames = code                           # its message, with this text's lines
+            work, at = frames.between_frames()
         fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
         # with rises among falls a port is sorted first, then its items written once the handler
         # took the port before's (ft: after the wait): the sort's term is both
@@ -1017,7 +1024,7 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                       for k, (f, n, load) in enumerate(zip(fs, lines, loads)))
         paired = {}
         if starts:      # the paths that read a move record (a hold's HOLDF set, or not known, is not one)
-            by = code.by_record()
+            by = frames.by_record()
             moving = {tag: v for tag, v in by.items() if tag is not None and (("HOLDF", False) in tag or not holds)}
 
             def work_of(eased: bool, runtime_f: bool, step) -> int:    # the paths this move's records can take

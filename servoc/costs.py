@@ -65,6 +65,7 @@ the handler took the port before's, so the last port's sort can end before its w
 from __future__ import annotations
 
 import dataclasses
+from bisect import bisect_left
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -126,6 +127,7 @@ def apart_span(target, top: int = 250) -> int:
     return target.width_cycles(top) + SPLIT
 
 
+@lru_cache(maxsize=16)
 def stagger_ok(target) -> bool:
     """Whether a port's rise can come among the falls of the port before it (`stagger_span`): only
     where every two falls one DIV apart leave room for a step on both sides of a rise between them
@@ -162,6 +164,7 @@ def beside(target) -> bool:
     return not stagger_ok(target)
 
 
+@lru_cache(maxsize=16)
 def beside_extra(target) -> int:
     """The handler's most cycles in a frame that a rise beside a fall adds to its port's falls and
     the rise's own entry (`rises`): the edge with no line at N j - 1 before the block, at most its
@@ -172,25 +175,32 @@ def beside_extra(target) -> int:
     return max(target.width_cycles(n + 1) - target.width_cycles(n) for n in range(250)) + BESIDE
 
 
+@lru_cache(maxsize=4096)
 def rise_slot(target, top: int, at_least: int, bottom: int = 0) -> int:
     """The first time from `at_least` on (cycles after a port's rise) at least STEP cycles from the
     fall of every N from `bottom` to `top` (the N its lines can fall at): where the next port's rise
     can come among this port's falls as a step on either side, or before or after them. Where a rise
     comes `beside` a fall, also BESIDE cycles after the fall of an N j from 1 to 249 whose gaps to the
     N before and after it are `beside_gaps`, the earlier."""
-    widths = [target.width_cycles(n) for n in range(bottom, top + 1)]
+    widths = _widths(target, bottom, top)
     d = at_least
-    while True:
-        near = [c for c in widths if abs(c - d) < STEP]
-        if not near:
+    while True:     # the latest fall less than STEP after d, if it is less than STEP before d
+        k = bisect_left(widths, d + STEP)
+        if k == 0 or widths[k - 1] <= d - STEP:
             break
-        d = max(near) + STEP
+        d = widths[k - 1] + STEP
     if beside(target):
         c, gaps = target.width_cycles, beside_gaps(target)
         by = next((c(j) + BESIDE for j in range(1, N_MAX) if c(j) + BESIDE >= at_least
                    and (c(j) - c(j - 1), c(j + 1) - c(j)) == gaps), d)
         d = min(d, by)
     return d
+
+
+@lru_cache(maxsize=64)
+def _widths(target, bottom: int, top: int) -> tuple[int, ...]:
+    """C(N) for N from `bottom` to `top`, ascending."""
+    return tuple(target.width_cycles(n) for n in range(bottom, top + 1))
 
 
 def stagger_span(target, top: int, emit: int, last: bool, bottom: int = 0, next_bottom: int = 0) -> int:

@@ -171,6 +171,7 @@ BAUD_TOLERANCE = Fraction(2, 100)        # the UART receives reliably within 2 %
 CRYSTALS_HZ = (11_059_200, 22_118_400, 14_745_600, 18_432_000, 12 * MHZ, 24 * MHZ, 16 * MHZ, 20 * MHZ, 33 * MHZ)
 
 
+@lru_cache(maxsize=256)
 def timer1_baud(target: Target, baud: int) -> tuple[int, int, Fraction]:
     """(TH1, SMOD, actual rate) of the Timer1 setting nearest to `baud`, for the UART in mode 1 with
     Timer1 in mode 2: rate = 2^SMOD x (1 / t_c) / (32 x (256 - TH1)), t_c the machine cycle. The

@@ -53,12 +53,16 @@ one frame, so a call of `run_list` always reaches a frame before it returns.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import re
 import sys
+from collections import OrderedDict
 from dataclasses import dataclass
+from typing import Callable
 
 FRAME_ROUTINE = "frame_io"      # LCALL of it: a frame starts (the cut point)
+ENGINE_END = "engine_end"       # the label right after the engine's code (frame_io's body, the edge handler)
 FRAME_REACHING = {"run_list"}   # calls that always reach a frame before they return
 WRITTEN = ("", True)            # a path's fact: it wrote the flag byte whole (a record read)
 FRAME_FLAG = "FRAMED"           # set by frame_io; a loop clears it at the top of a pass and
@@ -163,16 +167,17 @@ def same_cycles(a: str, b: str) -> bool:
     lines_a, lines_b = a.splitlines(), b.splitlines()
     if len(lines_a) != len(lines_b):
         return False
-    code = [line.split(";", 1)[0] for line in lines_a]
     counts = None
-    for i, (x, y) in enumerate(zip(code, lines_b)):
-        y = y.split(";", 1)[0]
+    for i, (x, y) in enumerate(zip(lines_a, lines_b)):
+        if x == y:
+            continue
+        x, y = x.split(";", 1)[0], y.split(";", 1)[0]
         if x == y:
             continue
         if _IMMEDIATE.sub("#", x) != _IMMEDIATE.sub("#", y) or x.lstrip().startswith(".") or _WHOLE.match(x):
             return False
         if _COUNT.match(x):
-            counts = _loop_counts(code) if counts is None else counts
+            counts = _loop_counts([line.split(";", 1)[0] for line in lines_a]) if counts is None else counts
             if i in counts:
                 return False
     return True
@@ -211,24 +216,100 @@ def _parse(text: str) -> tuple[tuple[Instr, ...], dict[str, int]]:
     labels: dict[str, int] = {}
     pending: list[str] = []
     for lineno, raw in enumerate(text.splitlines(), start=1):
-        code = raw.split(";", 1)[0].strip()
-        m = _LABEL.match(code)
-        if m and not code.startswith("."):
-            pending.append(m.group(1))
-            code = m.group(2).strip()
-        if not code or code.startswith(".") or "=" in code.split(None, 1)[0] or (
-                len(code.split()) > 1 and code.split()[1] == "="):
-            if code.startswith(".org") or code.startswith(".db") or code.startswith(".bndry"):
+        label, kind, op, args, cycles = _read_line(raw)
+        if label is not None:
+            pending.append(label)
+        if kind is not _CODE:
+            if kind is _DATA:
                 pending = []        # labels on data are not code labels
             continue
-        parts = code.split(None, 1)
-        op = parts[0].upper()
-        args = tuple(a.strip() for a in parts[1].split(",")) if len(parts) > 1 else ()
         for lab in pending:
             labels[lab] = len(instrs)
         pending = []
-        instrs.append(Instr(len(instrs), op, args, cycles_of(op, args), lineno))
+        instrs.append(Instr(len(instrs), op, args, cycles, lineno))
     return tuple(instrs), labels
+
+
+_CODE, _DATA, _NONE = "code", "data", "none"
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _read_line(raw: str) -> tuple[str | None, str, str, tuple[str, ...], int]:
+    """One line of assembly: (its label or None, _CODE for an instruction, _DATA for data or an
+    origin, else _NONE, and the instruction's op, args and cycles). Most lines recur in the texts of
+    one program's builds (the runtime's), so each is read once."""
+    code = raw.split(";", 1)[0].strip()
+    label = None
+    m = _LABEL.match(code)
+    if m and not code.startswith("."):
+        label = m.group(1)
+        code = m.group(2).strip()
+    words = code.split()
+    if not code or code.startswith(".") or "=" in words[0] or (len(words) > 1 and words[1] == "="):
+        kind = _DATA if code.startswith((".org", ".db", ".bndry")) else _NONE
+        return label, kind, "", (), 0
+    parts = code.split(None, 1)
+    op = parts[0].upper()
+    args = tuple(a.strip() for a in parts[1].split(",")) if len(parts) > 1 else ()
+    return label, _CODE, op, args, cycles_of(op, args)
+
+
+_FRAMES_MOST = 8        # the texts `frames_code` keeps the analysis of
+_frames_codes: OrderedDict = OrderedDict()
+
+
+def frames_code(text: str, flag_byte: str = "", flag_bits: frozenset[str] = frozenset(),
+                state_bits: frozenset[str] = frozenset(), barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,
+                names: Names | None = None) -> tuple[Code, Callable[[int], int]]:
+    """A Code whose `between_frames` and `by_record` are those of `Code(text, ...)` where they do
+    not fail, shared by the texts that differ only in the engine's code, from `frame_io` up to
+    ENGINE_END: the builds of one program (with rises as steps or among the falls before them, or
+    neither, at each period the period stage tries). The paths between frames stop at frame_io's
+    call and never enter the engine, so the analysis of the text with the engine's code replaced
+    by one indirect jump (`_STUB`, where every label of the engine leads) is theirs: a path that
+    would enter it fails there instead. That holds where the engine calls no routine outside it,
+    nor frame_io (so the call sites of every routine outside it, and the points where a frame
+    resumes, are the same), and the code after it starts with a routine the code outside it calls
+    (so every instruction outside it is in the same routine); elsewhere this is the Code of the
+    whole text. Its instructions keep the first such text's lines: where its analysis fails, the
+    caller reads the whole text's, for the message. With it, the index in `text` of each of its
+    instructions (outside the engine)."""
+    instrs, labels = _parse(text)
+    s, e = labels.get(FRAME_ROUTINE), labels.get(ENGINE_END)
+    facts = (flag_byte, flag_bits, state_bits, barred, names)
+    if s is None or e is None or not _engine_apart(instrs, labels, s, e):
+        return Code(text, *facts), _same
+    outside = tuple((n, j if j < s else j - (e - s) + 1) for n, j in labels.items() if not s <= j < e)
+    key = (tuple((ins.op, ins.args, ins.cycles) for ins in instrs[:s]),
+           tuple((ins.op, ins.args, ins.cycles) for ins in instrs[e:]), outside, facts)
+    code = _frames_codes.get(key)
+    if code is None:
+        stub = Instr(s, *_STUB, instrs[s].line)
+        kept = instrs[:s] + (stub,) + tuple(dataclasses.replace(ins, index=k) for k, ins in enumerate(instrs[e:], s + 1))
+        kept_labels = {n: s for n, j in labels.items() if s <= j < e} | dict(outside)
+        code = _frames_codes[key] = Code("", *facts, parsed=(kept, kept_labels))
+        while len(_frames_codes) > _FRAMES_MOST:
+            _frames_codes.popitem(last=False)
+    else:
+        _frames_codes.move_to_end(key)
+    return code, lambda i: i if i < s else i - 1 + e - s
+
+
+def _same(i: int) -> int:
+    return i
+
+
+_STUB = ("JMP", ("@A+DPTR",), 2)        # the engine's code, in `frames_code`: no path goes on from it
+
+
+def _engine_apart(instrs: tuple[Instr, ...], labels: dict[str, int], s: int, e: int) -> bool:
+    """Whether the engine's code (instructions s to e - 1) calls only its own routines, never
+    frame_io, and the code after it starts with a routine the code outside it calls (`frames_code`)."""
+    inside = {n for n, j in labels.items() if s <= j < e}
+    if any(ins.op in _CALLS and (ins.args[0] not in inside or ins.args[0] == FRAME_ROUTINE) for ins in instrs[s:e]):
+        return False
+    return any(ins.op in _CALLS and labels.get(ins.args[0]) == e for ins in instrs[:s] + instrs[e:]) or \
+        labels.get("main") == e
 
 
 class Code:
@@ -236,12 +317,13 @@ class Code:
 
     def __init__(self, text: str, flag_byte: str = "", flag_bits: frozenset[str] = frozenset(),
                  state_bits: frozenset[str] = frozenset(), barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,
-                 names: Names | None = None) -> None:
+                 names: Names | None = None,
+                 parsed: tuple[tuple[Instr, ...], dict[str, int]] | None = None) -> None:
         self.flag_byte = flag_byte      # a byte whose bits a path learns from its branches (`walk`)
         self.flag_bits = flag_bits
         self.state_bits = state_bits    # bits of other bytes a path learns the same way, which a write
                                         # of the flag byte leaves known
-        instrs, labels = _parse(text)
+        instrs, labels = _parse(text) if parsed is None else parsed     # (`parsed`: `frames_code`'s)
         self.instrs: tuple[Instr, ...] = instrs     # (shared by the Codes of one text: read only)
         self.labels: dict[str, int] = labels
         # (bit, ranges): while the state bit is known set, a RET never returns behind a call in one of
@@ -444,13 +526,16 @@ class Code:
                 if ins.op in _CALLS and ins.args[0] in FRAME_REACHING:
                     return [self.target(ins)]
                 return [k for k in self._next(j) if k < n]
-            succ = [after(j) for j in range(n)]
-            changed = True
-            while changed:
-                changed = False
-                for j in range(n - 1, -1, -1):
-                    if not touch[j] and any(touch[k] for k in succ[j]):
-                        touch[j] = changed = True
+            before: list[list[int]] = [[] for _ in range(n)]
+            for j in range(n):
+                for k in after(j):
+                    before[k].append(j)
+            work = [j for j in range(n) if touch[j]]
+            while work:         # every instruction with a path to one that touches them
+                for j in before[work.pop()]:
+                    if not touch[j]:
+                        touch[j] = True
+                        work.append(j)
             self._touch = touch
         return i < len(self._touch) and self._touch[i]
 

@@ -260,3 +260,75 @@ def test_same_cycles_knows_a_loop_count_from_any_other_register_immediate():
     assert wcet.Code(text).longest("f", set()) == wcet.Code(changed).longest("f", set())
     assert not wcet.same_cycles(text, text.replace("R7, #5", "R7, #6"))            # a counted loop's count
     assert not wcet.same_cycles(text, text.replace("#0x03", "#0x07"))              # a byte written whole
+
+
+ENGINE = """
+        LJMP    main
+frame_io:
+        MOV     A, #1
+        LCALL   sort
+        RET
+sort:   NOP
+{extra}        RET
+engine_end:
+main:
+        LCALL   frame_io
+        MOV     A, B
+        LCALL   {call}
+        SJMP    main
+work:   MUL     AB
+        RET
+"""
+
+
+def test_the_work_between_frames_is_read_without_the_engine_and_shared_by_texts_that_differ_only_there():
+    """`frames_code`: the text with the engine's code (frame_io up to engine_end) left out gives the
+    whole text's longest work between frames, and two texts whose engines differ share it; the
+    index it gives back is the whole text's (the resume point after the engine moves with it)."""
+    one, two = ENGINE.format(extra="", call="work"), ENGINE.format(extra="        NOP\n        NOP\n", call="work")
+    (a, index_a), (b, index_b) = wcet.frames_code(one), wcet.frames_code(two)
+    assert a is b and a.instrs is not wcet.Code(one).instrs     # one analysis, of the text without the engine
+    for text, index in ((one, index_a), (two, index_b)):
+        whole = wcet.Code(text)
+        work, at = a.between_frames()
+        assert (work, index(at)) == whole.between_frames() == (1 + 2 + 4 + 2 + 2 + 2, whole.labels["main"] + 1)
+
+
+def test_the_work_between_frames_is_read_from_the_whole_text_where_the_engine_is_not_apart():
+    """An engine that calls a routine outside it: the whole text's Code (its call sites are paths
+    between frames). Code outside that calls into the engine (but frame_io): the shared analysis
+    fails there rather than count what it left out, and code generation reads the whole text."""
+    out = ENGINE.replace("LCALL   sort", "LCALL   work", 1).format(extra="", call="work")
+    code, index = wcet.frames_code(out)
+    assert code.instrs is wcet.Code(out).instrs and index(5) == 5
+    into = ENGINE.format(extra="", call="sort")
+    code, _ = wcet.frames_code(into)
+    assert code.instrs is not wcet.Code(into).instrs
+    with pytest.raises(wcet.WcetError, match="indirect jump"):
+        code.between_frames()
+    assert wcet.Code(into).between_frames()[0] == 1 + 2 + 1 + 2 + 2 + 2
+
+
+@pytest.mark.parametrize("example", ["hexapod", "serial_arm", "ssc32_arm", "sweep_until_pressed", "biped"])
+def test_every_build_reads_the_work_between_frames_of_its_whole_text(example, monkeypatch):
+    """Every text code generation reads the work between frames from (each build of each period
+    the period stage tries) gets from `frames_code` what its whole text gives: the cycles, where
+    they start and the longest path by record; with the engine left out (none of these engines
+    calls out of itself), and shared by builds."""
+    seen = []
+    real = wcet.frames_code
+
+    def spy(text, *facts):
+        got = real(text, *facts)
+        seen.append((text, facts, got))
+        return got
+    monkeypatch.setattr(wcet, "frames_code", spy)
+    built = build_text(open(f"examples/{example}.servo").read(), f"{example}.servo")
+    assert built.firmware is not None and len({text for text, _, _ in seen}) >= 2
+    for text, facts, (code, index) in seen:
+        whole = wcet.Code(text, *facts)
+        assert code.instrs is not whole.instrs
+        work, at = code.between_frames()
+        assert (work, whole.label_at(index(at)), code.by_record()) == (
+            *(lambda w, a: (w, whole.label_at(a)))(*whole.between_frames()), whole.by_record())
+    assert len({id(code) for _, _, (code, _) in seen}) < len({text for text, _, _ in seen})

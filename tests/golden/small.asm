@@ -1874,6 +1874,7 @@ bj12:  MOV     A, @R0                  ; the lines of N j + 1, the edge before t
         MOV     R5, #0x00
         RET
 
+engine_end:                             ; (the engine's code ends here: frame_io and the edge handler)
 runtime_end::
 
 ; ================================================================ program
