@@ -53,13 +53,12 @@ one frame, so a call of `run_list` always reaches a frame before it returns.
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import re
 import sys
 from collections import OrderedDict
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, NamedTuple
 
 FRAME_ROUTINE = "frame_io"      # LCALL of it: a frame starts (the cut point)
 ENGINE_END = "engine_end"       # the label right after the engine's code (frame_io's body, the edge handler)
@@ -146,8 +145,7 @@ def _keeps_carry(ins: Instr) -> bool:
     return ins.op in _CARRY_KEPT and not any(a in ("C", "CY", "PSW", "PSW.7", "0xD7", "0xD0") for a in ins.args)
 
 
-@dataclass(frozen=True)
-class Instr:
+class Instr(NamedTuple):        # (a tuple: the texts of a program's builds have thousands each)
     index: int
     op: str
     args: tuple[str, ...]
@@ -285,7 +283,7 @@ def frames_code(text: str, flag_byte: str = "", flag_bits: frozenset[str] = froz
     code = _frames_codes.get(key)
     if code is None:
         stub = Instr(s, *_STUB, instrs[s].line)
-        kept = instrs[:s] + (stub,) + tuple(dataclasses.replace(ins, index=k) for k, ins in enumerate(instrs[e:], s + 1))
+        kept = instrs[:s] + (stub,) + tuple(ins._replace(index=k) for k, ins in enumerate(instrs[e:], s + 1))
         kept_labels = {n: s for n, j in labels.items() if s <= j < e} | dict(outside)
         code = _frames_codes[key] = Code("", *facts, parsed=(kept, kept_labels))
         while len(_frames_codes) > _FRAMES_MOST:
