@@ -49,6 +49,14 @@ the stack back to where the select started the body (`MOV SP, ...`) and jumps to
 One fact comes from code generation rather than from the code: a record
 list (`LCALL run_list`) is never empty and every record in it takes at least
 one frame, so a call of `run_list` always reaches a frame before it returns.
+
+Code generation lays out several texts for one program (the builds with rises
+as steps, among the falls before them, or neither, at each period the period
+stage tries) that differ in the engine's code (frame_io and the edge handler,
+up to the label `engine_end`) and not between frames. `frames_code` reads the
+work between frames from the text with the engine replaced by one indirect
+jump, once for all of them; where a path would enter the engine that analysis
+fails, and the caller reads the whole text instead.
 """
 
 from __future__ import annotations
