@@ -260,6 +260,7 @@ def _read_line(raw: str) -> tuple[str | None, str, str, tuple[str, ...], int]:
     return label, _CODE, op, args, cycles_of(op, args)
 
 
+_NAME = re.compile(r"[A-Za-z_.$][\w.$]*")     # a name in an operand (`#<win_p0`, `RMASK+1`)
 _FRAMES_MOST = 8        # the texts `frames_code` keeps the analysis of
 _frames_codes: OrderedDict = OrderedDict()
 
@@ -275,9 +276,10 @@ def frames_code(text: str, flag_byte: str = "", flag_bits: frozenset[str] = froz
     by one indirect jump (`_STUB`, where every label of the engine leads) is theirs: a path that
     would enter it fails there instead. That holds where the engine calls no routine outside it,
     nor frame_io (so the call sites of every routine outside it, and the points where a frame
-    resumes, are the same), and the code after it starts with a routine the code outside it calls
-    (so every instruction outside it is in the same routine); elsewhere this is the Code of the
-    whole text. Its instructions keep the first such text's lines: where its analysis fails, the
+    resumes, are the same), nothing outside it names its labels but frame_io's calls and the
+    interrupt vectors (so no path but one that runs into it from the code before reaches the
+    stub), and the code after it starts with a routine the code outside it calls (so every
+    instruction outside it is in the same routine); elsewhere this is the Code of the whole text. Its instructions keep the first such text's lines: where its analysis fails, the
     caller reads the whole text's, for the message. With it, the index in `text` of each of its
     instructions (outside the engine)."""
     instrs, labels = _parse(text)
@@ -310,9 +312,17 @@ _STUB = ("JMP", ("@A+DPTR",), 2)        # the engine's code, in `frames_code`: n
 
 def _engine_apart(instrs: tuple[Instr, ...], labels: dict[str, int], s: int, e: int) -> bool:
     """Whether the engine's code (instructions s to e - 1) calls only its own routines, never
-    frame_io, and the code after it starts with a routine the code outside it calls (`frames_code`)."""
+    frame_io; no code outside it names one of its labels but frame_io's calls and the interrupt
+    vectors (before `reset`, which only an interrupt reaches), so that the only way in from the
+    rest is a frame; and the code after it starts with a routine the code outside it calls
+    (`frames_code`)."""
     inside = {n for n, j in labels.items() if s <= j < e}
     if any(ins.op in _CALLS and (ins.args[0] not in inside or ins.args[0] == FRAME_ROUTINE) for ins in instrs[s:e]):
+        return False
+    vectors = labels.get("reset", 0)
+    if any(k >= vectors and not (ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE)
+           and any(n in inside for a in ins.args for n in _NAME.findall(a))
+           for k, ins in enumerate(instrs) if not s <= k < e):
         return False
     return any(ins.op in _CALLS and labels.get(ins.args[0]) == e for ins in instrs[:s] + instrs[e:]) or \
         labels.get("main") == e

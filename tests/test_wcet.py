@@ -6,6 +6,8 @@ the costlier branch, follow calls and returns, and refuse a loop that never
 reaches a frame.
 """
 
+from pathlib import Path
+
 import pytest
 
 from conftest import build_text, parse_listing, pose, servo_decls
@@ -295,18 +297,21 @@ def test_the_work_between_frames_is_read_without_the_engine_and_shared_by_texts_
 
 
 def test_the_work_between_frames_is_read_from_the_whole_text_where_the_engine_is_not_apart():
-    """An engine that calls a routine outside it: the whole text's Code (its call sites are paths
-    between frames). Code outside that calls into the engine (but frame_io): the shared analysis
-    fails there rather than count what it left out, and code generation reads the whole text."""
-    out = ENGINE.replace("LCALL   sort", "LCALL   work", 1).format(extra="", call="work")
-    code, index = wcet.frames_code(out)
-    assert code.instrs is wcet.Code(out).instrs and index(5) == 5
-    into = ENGINE.format(extra="", call="sort")
-    code, _ = wcet.frames_code(into)
-    assert code.instrs is not wcet.Code(into).instrs
+    """An engine that calls a routine outside it (its call sites are paths between frames), or code
+    outside that names one of its labels (but frame_io's calls): the whole text's Code. Code that
+    runs into the engine from the instruction before it: the shared analysis fails there rather
+    than count what it left out, and code generation reads the whole text."""
+    for apart in (ENGINE.replace("LCALL   sort", "LCALL   work", 1).format(extra="", call="work"),
+                  ENGINE.format(extra="", call="sort")):
+        code, index = wcet.frames_code(apart)
+        assert code.instrs is wcet.Code(apart).instrs and index(5) == 5
+    falls = ENGINE.replace("        LJMP    main\nframe_io:", "pre:    NOP\nframe_io:").format(extra="", call="pre")
+    code, _ = wcet.frames_code(falls)
+    assert code.instrs is not wcet.Code(falls).instrs
     with pytest.raises(wcet.WcetError, match="indirect jump"):
         code.between_frames()
-    assert wcet.Code(into).between_frames()[0] == 1 + 2 + 1 + 2 + 2 + 2
+    # MOV A,B; LCALL pre; NOP, into frame_io's body: MOV A,#1; LCALL sort (NOP; RET); RET; SJMP; LCALL frame_io
+    assert wcet.Code(falls).between_frames()[0] == 1 + 2 + 1 + 1 + 2 + 1 + 2 + 2 + 2 + 2
 
 
 @pytest.mark.parametrize("example", ["hexapod", "serial_arm", "ssc32_arm", "sweep_until_pressed", "biped"])
@@ -323,7 +328,7 @@ def test_every_build_reads_the_work_between_frames_of_its_whole_text(example, mo
         seen.append((text, facts, got))
         return got
     monkeypatch.setattr(wcet, "frames_code", spy)
-    built = build_text(open(f"examples/{example}.servo").read(), f"{example}.servo")
+    built = build_text((Path(__file__).parent.parent / "examples" / f"{example}.servo").read_text(), f"{example}.servo")
     assert built.firmware is not None and len({text for text, _, _ in seen}) >= 2
     for text, facts, (code, index) in seen:
         whole = wcet.Code(text, *facts)
