@@ -305,7 +305,8 @@ def with_rises(p: Plan, unit: codegen.AsmUnit) -> Plan:
     of the last fall's run or comes among the falls of the port before it."""
     return dataclasses.replace(p, rise_offsets=unit.rise_offsets,
                                rise_steps=unit.budget is not None and unit.budget.steps,
-                               rises_among_falls=unit.budget is not None and unit.budget.stagger)
+                               rises_among_falls=unit.budget is not None and unit.budget.stagger,
+                               ports_at_once=unit.budget is not None and unit.budget.merged)
 
 
 # the last plan `_budgeted` returned and the code generated for it (`_unit`)

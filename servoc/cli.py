@@ -949,7 +949,8 @@ def _plan_line(plan: Plan) -> str:
                   f"{fmt_ms(plan.total_frames * plan.period_us)}")
     return (f"{servos} servo{'s' if servos != 1 else ''} on {ports}, P = {fmt_ms(plan.period_us)} ({kind}; "
             f"shortest {fmt_ms(plan.min_period_us)}{'; built for size' if plan.compact else ''}"
-            f"{'; the ports pulse overlapping' if plan.rises_among_falls else ''}), program {length}")
+            f"{'; the ports pulse overlapping' if plan.rises_among_falls else ''}"
+            f"{'; the ports pulse at once' if plan.ports_at_once else ''}), program {length}")
 
 
 def _plan_rows(plan: Plan, source) -> list:
@@ -1037,6 +1038,7 @@ def plan_data(plan: Plan, source) -> dict:
         data["ports"] = _port_rises(plan)
         data["rise_steps"] = plan.rise_steps
         data["rises_among_falls"] = plan.rises_among_falls
+        data["ports_at_once"] = plan.ports_at_once
     if plan.cuts:
         data["interruptible"] = [{"line": source.line_col(st.span.start)[0],
                                   "servos": [{"servo": c.name, "low": lo, "high": hi, "unset": unset}
@@ -1112,7 +1114,9 @@ def plan_table(plan: Plan, source, csv_out: bool = False) -> str:
                    + (f"; a rise less than {costs.SPLIT} cycles after the last fall before it is a step of that "
                       "fall's run of the edge handler" if plan.rise_steps else "")
                    + ("; each port's rise after the first comes among the falls of the port before it: the ports' "
-                      "pulses overlap" if plan.rises_among_falls else ""))
+                      "pulses overlap" if plan.rises_among_falls else "")
+                   + ("; every port rises at once (3 cycles apart) and the falls of every port are one timeline: "
+                      "the ports' pulses overlap whole" if plan.ports_at_once else ""))
     if plan.startup:
         frames = startup_frames(plan)
         how = (f"`home {plan.program.home.name}`" if plan.program.home is not None

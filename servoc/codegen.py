@@ -366,7 +366,7 @@ def _seq_label(plan: Plan, name: str) -> str:
 
 
 def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, stepping: bool | None = None,
-             stagger: bool | None = None) -> AsmUnit:
+             stagger: bool | None = None, merged: bool | None = None) -> AsmUnit:
     """Lay out the firmware for a plan (which must have passed lint without errors).
     `hold_off` > 0 makes a test build that holds interrupts off for that many cycles (NOPs
     between CLR EA and SETB EA) at several points of the background: the edges must not move.
@@ -379,6 +379,8 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     that build (True only where a build can have it)."""
     can = costs.rise_steps(plan.compact) and bool(plan.ports)
     can_stagger = can and _can_stagger(plan)
+    if merged is not None:
+        return _merged(plan, source, hold_off) if merged else generate(plan, source, hold_off, stepping, stagger)
     if stepping is not None or stagger is not None:
         staggered = bool(stagger) and can_stagger
         return _generate_answers(plan, source, hold_off, bool(stepping) and can and not staggered, staggered)
@@ -407,7 +409,40 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if (reason is not None and not best.period_holds and best.min_period_us is not None
             and reason.shortest_us < best.min_period_us):
         raise reason        # the program's shortest period is that build's: its limit is the reason
+    if can_merge(plan) and best.min_period_us is not None:
+        try:
+            other = _merged(plan, source, hold_off, facts)
+        except layout.LayoutError as exc:
+            for each in (exc, *getattr(exc, "errors", ())):
+                each.__traceback__ = None
+            return best
+        if (other.min_period_us is not None and other.min_period_us < best.min_period_us
+                and layout.rom_end(other.text) <= other.target.chip.code_bytes):
+            best = other
     return best
+
+
+def can_merge(plan: Plan) -> bool:
+    """Whether a build can pulse the ports at once, their falls one timeline (frame_merged.asm.j2,
+    irq_merged.asm.j2): two ports or more, at a clock where a group of every port's writes fits
+    between the falls of two consecutive N (`costs.merged_step`), built for speed, with no serial line.
+    (With a serial line its handler's latency, and a `host`'s work, are not in this build's budget.)"""
+    target = plan.program.target
+    m = len(plan.ports)
+    return (m >= 2 and not plan.compact and plan.program.serial is None
+            and min(target.width_cycles(n + 1) - target.width_cycles(n) for n in range(N_MAX)) >= costs.merged_step(m))
+
+
+def _merged(plan: Plan, source: SourceFile | None, hold_off: int, facts: dict | None = None) -> AsmUnit:
+    """The build whose ports' pulses overlap whole: its motion state in internal RAM, or where that
+    is full and the chip has XRAM, there."""
+    facts = at_start(plan) if facts is None else facts
+    try:
+        return _generate(plan, source, hold_off, 1, False, False, facts, merged=True)
+    except layout.RamFull:
+        if plan.program.target.chip.xram_bytes < layout.RAM_SIZE:
+            raise
+    return _generate(plan, source, hold_off, 1, False, False, facts, merged=True, xstate=True)
 
 
 def _can_stagger(plan: Plan) -> bool:
@@ -447,12 +482,12 @@ def _steps_may_pay(without: AsmUnit, best: AsmUnit) -> bool:
 
 
 def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool,
-                      stagger: bool = False, facts: dict | None = None) -> AsmUnit:
+                      stagger: bool = False, facts: dict | None = None, merged: bool = False) -> AsmUnit:
     """`generate`, with or without rises as steps (or among the falls before them: `stagger`);
     `facts`: `flow.at_start` of the plan, where already found."""
     facts = at_start(plan) if facts is None else facts
     if not (plan.program.serial is not None and hosted(plan)):
-        return _generate(plan, source, hold_off, 1, stepping, stagger, facts)
+        return _generate(plan, source, hold_off, 1, stepping, stagger, facts, merged)
     try:
         return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger, facts)
     except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
@@ -460,7 +495,7 @@ def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, step
 
 
 def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int, stepping: bool,
-              stagger: bool, facts: dict) -> AsmUnit:
+              stagger: bool, facts: dict, merged: bool = False, xstate: bool = False) -> AsmUnit:
     """`generate`, with room for `answers` answers waiting in HAQ (with `host`), with or without
     rises as steps, or with each port's rise among the falls of the port before it (`stagger`)."""
     ctx = _Ctx(plan, source, [], {}, at_start=facts)
@@ -483,7 +518,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     wrapped = frame_wrapped(plan)                     # and frame_h around frame_w: WRAP_STACK more
     stack_bytes = costs.stack_bytes(plan.nesting, serial is not None, deep_runtime, wrapped)
     nports = len(plan.ports)
-    in_xram = host_xram(plan)           # the host's arrays and the motion state in XRAM
+    in_xram = host_xram(plan) or xstate     # the host's arrays and the motion state in XRAM
     room_promised = costs.stack_room(serial is not None, taken, nports, in_xram)
     least_stack = costs.stack_bytes(0, serial is not None, deep_runtime, wrapped)
     decides = hosted(plan)              # with `host`, the RAM allocated decides (host-ram, too-deep)
@@ -537,8 +572,11 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     fcall = "frame_h" if serial is not None and hosted(plan) and host_playable(plan.program) else fbase
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
-    _engine_ram(ram)
-    if stagger:
+    if not merged:
+        _engine_ram(ram)
+    if merged:
+        ram.alloc("MH", len(plan.ports), "frame_io: each port's next distinct N in its list, while it merges them")
+    if stagger or merged:
         ram.alloc("EDP", 2, "DPTR as frame_io's caller had it, while the background writes a port's items")
     s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, txq)
     if s is not None:
@@ -576,7 +614,15 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         assert xat <= layout.state_at(nports), "the host's arrays reach the motion state in XRAM"
     # the buffers reached only through @R0/@R1 last: they may go past the directly addressable RAM
     items = 1 + 3 * (_most_lines(plan) - 1) + 3
-    if stagger:     # two buffers, each with its first edge's N: one in use, one being written
+    mload = None
+    if merged:
+        mload = costs.merged_load(target, port_motions(plan, joint=True)[0], costs.merged_split(nports))
+        groups = max(mload.groups, 1)
+        for port in plan.ports:
+            s_ = sum(1 for c in plan.channels if c.port == port)
+            ram.alloc(f"DL{port}", 2 * s_ + 1, f"P{port}'s distinct N, ascending, each with its lines, then 0xFF", direct=False)
+        ram.alloc("ITEMS", nports + groups * (2 + nports) + 1, "the handler's items: the frame's timeline of groups", direct=False)
+    elif stagger:     # two buffers, each with its first edge's N: one in use, one being written
         ram.alloc("ITA", 1 + items, "items of a port, after its first edge's N (IBUF clear: in use)", direct=False)
         ram.alloc("ITB", 1 + items, "items of a port, after its first edge's N (IBUF set: in use)", direct=False)
     else:
@@ -607,6 +653,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                    for k, top in enumerate(tops))
              if stagger else tuple(costs.port_span(target, top, stepping) for top in tops))
     e = _engine(plan, ram, period_cycles, bport, spans, stepping, stagger)
+    if merged:
+        _set_merged(e, plan, groups)
     e["framed"] = ctx.flagged
     chans = []
     for c in plan.channels:
@@ -663,7 +711,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                   **passes,
                   h=host_ctx,
                   period_cycles=period_cycles,
-                  ctab=None if target.grid and not stagger else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
+                  ctab=None if target.grid and not (stagger or merged) else {"lo": [target.width_cycles(n) & 0xFF for n in range(N_MAX + 1)],
                                                  "hi": [target.width_cycles(n) >> 8 for n in range(N_MAX + 1)]},
                   target_text=target.describe(), cycle_text=fmt_us(target.cycle_us),
                   div_text=f"{float(target.div_cycles):g}",
@@ -698,10 +746,12 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                             else costs.start_loads(target, starts[plan.ports[0]]),
                             0 if s is None else s["byte_cycles"], bport is not None,
                             uses["sends"], uses["holds"], _pl_barred(plan, sequences) if hosting else None,
-                            names, costs.beside_extra(target))
+                            names, costs.beside_extra(target), mload)
     budget, work_from = measure(text)
     spans = e["spans"]
-    if budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
+    if budget is not None and merged:
+        budget = dataclasses.replace(budget, tops=tops, bottoms=bottoms)
+    elif budget is not None:      # a port's span longer where the next port's sort or the serial line needs it
         spans = costs.fit_spans(target, dataclasses.replace(budget, bottoms=bottoms), tops)
         assert stagger or all(span >= costs.port_span(target, top, stepping) for span, top in zip(spans, tops)), \
             "a span shorter than its longest pulse and the step to the next rise"
@@ -713,7 +763,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                 if again != budget:
                     raise RuntimeError("the code laid out again for its spans takes other cycles than before")
         budget = dataclasses.replace(budget, spans=spans, tops=tops, bottoms=bottoms)
-    offsets = tuple(costs.rise_offsets(plan.ports, target, spans).values())
+    offsets = (tuple(e["mstep_port"] * k for k in range(nports)) if merged
+               else tuple(costs.rise_offsets(plan.ports, target, spans).values()))
     run = None if budget is None else max(budget.emits or budget.rises, default=0)
     if run is not None and run > target.width_cycles(0):
         raise layout.HandlerTooSlow(       # its exit would add to Timer0 after the fall it waits for
@@ -872,7 +923,7 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         "stagger": stagger, "step": costs.STEP, "beside": costs.BESIDE, "rfar_off": costs.SLED + 10, "end_off": costs.SLED + 13,
         "rs_base": costs.SLED + 16, "rland": 2 * costs.SLED + 16, "rsled_add": (2 * costs.SLED + 24) % 0x100,
         "first_off": 2 * costs.SLED + 24,
-        "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
+        "merged": False, "compact": plan.compact, "loads": sorted({p["s"] for p in ports if p["looped"]}),
         "grid": target.grid, "ports": ports, "most": most, "near_dn": near_dn, "bport": bport, "blocks": blocks,
         "period": period_cycles, "t0_first": 65536 - period_cycles,     # no servo lines: Timer0 times a frame,
         "t0_on": 65536 - period_cycles + T0_STILL, "t0_still": T0_STILL,  # and carries on with its count
@@ -886,6 +937,19 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
         e["rise_off"] = e["first_off"]       # the first frame's rise, in the first port's window
     _set_rises(e, plan, period_cycles, spans)
     return e
+
+
+def _set_merged(e: dict, plan: Plan, groups: int) -> None:
+    """The numbers of the build whose ports' pulses overlap (irq_merged.asm.j2, frame_merged.asm.j2),
+    with room for `groups` groups of falls in a frame (`costs.merged_load`)."""
+    m = len(plan.ports)
+    target = plan.program.target
+    step, split = costs.merged_step(m), costs.merged_split(m)
+    sled = split - 1 - step     # a step with gap g from `step` to `split` - 1 enters at sled + step - g
+    e.update(merged=True, mwin="win_m", mstep=step, mstep_port=3, msplit=split, msled=sled,
+             msled_add=(sled + step + 1) % 0x100, mgroup_off=sled, fall_off=sled, mexit_off=sled + 4 * m + 3,
+             mend_off=sled + 4 * m + 6, groups=groups,
+             mnear_dn=next(d for d in range(1, 256) if int(d * target.div_cycles) >= split))
 
 
 def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) -> None:
@@ -992,7 +1056,8 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
                  starts: frozenset | None = None, byte_cycles: int = 0, last_in_b: bool = False,
                  sends: bool = False, holds: bool = True,
                  barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,
-                 names: tuple[wcet.Names | None, dict] = (None, {}), beside: int = 0) -> tuple[costs.Budget | None, str]:
+                 names: tuple[wcet.Names | None, dict] = (None, {}), beside: int = 0,
+                 merged: costs.MergedLoad | None = None) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
     (costs.port_load); its sort is the longest path less the swaps no frame makes. `starts`: one
@@ -1015,6 +1080,8 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
         except wcet.WcetError:
             frames = code                           # its message, with this text's lines
             work, at = frames.between_frames()
+        if merged is not None:
+            return _merged_budget(code, work, ports, lines, loads, merged), code.label_at(at)
         fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
         # with rises among falls a port is sorted first, then its items written once the handler
         # took the port before's (ft: after the wait): the sort's term is both
@@ -1057,6 +1124,26 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
     return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
                          steps=stepped and not staggered, stagger=staggered, emits=emits, items=items, **paired, **serial),
             code.label_at(at))
+
+
+def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tuple[int, ...],
+                   loads: tuple[costs.PortLoad, ...], merged: costs.MergedLoad) -> costs.Budget:
+    """The budget of the build whose ports' pulses overlap (frame_merged.asm.j2, irq_merged.asm.j2):
+    frame_io's sorts before its wait (less the swaps no frame makes), its merging after it, the
+    rise's entry and the falls' (`costs.merged_load`), and the last group's exit to the merging."""
+    m = len(ports)
+    # from a group's last edge: the next item's read and jump (4), the LJMP (2), the exit to its RETI
+    exit_ = 6 + code.longest_exit({"exit_far", "exit_end"})
+    if exit_ > costs.MEXIT:
+        raise wcet.WcetError(f"an exit of the edge handler takes {exit_} cycles, more than the {costs.MEXIT} "
+                             "its sled allows for")
+    sorts = code.longest("frame_io", {"fm_wait"}) - sum(_unswapped(code, n, load.swaps) for n, load in zip(lines, loads))
+    loop = code.instrs[code.labels["fm_wait"]:code.labels["fm_post"]]
+    spin = 2 * sum(ins.cycles for ins in loop)      # MBUSY seen clear within two passes of the wait
+    end = 6 + code.longest("exit_end", set())
+    return costs.Budget(work, (sorts,), (costs.ENTRY + 3 * (m - 1) + exit_,), lines, (merged.falls,),
+                        merged=True, merge=code.longest("fm_post", set()),
+                        tail=costs.ENTRY + 3 * (m - 1) + end + spin)
 
 
 def _pl_barred(plan: Plan, sequences: list[dict]) -> tuple[str, tuple[tuple[str, str], ...]] | None:

@@ -90,6 +90,21 @@ ENTRY = PAD_FROM + LATENCY + 2 + 9 + 3
 # read and jump (4), LJMP (2), exit_far (28), MOV R6 (1), the add to SETB (8), POPs (8),
 # RETI (2); `tests/test_costs.py` reads it from the code.
 EXIT = 53
+# The build whose ports' pulses overlap (never at a 1 us cycle): exit_far's C(N) comes from the
+# table, a cycle more; its groups of m ports are 3 (m - 1) cycles longer than one port's edge.
+MEXIT = EXIT + 1
+
+
+def merged_split(m: int) -> int:
+    """Groups of m ports this far apart or more: entries of their own (after the RETI before)."""
+    return ENTRY + 3 * (m - 1) + MEXIT + 1
+
+
+def merged_step(m: int) -> int:
+    """The shortest step from one group of m ports to the next: each port's 3, the read and jump (4)."""
+    return 3 * m + 4
+
+
 SPLIT = ENTRY + EXIT + 1   # edges this far apart or more: separate entries (the next
                            # overflow comes after the RETI before it)
 SLED = SPLIT - 1 - STEP    # NOPs before each port's edge: any gap from STEP to SPLIT - 1
@@ -300,13 +315,15 @@ def handler_load(rise_cycles: int, falls: int) -> int:
     return rise_cycles + falls
 
 
-def edges_load(widths, values) -> int:
+def edges_load(widths, values, split: int = 0) -> int:
     """The handler's cycles for the falls of one frame whose lines fall at N = `values`: the first
     fall an entry of its own (ENTRY + EXIT = SPLIT - 1), then per distinct N after it the gap to the
     edge before when it is a step in the same entry (gap < SPLIT), else SPLIT - 1 (the exit, then an
-    entry of its own). `widths[N]` = C(N) in cycles."""
+    entry of its own). `widths[N]` = C(N) in cycles. `split`: where not SPLIT (the build whose
+    ports' pulses overlap: its groups' entries are longer)."""
+    split = split or SPLIT
     cs = sorted({widths[v] for v in values})
-    return (SPLIT - 1) * bool(cs) + sum(min(b - a, SPLIT - 1) for a, b in zip(cs, cs[1:]))
+    return (split - 1) * bool(cs) + sum(min(b - a, split - 1) for a, b in zip(cs, cs[1:]))
 
 
 # Optimal sorting networks (comparator counts 0, 1, 3, 5, 9, 12, 16, 19): frame_io's sort of a
@@ -399,15 +416,14 @@ def _hi(v) -> int:
     return v if isinstance(v, int) else v.hi
 
 
-def _sweep(widths, lines, worst: int, bound: int, swapped: int, most: int) -> tuple[int, int]:
-    """The most `edges_load` (up to `bound`) and the most `swaps` (up to `most`) over the frames of
-    one move (see `port_load`), from the worst found before. The firmware puts line i at
-    N0 +- floor(|d| u + 1/2), d = N1 - N0, for the frame's u (k / F, or the eased table's value / 256;
-    `plan.firmware_value`): it steps by one at u = (m - 1/2) / |d|, m = 1..|d|, and holds the new N
-    from that u on. (Equal rationals with denominators this small are equal floats, so the u of
-    several lines meet exactly.) A line without a target (None) stays at N 0: sorted, never falling."""
+def _frames(lines):
+    """The N of `lines` in each frame of one move, in order (a list changed in place between
+    frames). The firmware puts line i at N0 +- floor(|d| u + 1/2), d = N1 - N0, for the frame's u
+    (k / F, or the eased table's value / 256; `plan.firmware_value`): it steps by one at
+    u = (m - 1/2) / |d|, m = 1..|d|, and holds the new N from that u on. (Equal rationals with
+    denominators this small are equal floats, so the u of several lines meet exactly.) A line
+    without a target (None) stays at N 0."""
     cur = [0 if ab is None else ab[0] for ab in lines]
-    falling = [ab is not None for ab in lines]
     at: dict[float, list[int]] = {}
     for i, ab in enumerate(lines):
         if ab is None:
@@ -415,20 +431,57 @@ def _sweep(widths, lines, worst: int, bound: int, swapped: int, most: int) -> tu
         d = abs(ab[1] - ab[0])
         for m in range(1, d + 1):
             at.setdefault((2 * m - 1) / (2 * d), []).append(i)
-
-    def frame() -> None:
-        nonlocal worst, swapped
-        worst = max(worst, edges_load(widths, [v for v, f in zip(cur, falling) if f]))
-        swapped = max(swapped, swaps(cur))
-
-    frame()
+    yield cur
     for u in sorted(at):
-        if worst >= bound and swapped >= most:
-            break
         for i in at[u]:
             cur[i] += 1 if lines[i][1] > lines[i][0] else -1
-        frame()
+        yield cur
+
+
+def _sweep(widths, lines, worst: int, bound: int, swapped: int, most: int) -> tuple[int, int]:
+    """The most `edges_load` (up to `bound`) and the most `swaps` (up to `most`) over the frames of
+    one move (`_frames`; see `port_load`), from the worst found before. A line without a target
+    (None) is sorted, never falling."""
+    falling = [ab is not None for ab in lines]
+    for cur in _frames(lines):
+        worst = max(worst, edges_load(widths, [v for v, f in zip(cur, falling) if f]))
+        swapped = max(swapped, swaps(cur))
+        if worst >= bound and swapped >= most:
+            break
     return worst, swapped
+
+
+@dataclass(frozen=True)
+class MergedLoad:
+    """The worst frame of the build whose ports' pulses overlap (`merged_load`)."""
+    falls: int      # the handler's cycles for the falls of every port (`edges_load` at its split)
+    groups: int     # the most distinct N at which a line of any port falls
+
+
+@lru_cache(maxsize=16)
+def merged_load(target, motions: frozenset, split: int) -> MergedLoad:
+    """Over every frame the program's moves can put out (`flow.port_motions(joint=True)`: every
+    line of every port): the most handler cycles for the frame's falls, merged into one timeline
+    (each group of the lines of every port at one N an edge: `edges_load` with `split`, the gap from
+    which a group is an entry of its own), and the most groups. A move that can start after an
+    interruption (a `Reach`) gets its hull's bound: every line its own group, each gap at most
+    split - 1 and all of them at most C(highest) - C(lowest)."""
+    widths = [target.width_cycles(n) for n in range(256)]
+    falls = groups = 0
+    for lines in motions:
+        fall = [ab for ab in lines if ab is not None]
+        if not all(isinstance(a, int) and isinstance(b, int) for a, b in fall):
+            lo = min(min(_lo(a), _lo(b)) for a, b in fall)
+            hi = max(max(_hi(a), _hi(b)) for a, b in fall)
+            falls = max(falls, (split - 1) + min((split - 1) * (len(fall) - 1), widths[hi] - widths[lo]))
+            groups = max(groups, len(fall))
+            continue
+        falling = [ab is not None for ab in lines]
+        for cur in _frames(lines):
+            values = [v for v, f in zip(cur, falling) if f]
+            falls = max(falls, edges_load(widths, values, split))
+            groups = max(groups, len(set(values)))
+    return MergedLoad(falls, groups)
 
 
 @dataclass(frozen=True)
@@ -456,6 +509,11 @@ class Budget:
                                 # to the RETI, and an entry's ENTRY (its rise: `rises`, SPLIT - 1 more)
     items: tuple[int, ...] = ()     # stagger: the part of each port's sort (`sorts`) that waits for the
                                 # handler to take the port before's items: writing its own
+    merged: bool = False        # the ports' pulses overlap: one timeline of groups (merged_load);
+                                # `sorts` is then frame_io's sorts of every port, before it waits
+    merge: int = 0              # merged: frame_io's merging of the ports' lists into items, after the wait
+    tail: int = 0               # merged: from the frame's rise overflow, less C(the last group's N), to
+                                # where frame_io goes on merging: the last group's entry and exit
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -558,6 +616,12 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     m = len(budget.lines)
     if m == 0:
         return budget.work + runs(period)
+    if budget.merged:   # the items are written after the last group's exit and before the next rise,
+        # and the background's chain from there to the next frame's items holds the whole frame's work
+        top = max(budget.tops or (N_MAX,))
+        return max(target.width_cycles(top) + budget.tail + budget.merge,
+                   budget.work + sum(budget.sorts) + budget.merge + sum(budget.rises) + sum(budget.falls)
+                   + runs(period))
     rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
     span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]

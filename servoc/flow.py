@@ -484,7 +484,7 @@ def send_gap(plan: Plan, cap: int) -> int:
     return cap if found is None else min(found, cap)
 
 
-def port_motions(plan: Plan) -> dict[int, frozenset]:
+def port_motions(plan: Plan, joint: bool = False) -> dict[int, frozenset]:
     """Per port, every way its lines can go through the frames of one move instance: for each line
     of the port in channel order (the order of its sort buffer), a (start, end), or None for a line
     that has no target in those frames (its N stays 0: sorted, never falling). A line the
@@ -493,14 +493,17 @@ def port_motions(plan: Plan) -> dict[int, frozenset]:
     frames of a move are every frame of the program: holds and waiting selects repeat the last one,
     and before the first move no line has a target (no frame with a fall to count). The power-up
     (`plan.power_up`) switches lines on one move at a time from none: each state it passes through
-    is a frame of its own (the move instances start from the state after it)."""
-    out: dict[int, set] = {port: set() for port in plan.ports}
+    is a frame of its own (the move instances start from the state after it). `joint`: every
+    line of every port together, under the key 0 (the build whose ports' pulses overlap has one
+    timeline for them all)."""
+    keys = (0,) if joint else plan.ports
+    out: dict[int, set] = {key: set() for key in keys}
 
     def add(start, ends) -> None:
-        lines: dict[int, list] = {port: [] for port in plan.ports}
+        lines: dict[int, list] = {key: [] for key in keys}
         for ch in plan.channels:
             end = ends.get(ch.index, start[ch.index])
-            lines[ch.port].append(None if end is None else (end if start[ch.index] is None else start[ch.index], end))
+            lines[0 if joint else ch.port].append(None if end is None else (end if start[ch.index] is None else start[ch.index], end))
         for port, ls in lines.items():
             if any(ls):
                 out[port].add(tuple(ls))

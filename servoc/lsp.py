@@ -343,7 +343,9 @@ def hover_frame(a: Analysis, decl: nodes.FrameDecl) -> str:
     if len(plan.rise_offsets) == len(plan.ports) > 1:
         out.append("\n" + ", ".join(f"P{p} rises at {units.fmt_ms(r)}" for p, r in zip(plan.ports, plan.rises_us())))
         out.append("\nthe ports' pulses overlap: each port's rise after the first comes among the falls of the "
-                   "port before it" if plan.rises_among_falls else "\nthe ports pulse one after another")
+                   "port before it" if plan.rises_among_falls else
+                   "\nthe ports pulse at once: one timeline of every port's falls" if plan.ports_at_once
+                   else "\nthe ports pulse one after another")
     return "\n".join(out)
 
 

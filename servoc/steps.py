@@ -309,6 +309,8 @@ class Plan:
                                             # before it a step of that fall's handler run (costs.RISE_STEP)
     rises_among_falls: bool = False         # the code makes each port's rise but the first come among the falls
                                             # of the port before it: the ports' pulses overlap (costs.stagger_span)
+    ports_at_once: bool = False             # the code makes every port rise at once (3 cycles apart) and puts
+                                            # out their falls as one timeline (codegen.can_merge)
 
     def rises_us(self) -> tuple[float, ...]:
         """Each port's rise, in µs from the first port's (to the ns), in port order."""
