@@ -60,6 +60,21 @@ before the first port's next rise. The handler never reads the sort
 buffer then: frame_io sorts a port before it waits, and writes only its items (Budget.items) after
 the handler took the port before's, so the last port's sort can end before its wait
 (`_items_start`).
+
+Where a DIV holds one write to every port in use between the falls of two consecutive N
+(`merged_step`: 3 cycles a port and the read and jump), a build may pulse the ports at once
+(codegen.can_merge; frame_merged.asm.j2, irq_merged.asm.j2): all rise in one entry, 3 cycles
+apart, and the falls of every port are one timeline of groups, each writing every port in the
+same order (`merged_split`: groups this far apart are entries of their own). frame_io sorts each
+port into a list of its own, waits for the handler's last group of the frame before, and merges
+the lists into the items (Budget.merge). Two terms (`merged_load`: the falls and the groups of
+the worst frame over every port's lines together):
+
+    P >= C(highest N) + the last group's entry and exit to the merging (Budget.tail) + merge
+    P >= W + the sorts + merge + the rise's entry + the falls
+
+(the first: the items are written before the next rise; the second: the background's chain from
+one frame's items to the next holds all of the frame's work and every run of the handler in it).
 """
 
 from __future__ import annotations

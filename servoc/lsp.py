@@ -344,7 +344,8 @@ def hover_frame(a: Analysis, decl: nodes.FrameDecl) -> str:
         out.append("\n" + ", ".join(f"P{p} rises at {units.fmt_ms(r)}" for p, r in zip(plan.ports, plan.rises_us())))
         out.append("\nthe ports' pulses overlap: each port's rise after the first comes among the falls of the "
                    "port before it" if plan.rises_among_falls else
-                   "\nthe ports pulse at once: one timeline of every port's falls" if plan.ports_at_once
+                   "\nthe ports' pulses overlap whole: they rise at once, and one timeline puts out every "
+                   "port's falls" if plan.ports_at_once
                    else "\nthe ports pulse one after another")
     return "\n".join(out)
 

@@ -689,7 +689,12 @@ class Code:
         not counted) or the routine returns (its RET or RETI counted)."""
         if start not in self.labels:
             raise WcetError(f"no label `{start}`")
-        return self._longest(self.labels[start], {self.labels[s] for s in stops if s in self.labels})
+        limit = sys.getrecursionlimit()
+        sys.setrecursionlimit(max(limit, 4 * len(self.instrs) + 1000))     # a path's depth: its instructions
+        try:
+            return self._longest(self.labels[start], {self.labels[s] for s in stops if s in self.labels})
+        finally:
+            sys.setrecursionlimit(limit)
 
     def loop_cycles(self, head: int, end: int, k: int) -> int:
         """The longest k passes of the counted loop from `head` to its `DJNZ` at `end`: k times its

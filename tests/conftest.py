@@ -52,8 +52,8 @@ def build_text(text: str, name: str = "prog.servo", for_size: bool = False) -> B
     return built
 
 
-def build_engine(text: str, stepping: bool = False, stagger: bool = False) -> Built:
-    """Compile .servo text with one edge handler (codegen.generate's `stepping`, `stagger`), not the
+def build_engine(text: str, stepping: bool = False, stagger: bool = False, merged: bool = False) -> Built:
+    """Compile .servo text with one edge handler (codegen.generate's `stepping`, `stagger`, `merged`), not the
     one whose period is shortest: at the program's `frame`, or at that handler's own shortest period
     where the program's is shorter."""
     from servoc import codegen
@@ -62,11 +62,11 @@ def build_engine(text: str, stepping: bool = False, stagger: bool = False) -> Bu
     for _ in range(2):
         fe, diags = front_end_text(text)
         assert fe.plan is not None, diags
-        unit = codegen.generate(fe.plan, fe.source, stepping=stepping, stagger=stagger)
+        unit = codegen.generate(fe.plan, fe.source, stepping=stepping, stagger=stagger, merged=merged or None)
         if unit.period_holds:
             break
         text = f"frame {unit.min_period_us}us\n" + text
-    assert unit.period_holds and (unit.budget.steps, unit.budget.stagger) == (stepping, stagger)
+    assert unit.period_holds and (unit.budget.steps, unit.budget.stagger, unit.budget.merged) == (stepping, stagger, merged)
     reporter = Reporter(fe.source)
     fw = api.assemble(unit, reporter)
     assert fw is not None, reporter.diagnostics

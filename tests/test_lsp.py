@@ -441,3 +441,4 @@ def test_hover_on_frame_says_where_the_ports_pulses_begin(editor: Editor, clock,
     assert "P1 rises at 0 ms, P2 rises at " in value
     assert ("the ports' pulses overlap" in value) == overlap
     assert ("the ports pulse one after another" in value) == (not overlap)
+    assert ("they rise at once" in value) == bool(clock)      # 22.1184 MHz: the ports at once

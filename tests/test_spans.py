@@ -48,26 +48,36 @@ def check_at_minimum(template: str, start: int) -> tuple:
     return built, period
 
 
-def check_engine_at_minimum(template: str, start: int, stepping: bool = False, stagger: bool = False) -> tuple:
-    """`check_at_minimum` for one edge handler (conftest.build_engine), not the one whose period is
-    shortest: at that handler's own shortest period every pulse exact, and 1 us less refused by its
-    budget."""
+def engine_minimum(template: str, start: int, stepping: bool = False, stagger: bool = False,
+                   merged: bool = False) -> int:
+    """`own_minimum` for one edge handler (codegen.generate's `stepping`, `stagger`, `merged`)."""
     from servoc import codegen
 
     period = start
     for _ in range(6):
         fe, diags = front_end_text(at_period(template, period))
         assert fe.plan is not None, diags
-        least = codegen.generate(fe.plan, stepping=stepping, stagger=stagger).min_period_us
+        least = codegen.generate(fe.plan, stepping=stepping, stagger=stagger, merged=merged or None).min_period_us
         if least == period:
             break
         period = least
-    built = build_engine(at_period(template, period), stepping, stagger)
+    return period
+
+
+def check_engine_at_minimum(template: str, start: int, stepping: bool = False, stagger: bool = False,
+                            merged: bool = False) -> tuple:
+    """`check_at_minimum` for one edge handler (conftest.build_engine), not the one whose period is
+    shortest: at that handler's own shortest period every pulse exact, and 1 us less refused by its
+    budget."""
+    from servoc import codegen
+
+    period = engine_minimum(template, start, stepping, stagger, merged)
+    built = build_engine(at_period(template, period), stepping, stagger, merged)
     assert built.plan.period_us == period
     report = built.verify(100)
     assert report.ok and report.max_error_cycles == 0, (period, report.summary(), [str(m) for m in report.mismatches[:5]])
     fe, _ = front_end_text(at_period(template, period - 1))
-    assert not codegen.generate(fe.plan, stepping=stepping, stagger=stagger).period_holds
+    assert not codegen.generate(fe.plan, stepping=stepping, stagger=stagger, merged=merged or None).period_holds
     return built, period
 
 
@@ -188,8 +198,7 @@ def test_a_rise_less_than_split_after_the_last_fall_is_a_step_at_every_gap(clock
         walk.append(f"move w{k} in {{1P}}us")
     template = clock + "\n".join(lines + poses) + "\nmain { loop { " + "; ".join(walk + walk[::-1]) + " } }\n"
     if costs.stagger_ok(t):     # 22.1184 MHz, 6T: the rises come among the falls before them instead
-        built, period = check_at_minimum(template, 9000 if clock else 12000)
-        assert built.firmware.unit.budget.stagger
+        check_engine_at_minimum(template, 9000 if clock else 12000, stagger=True)
         return
     built, period = check_engine_at_minimum(template, 9000 if clock else 12000, stepping=True)
     assert built.firmware.unit.budget.steps

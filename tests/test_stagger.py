@@ -12,12 +12,12 @@ import dataclasses
 import pytest
 from hypothesis import HealthCheck, example, given, settings, strategies as st
 
-from conftest import build_text, front_end_text, parse_listing
+from conftest import build_engine, build_text, front_end_text, parse_listing
 from servoc import codegen, costs
 from servoc.flow import port_reach
 from test_costs import at_period, own_minimum
 from test_serial import answering
-from test_spans import between_two_poses, check_at_minimum
+from test_spans import between_two_poses, check_at_minimum, check_engine_at_minimum, engine_minimum
 
 pytestmark = pytest.mark.toolchain
 
@@ -122,11 +122,13 @@ CASES = {
 @pytest.mark.parametrize("clock", FAST)
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_rises_among_falls_verify_at_the_minimum(clock, case):
-    built, period = check_at_minimum(clock + CASES[case], 12000)
+    """The build with rises among falls (where the ports at once, test_merged.py, are shorter: that
+    build itself) at its own shortest period."""
+    built, period = check_engine_at_minimum(clock + CASES[case], 12000, stagger=True)
     unit = built.firmware.unit
     b, t = unit.budget, built.plan.program.target
     if case == "all 24 lines at N 0":      # bound by the work: the build with rises among falls is no shorter
-        assert codegen.generate(built.plan, stagger=True).min_period_us >= period
+        assert codegen.generate(built.plan, stagger=False).min_period_us <= period
         return
     assert b.stagger and built.plan.rises_among_falls
     m = len(b.spans)
@@ -147,10 +149,10 @@ def test_every_period_from_the_minimum_on_holds_not_only_the_minimum(clock):
     minimum on, 11 us apart (a step is a window of 93 cycles, 50 us) over more than 256 cycles:
     every pulse exact."""
     template = clock + CASES["N 0 and N 250 on every port"]
-    least = own_minimum(template, 12000)
+    least = engine_minimum(template, 12000, stagger=True)
     turn = int(256 * target_of(clock).cycle_us) + 1         # 256 machine cycles, in us
     for period in range(least, least + turn + 15, 11):
-        built = build_text(at_period(template, period))
+        built = build_engine(at_period(template, period), stagger=True)
         assert built.firmware.unit.budget.stagger
         report = built.verify(12)
         assert report.ok and report.max_error_cycles == 0, (period, report.summary())
@@ -162,7 +164,7 @@ def test_a_port_whose_lines_never_fall_early_lets_the_port_before_it_end_sooner(
     not C(0); and the rise need only be STEP from the falls the port before can have (N bottom to
     top). Lines within 1 to 2 ms: each span among falls is C(187) - C(62) and the handover, not
     C(187) - C(0), and the frame is shorter than with every bottom taken as N 0."""
-    built = build_text(clock + ranged(2, 62, 187).replace("{1P}", "20000"))
+    built = build_engine(clock + ranged(2, 62, 187).replace("{1P}", "20000"), stagger=True)
     b, t = built.firmware.unit.budget, built.plan.program.target
     assert b.stagger and b.bottoms == (62, 62, 62) and b.tops == (187, 187, 187)
     as_if_zero = costs.fit_spans(t, dataclasses.replace(b, bottoms=()), b.tops)
@@ -171,7 +173,7 @@ def test_a_port_whose_lines_never_fall_early_lets_the_port_before_it_end_sooner(
         assert least < costs.stagger_span(t, 187, b.emits[k + 1], False) and b.spans[k] >= least
     assert sum(b.spans) < sum(as_if_zero)
     assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(b, spans=as_if_zero, bottoms=()))
-    assert built.plan.min_period_us == t.us_at_least(costs.frame_cycles(t, b))
+    assert codegen.generate(built.plan, stagger=True).min_period_us == t.us_at_least(costs.frame_cycles(t, b))
 
 
 @pytest.mark.parametrize("clock", FAST)
@@ -235,22 +237,27 @@ def test_the_rise_sled_puts_the_rise_exactly_its_gap_after_the_fall_before_it():
 def test_plan_says_the_ports_pulses_overlap(tmp_path, capsys):
     from servoc import cli
     import json
-    for clock, tops, overlap in ((FAST[0], (), True), ("", (), True), ("", (40, 40), False)):
+    for clock, tops, among, once in ((FAST[0], (), False, True), ("serial 9600\n" + FAST[0], (), True, False),
+                                     ("", (), True, False), ("", (40, 40), False, False)):
         path = tmp_path / "p.servo"        # (lines below N 40: the work bounds the period, not the pulses)
         path.write_text(clock + ports(4, 4, tops=tops).replace("{1P}", "20000"))
         assert cli.main(["plan", str(path)]) == 0
         out = capsys.readouterr().out
-        assert ("the ports' pulses overlap" in out) == overlap
+        assert ("the ports' pulses overlap" in out) == (among or once)
+        assert ("every port rises at once" in out) == once
         assert cli.main(["plan", "--json", str(path)]) == 0
-        assert json.loads(capsys.readouterr().out)["rises_among_falls"] is overlap
+        data = json.loads(capsys.readouterr().out)
+        assert (data["rises_among_falls"], data["ports_at_once"]) == (among, once)
 
 
 def test_a_build_for_size_keeps_the_ports_one_after_another():
-    """A build for size has no room for a second sled in each window: no rises among falls."""
+    """A build for size has no room for a second sled in each window: no rises among falls (and
+    no ports at once: its unrolled merging)."""
     text = FAST[0] + ports(4, 4).replace("{1P}", "20000")
-    assert build_text(text).firmware.unit.budget.stagger
+    assert build_text(text).firmware.unit.budget.merged
     assert build_text("serial 9600\n" + text).firmware.unit.budget.stagger
-    assert not build_text(text, for_size=True).firmware.unit.budget.stagger
+    b = build_text(text, for_size=True).firmware.unit.budget
+    assert not (b.stagger or b.merged)
 
 
 def test_with_a_meanwhile_body_and_an_input_the_rises_come_among_falls_at_the_minimum():
@@ -302,14 +309,13 @@ def test_where_the_ram_cannot_hold_two_item_buffers_the_ports_pulse_one_after_an
 def test_at_the_other_clocks_whose_div_leaves_room_rises_come_among_falls_too(clock):
     """24 MHz (16 cycles a DIV) and 12 MHz in 6T mode (16): N 0 and N 250 on every port, exact at
     the reported minimum, 1 us less refused."""
-    built, period = check_at_minimum(clock + CASES["N 0 and N 250 on every port"], 12000)
-    assert built.firmware.unit.budget.stagger
+    check_engine_at_minimum(clock + CASES["N 0 and N 250 on every port"], 12000, stagger=True)
 
 
 def test_the_handovers_cycles_quoted_in_the_docs_are_the_codes():
     """docs/language.md quotes the handover's run (Budget.emits) as read from the generated code."""
     from pathlib import Path
-    built = build_text(FAST[0] + ports(8, 8).replace("{1P}", "20000"))
+    built = build_engine(FAST[0] + ports(8, 8).replace("{1P}", "20000"), stagger=True)
     emits = set(built.firmware.unit.budget.emits)
     assert len(emits) == 1
     text = (Path(__file__).resolve().parent.parent / "docs" / "language.md").read_text(encoding="utf-8")

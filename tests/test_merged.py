@@ -1,0 +1,165 @@
+"""The ports' pulses at once (codegen.can_merge; frame_merged.asm.j2, irq_merged.asm.j2): every port
+rises in the same entry of the edge handler, 3 cycles apart, and the falls of every port are one
+timeline of groups, each writing every port in the same order with the lines it drops there. So
+each line falls C(N) after its own port's rise, to the cycle, wherever the N of different ports
+come close. frame_io sorts each port as before, then, once the handler has put out the frame
+before's last group, merges their lists into the items. Each program here runs in ucsim at exactly
+the shortest period servoc reports for it, every pulse exact, and that period less 1 us is refused.
+"""
+
+import pytest
+from hypothesis import HealthCheck, given, settings, strategies as st
+
+from conftest import build_text, front_end_text, parse_listing
+from servoc import api, codegen, costs
+from servoc.diagnostics import Reporter
+from servoc.flow import port_motions
+from test_costs import at_period
+from test_spans import between_two_poses, check_at_minimum, check_engine_at_minimum
+from test_stagger import CASES, held, ports
+
+pytestmark = pytest.mark.toolchain
+
+STC22 = "target stc89c52rc clock 22.1184MHz\n"
+STC6T = "target stc89c52rc clock 11.0592MHz mode 6T\n"
+
+
+def plan_of(text: str):
+    fe, diags = front_end_text(at_period(text, 20000))
+    assert fe.plan is not None, diags
+    return fe.plan
+
+
+@pytest.mark.parametrize("clock, case", [(STC22, c) for c in (
+    "N 0 and N 250 on every port", "all 24 lines at N 250", "all 24 lines at N 0",
+    "lines crossing each other's N every frame", "one servo on a port, eight on the next",
+    "eight on a port, one on the next")] + [(STC6T, "N 0 and N 250 on every port"),
+                                             (STC6T, "lines within 1 to 2 ms (N 62 to 187)")])
+def test_the_ports_at_once_verify_at_the_minimum(clock, case):
+    built, period = check_at_minimum(clock + CASES[case], 12000)
+    b = built.firmware.unit.budget
+    assert b.merged and built.plan.ports_at_once and not built.plan.rises_among_falls
+    assert built.plan.rise_offsets == tuple(3 * k for k in range(len(built.plan.ports)))
+
+
+def test_lines_of_different_ports_one_div_apart_keep_their_widths():
+    """Consecutive N on different ports: groups one DIV (14 or 15 cycles at 22.1184 MHz) apart,
+    each a step of the entry before (the shortest step: 3 cycles a port and the read and jump, 13).
+    Eight servos on P0 and P2 at N 200 to 215, the ports' N interleaved: 16 groups in a row."""
+    text = held([[200 + 2 * b for b in range(8)], [], [201 + 2 * b for b in range(8)]])
+    built, period = check_engine_at_minimum(STC22 + text, 12000, merged=True)
+    b, t = built.firmware.unit.budget, built.plan.program.target
+    assert costs.merged_step(2) == 10 and b.falls == (costs.merged_split(2) - 1 + t.width_cycles(215) - t.width_cycles(200),)
+    assert min(t.width_cycles(n + 1) - t.width_cycles(n) for n in range(250)) == 14
+
+
+def test_the_groups_of_a_frame_are_counted_over_every_port():
+    """costs.merged_load: each frame's groups are the distinct N of the lines of every port, and its
+    falls the handler's cycles for them at the split of a group (`edges_load`): held poses, by hand."""
+    t = plan_of(STC22 + CASES["N 0 and N 250 on every port"]).program.target
+    widths = [t.width_cycles(n) for n in range(256)]
+    split = costs.merged_split(3)
+    same = frozenset({tuple((n, n) for n in [0, 250, 36, 72, 108, 144, 180, 216] * 3)})
+    load = costs.merged_load(t, same, split)
+    assert load.groups == 8
+    assert load.falls == (split - 1) * 8        # 36 DIV apart: every group an entry of its own
+    apart = frozenset({tuple((200 + k, 200 + k) for k in range(16))})
+    load = costs.merged_load(t, apart, split)
+    assert load.groups == 16
+    assert load.falls == (split - 1) + widths[215] - widths[200]    # one entry, then a step each
+    plan = plan_of(STC22 + CASES["lines crossing each other's N every frame"])
+    joint = port_motions(plan, joint=True)[0]
+    load = costs.merged_load(t, joint, split)
+    frames = [list(f) for lines in joint for f in costs._frames(lines)]
+    assert load.groups == max(len(set(f)) for f in frames)
+    assert load.falls == max(costs.edges_load(widths, f, split) for f in frames)
+
+
+def test_the_items_are_sized_to_the_most_groups_a_frame_has():
+    """RAM sized to the program: the items hold the rise's lines, then each group's link, N where it
+    is an entry of its own, and a byte for each port; each port's list its distinct N and the end."""
+    built = build_text(at_period(STC22 + CASES["N 0 and N 250 on every port"], 4000))
+    unit = built.firmware.unit
+    assert unit.budget.merged
+    ram = dict((name, addr) for name, addr, _ in _ram_symbols(unit.text))
+    groups = costs.merged_load(built.plan.program.target, port_motions(built.plan, joint=True)[0],
+                               costs.merged_split(3)).groups
+    assert groups == 8
+    assert ram["DL1"] - ram["DL0"] == ram["DL2"] - ram["DL1"] == 2 * 8 + 1
+    assert ram["ITEMS"] - ram["DL2"] == 2 * 8 + 1
+    assert unit.text.count("\nmg") >= groups and f"mg{groups - 1}:" in unit.text and f"mg{groups}:" not in unit.text
+
+
+def _ram_symbols(text: str):
+    for line in text.splitlines():
+        head = line.split(";")[0].split()
+        if len(head) == 3 and head[1] == "=" and head[2].startswith("0x"):
+            yield head[0], int(head[2], 16), line
+
+
+def test_the_window_and_the_exits_are_where_the_items_say():
+    """The offsets frame_io writes are the window's own: a group's code after the sled, the
+    LJMP exit_far and the LJMP exit_end after it; and the longest exit, from a group's last edge to
+    its RETI, is within the MEXIT its split counts (a group this far apart gets an entry of its own
+    after the RETI before)."""
+    built = build_text(at_period(STC22 + CASES["N 0 and N 250 on every port"], 4000))
+    instrs, labels = parse_listing(built.firmware.image.listing)
+    win = instrs[labels["win_m"]].address
+    e = {"sled": costs.merged_split(3) - 1 - costs.merged_step(3)}
+    at = {ins.address - win: ins for ins in instrs[labels["win_m"]:labels["exit_end"]]}
+    assert all(at[k].op == "NOP" for k in range(e["sled"]))
+    group = [(ins.op, ins.args[0]) for ins in instrs[labels["win_m"] + e["sled"]:][:15]]
+    assert group[:9] == [("MOV", "A"), ("INC", "R0"), ("XRL", "P0"), ("MOV", "A"), ("INC", "R0"), ("XRL", "P1"),
+                         ("MOV", "A"), ("INC", "R0"), ("XRL", "P2")]
+    assert at[e["sled"] + 4 * 3 + 3].args == ("exit_far",) and at[e["sled"] + 4 * 3 + 6].args == ("exit_end",)
+    from servoc import wcet
+    code = wcet.Code(built.firmware.unit.text)
+    assert 6 + code.longest_exit({"exit_far", "exit_end"}) == costs.MEXIT
+
+
+def test_which_programs_can_have_the_ports_at_once():
+    """Two ports or more, at a clock where a group of every port fits between the falls of two
+    consecutive N (3 cycles a port and 4: 13 with three ports, 10 with two), built for speed, with
+    no serial line."""
+    two, three = ports(1, 8), CASES["N 0 and N 250 on every port"]
+    assert codegen.can_merge(plan_of(STC22 + three))
+    assert codegen.can_merge(plan_of(STC6T + three))
+    assert not codegen.can_merge(plan_of(three))                                          # 12 MHz: 8 a DIV
+    assert codegen.can_merge(plan_of("target at89c52 clock 18.432MHz\n" + two))          # 12 or 13 a DIV
+    assert not codegen.can_merge(plan_of("target at89c52 clock 18.432MHz\n" + three))
+    assert not codegen.can_merge(plan_of(STC22 + "serial 9600\n" + three))
+    assert not codegen.can_merge(plan_of(STC22 + held([[100]])))                        # one port
+
+
+@pytest.mark.parametrize("hold", [4, 10])
+def test_every_edge_stays_on_its_cycle_with_interrupts_held_off(hold):
+    """Each group runs inside an entry of the edge handler, after its TL0 pad (test_irq.py): with
+    interrupts held off for up to 10 cycles at several points of the background (frame_io's wait
+    among them), every edge of the build with the ports at once stays on its cycle at that build's
+    own shortest period."""
+    template = STC22 + CASES["N 0 and N 250 on every port"]
+    period = 12000
+    for _ in range(6):
+        fe, diags = front_end_text(at_period(template, period))
+        unit = codegen.generate(fe.plan, fe.source, hold_off=hold)
+        if unit.min_period_us == period:
+            break
+        period = unit.min_period_us
+    assert unit.budget.merged and unit.text.count("CLR     EA") >= 4
+    firmware = api.assemble(unit, Reporter(fe.source))
+    report = api.verify(api.with_rises(fe.plan, unit), firmware, 200)
+    assert report.ok and report.max_error_cycles == 0, (hold, report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
+@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@given(st.data())
+def test_random_programs_verify_at_the_minimum_of_the_ports_at_once(data):
+    """Random programs on two or three ports, each line between two random N, every frame a move:
+    the build with the ports at once, at its own shortest period, every pulse exact in ucsim, and 1 us
+    less refused by its budget (at 22.1184 MHz; two ports also at 18.432 MHz, 12 or 13 cycles a DIV)."""
+    ports_ = data.draw(st.sampled_from([(0, 1), (0, 2), (0, 1, 2), (1, 2)]))
+    clock = data.draw(st.sampled_from([STC22, STC6T] + (["target at89c52 clock 18.432MHz\n"] if len(ports_) == 2 else [])))
+    servos = [(port, bit, data.draw(st.integers(0, 250)), data.draw(st.integers(0, 250)))
+              for port in ports_ for bit in range(data.draw(st.integers(1, 8 if len(ports_) == 2 else 4)))]
+    template = clock + between_two_poses(servos, eased=data.draw(st.booleans()))
+    check_engine_at_minimum(template, 12000, merged=True)
