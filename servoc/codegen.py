@@ -1129,8 +1129,9 @@ def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], load
 def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tuple[int, ...],
                    loads: tuple[costs.PortLoad, ...], merged: costs.MergedLoad) -> costs.Budget:
     """The budget of the build whose ports' pulses overlap (frame_merged.asm.j2, irq_merged.asm.j2):
-    frame_io's sorts before its wait (less the swaps no frame makes), its merging after it, the
-    rise's entry and the falls' (`costs.merged_load`), and the last group's exit to the merging."""
+    frame_io's sorts before its wait (less the swaps no frame makes) and its return once the rise's
+    items are read, its merging between the two, the rise's entry and the falls'
+    (`costs.merged_load`), and the last group's exit to the merging."""
     m = len(ports)
     # from a group's last edge: the next item's read and jump (4), the LJMP (2), the exit to its RETI
     exit_ = 6 + code.longest_exit({"exit_far", "exit_end"})
@@ -1138,12 +1139,14 @@ def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tu
         raise wcet.WcetError(f"an exit of the edge handler takes {exit_} cycles, more than the {costs.MEXIT} "
                              "its sled allows for")
     sorts = code.longest("frame_io", {"fm_wait"}) - sum(_unswapped(code, n, load.swaps) for n, load in zip(lines, loads))
-    loop = code.instrs[code.labels["fm_wait"]:code.labels["fm_post"]]
-    spin = 2 * sum(ins.cycles for ins in loop)      # MBUSY seen clear within two passes of the wait
+    def spin(start: str, end: str) -> int:      # a wait's loop: what it waits for is seen within two passes
+        return 2 * sum(ins.cycles for ins in code.instrs[code.labels[start]:code.labels[end]])
     end = 6 + code.longest("exit_end", set())
-    return costs.Budget(work, (sorts,), (costs.ENTRY + 3 * (m - 1) + exit_,), lines, (merged.falls,),
-                        merged=True, merge=code.longest("fm_post", set()),
-                        tail=costs.ENTRY + 3 * (m - 1) + end + spin)
+    # the return once the rise's items are read: its wait, then the RET (the rise's entry is in `rises`)
+    back = spin("fm_rise", "fi_done") + code.longest("fi_done", set())
+    return costs.Budget(work, (sorts + back,), (costs.ENTRY + 3 * (m - 1) + exit_,), lines, (merged.falls,),
+                        merged=True, merge=code.longest("fm_post", {"fm_rise"}),
+                        tail=costs.ENTRY + 3 * (m - 1) + end + spin("fm_wait", "fm_post"))
 
 
 def _pl_barred(plan: Plan, sequences: list[dict]) -> tuple[str, tuple[tuple[str, str], ...]] | None:

@@ -525,7 +525,8 @@ class Budget:
     items: tuple[int, ...] = ()     # stagger: the part of each port's sort (`sorts`) that waits for the
                                 # handler to take the port before's items: writing its own
     merged: bool = False        # the ports' pulses overlap: one timeline of groups (merged_load);
-                                # `sorts` is then frame_io's sorts of every port, before it waits
+                                # `sorts` is then frame_io's sorts of every port, before it waits, and
+                                # its return once the handler has read the rise's items
     merge: int = 0              # merged: frame_io's merging of the ports' lists into items, after the wait
     tail: int = 0               # merged: from the frame's rise overflow, less C(the last group's N), to
                                 # where frame_io goes on merging: the last group's entry and exit
