@@ -409,7 +409,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if (reason is not None and not best.period_holds and best.min_period_us is not None
             and reason.shortest_us < best.min_period_us):
         raise reason        # the program's shortest period is that build's: its limit is the reason
-    if can_merge(plan) and best.min_period_us is not None:
+    if can_merge(plan) and best.min_period_us is not None and _merged_may_pay(best):
         try:
             other = _merged(plan, source, hold_off, facts)
         except layout.LayoutError as exc:
@@ -431,6 +431,15 @@ def can_merge(plan: Plan) -> bool:
     m = len(plan.ports)
     return (m >= 2 and not plan.compact and plan.program.serial is None
             and min(target.width_cycles(n + 1) - target.width_cycles(n) for n in range(N_MAX)) >= costs.merged_step(m))
+
+
+def _merged_may_pay(best: AsmUnit) -> bool:
+    """Whether the build with the ports at once can hold a shorter period than `best`: its pulses'
+    term is at least the longest pulse and the last group's entry (costs.ENTRY)."""
+    b = best.budget
+    if b is None or not b.tops:
+        return True
+    return best.target.us_at_least(best.target.width_cycles(max(b.tops)) + costs.ENTRY) < best.min_period_us
 
 
 def _merged(plan: Plan, source: SourceFile | None, hold_off: int, facts: dict | None = None) -> AsmUnit:
