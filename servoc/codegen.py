@@ -376,11 +376,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     the clock allows it among that port's falls (`costs.stagger_span`), in the build of these
     whose code holds the shortest period (without either where they tie, or where their code does
     not fit the chip's code memory, `layout.rom_end`); a build for size has neither. `stepping` or `stagger` given:
-    that build (True only where a build can have it)."""
+    that build (True only where a build can have it). Then, where `can_merge`, the build with the ports
+    at once, kept where its period is shorter still (`merged` True: that build; False: never)."""
     can = costs.rise_steps(plan.compact) and bool(plan.ports)
     can_stagger = can and _can_stagger(plan)
-    if merged is not None:
-        return _merged(plan, source, hold_off) if merged else generate(plan, source, hold_off, stepping, stagger)
+    if merged:
+        return _merged(plan, source, hold_off)
     if stepping is not None or stagger is not None:
         staggered = bool(stagger) and can_stagger
         return _generate_answers(plan, source, hold_off, bool(stepping) and can and not staggered, staggered)
@@ -409,7 +410,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if (reason is not None and not best.period_holds and best.min_period_us is not None
             and reason.shortest_us < best.min_period_us):
         raise reason        # the program's shortest period is that build's: its limit is the reason
-    if can_merge(plan) and best.min_period_us is not None and _merged_may_pay(best):
+    if merged is None and can_merge(plan) and best.min_period_us is not None and _merged_may_pay(best):
         try:
             other = _merged(plan, source, hold_off, facts)
         except layout.LayoutError as exc:
@@ -581,10 +582,10 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     fcall = "frame_h" if serial is not None and hosted(plan) and host_playable(plan.program) else fbase
     target = plan.program.target
     period_cycles = target.cycles(plan.period_us)
-    if not merged:
-        _engine_ram(ram)
     if merged:
         ram.alloc("MH", len(plan.ports), "frame_io: each port's next distinct N in its list, while it merges them")
+    else:
+        _engine_ram(ram)
     if stagger or merged:
         ram.alloc("EDP", 2, "DPTR as frame_io's caller had it, while the background writes a port's items")
     s = None if serial is None else _serial(serial, ram, uses["sends"], rxq, txq)
@@ -1148,6 +1149,7 @@ def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tu
         raise wcet.WcetError(f"an exit of the edge handler takes {exit_} cycles, more than the {costs.MEXIT} "
                              "its sled allows for")
     sorts = code.longest("frame_io", {"fm_wait"}) - sum(_unswapped(code, n, load.swaps) for n, load in zip(lines, loads))
+
     def spin(start: str, end: str) -> int:      # a wait's loop: what it waits for is seen within two passes
         return 2 * sum(ins.cycles for ins in code.instrs[code.labels[start]:code.labels[end]])
     end = 6 + code.longest("exit_end", set())

@@ -123,6 +123,8 @@ def test_which_programs_can_have_the_ports_at_once():
     no serial line."""
     two, three = ports(1, 8), CASES["N 0 and N 250 on every port"]
     assert codegen.can_merge(plan_of(STC22 + three))
+    assert codegen.generate(plan_of(STC22 + three)).budget.merged
+    assert not codegen.generate(plan_of(STC22 + three), merged=False).budget.merged
     assert codegen.can_merge(plan_of(STC6T + three))
     assert not codegen.can_merge(plan_of(three))                                          # 12 MHz: 8 a DIV
     assert codegen.can_merge(plan_of("target at89c52 clock 18.432MHz\n" + two))          # 12 or 13 a DIV
