@@ -950,7 +950,7 @@ def _plan_line(plan: Plan) -> str:
     return (f"{servos} servo{'s' if servos != 1 else ''} on {ports}, P = {fmt_ms(plan.period_us)} ({kind}; "
             f"shortest {fmt_ms(plan.min_period_us)}{'; built for size' if plan.compact else ''}"
             f"{'; the ports pulse overlapping' if plan.rises_among_falls else ''}"
-            f"{'; the ports pulse at once' if plan.ports_at_once else ''}), program {length}")
+            f"{'; the ports pulse overlapping, all at once' if plan.ports_at_once else ''}), program {length}")
 
 
 def _plan_rows(plan: Plan, source) -> list:

@@ -182,3 +182,13 @@ def test_with_a_meanwhile_body_and_an_input_the_ports_at_once_verify_at_the_mini
     plan, evs, trace = simulate_events(at_period(template, period), scenario, 150)
     report = api.check_events(plan, trace, 150, evs)
     assert report.ok and report.max_error_cycles == 0 and len(report.reactions) >= 5, report.summary()
+
+
+def test_compile_says_the_ports_pulse_at_once(tmp_path, capsys):
+    """`servoc compile`'s summary names the build, as `plan` and the hover on `frame` do."""
+    from servoc import cli
+    path = tmp_path / "p.servo"
+    path.write_text(at_period(STC22 + CASES["N 0 and N 250 on every port"], 4000))
+    assert cli.main(["compile", str(path), "-o", str(tmp_path / "p.hex")]) == 0
+    out = capsys.readouterr().out
+    assert "the ports pulse overlapping, all at once" in out and "XRAM 240/256 bytes" in out
