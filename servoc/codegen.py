@@ -377,10 +377,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     whose code holds the shortest period (without either where they tie, or where their code does
     not fit the chip's code memory, `layout.rom_end`); a build for size has neither. `stepping` or `stagger` given:
     that build (True only where a build can have it). Then, where `can_merge`, the build with the ports
-    at once, kept where its period is shorter still (`merged` True: that build; False: never)."""
+    at once, kept where its period is shorter still (`merged` True: that build, where `can_merge`;
+    False: never)."""
     can = costs.rise_steps(plan.compact) and bool(plan.ports)
     can_stagger = can and _can_stagger(plan)
-    if merged:
+    if merged and can_merge(plan):
         return _merged(plan, source, hold_off)
     if stepping is not None or stagger is not None:
         staggered = bool(stagger) and can_stagger
@@ -773,7 +774,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                 if again != budget:
                     raise RuntimeError("the code laid out again for its spans takes other cycles than before")
         budget = dataclasses.replace(budget, spans=spans, tops=tops, bottoms=bottoms)
-    offsets = (tuple(e["mstep_port"] * k for k in range(nports)) if merged
+    offsets = (tuple(costs.PORT_WRITE * k for k in range(nports)) if merged
                else tuple(costs.rise_offsets(plan.ports, target, spans).values()))
     run = None if budget is None else max(budget.emits or budget.rises, default=0)
     if run is not None and run > target.width_cycles(0):
@@ -956,8 +957,8 @@ def _set_merged(e: dict, plan: Plan, groups: int) -> None:
     target = plan.program.target
     step, split = costs.merged_step(m), costs.merged_split(m)
     sled = split - 1 - step     # a step with gap g from `step` to `split` - 1 enters at sled + step - g
-    e.update(merged=True, mwin="win_m", mstep=step, mstep_port=3, msplit=split, msled=sled,
-             msled_add=(sled + step + 1) % 0x100, mgroup_off=sled, fall_off=sled, mexit_off=sled + 4 * m + 3,
+    e.update(merged=True, mwin="win_m", mstep=step, mstep_port=costs.PORT_WRITE, msplit=split, msled=sled,
+             msled_add=(sled + step + 1) % 0x100, fall_off=sled, mexit_off=sled + 4 * m + 3,
              mend_off=sled + 4 * m + 6, groups=groups,
              mnear_dn=next(d for d in range(1, 256) if int(d * target.div_cycles) >= split))
 
@@ -1155,9 +1156,10 @@ def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tu
     end = 6 + code.longest("exit_end", set())
     # the return once the rise's items are read: its wait, then the RET (the rise's entry is in `rises`)
     back = spin("fm_rise", "fi_done") + code.longest("fi_done", set())
-    return costs.Budget(work, (sorts + back,), (costs.ENTRY + 3 * (m - 1) + exit_,), lines, (merged.falls,),
+    group = costs.PORT_WRITE * (m - 1)         # a group's first edge to its last
+    return costs.Budget(work, (sorts + back,), (costs.ENTRY + group + exit_,), lines, (merged.falls,),
                         merged=True, merge=code.longest("fm_post", {"fm_rise"}),
-                        tail=costs.ENTRY + 3 * (m - 1) + end + spin("fm_wait", "fm_post"))
+                        tail=costs.ENTRY + group + end + spin("fm_wait", "fm_post"))
 
 
 def _pl_barred(plan: Plan, sequences: list[dict]) -> tuple[str, tuple[tuple[str, str], ...]] | None:

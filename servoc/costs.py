@@ -108,16 +108,18 @@ EXIT = 53
 # The build whose ports' pulses overlap (never at a 1 us cycle): exit_far's C(N) comes from the
 # table, a cycle more; its groups of m ports are 3 (m - 1) cycles longer than one port's edge.
 MEXIT = EXIT + 1
+PORT_WRITE = 3      # a group's write to one port: MOV A,@R0; INC R0; XRL Px,A (the rise's too)
 
 
 def merged_split(m: int) -> int:
     """Groups of m ports this far apart or more: entries of their own (after the RETI before)."""
-    return ENTRY + 3 * (m - 1) + MEXIT + 1
+    return ENTRY + PORT_WRITE * (m - 1) + MEXIT + 1
 
 
 def merged_step(m: int) -> int:
-    """The shortest step from one group of m ports to the next: each port's 3, the read and jump (4)."""
-    return 3 * m + 4
+    """The shortest step from one group of m ports to the next: each port's write, the read and
+    jump (4)."""
+    return PORT_WRITE * m + 4
 
 
 SPLIT = ENTRY + EXIT + 1   # edges this far apart or more: separate entries (the next
@@ -390,14 +392,7 @@ def port_load(target, motions: frozenset) -> PortLoad:
     bound while it, or a swap not yet seen, can still beat the worst found. (The motions do not
     depend on the period: the period stage asks again with the same ones.)"""
     widths = [target.width_cycles(n) for n in range(256)]
-
-    def hull(lines) -> int:
-        fall = [ab for ab in lines if ab is not None]
-        lo = min(min(_lo(a), _lo(b)) for a, b in fall)
-        hi = max(max(_hi(a), _hi(b)) for a, b in fall)
-        return (SPLIT - 1) + min((SPLIT - 1) * (len(fall) - 1), widths[hi] - widths[lo])
-
-    order = sorted(((hull(lines), lines) for lines in motions), key=lambda m: -m[0])
+    order = sorted(((_hull(widths, lines, SPLIT), lines) for lines in motions), key=lambda m: -m[0])
     most = max((len(SORTING_NETWORKS[len(lines)]) for lines in motions), default=0)
     worst, swapped, budget = 0, 0, SWEEP_BUDGET
     for bound, lines in order:
@@ -421,6 +416,16 @@ def start_loads(target, starts: frozenset) -> frozenset:
     widths = [target.width_cycles(n) for n in range(256)]
     return frozenset((edges_load(widths, [v for v in before if v is not None]), swaps([v or 0 for v in first]),
                       eased, runtime_f, step) for before, first, eased, runtime_f, step in starts)
+
+
+def _hull(widths, lines, split: int) -> int:
+    """The handler's cycles for the falls of any frame of a move whose lines go anywhere between
+    their starts and ends (`Reach` or N): the first an entry of its own (split - 1), each gap after
+    it at most split - 1, and all of them at most C(highest) - C(lowest)."""
+    fall = [ab for ab in lines if ab is not None]
+    lo = min(min(_lo(a), _lo(b)) for a, b in fall)
+    hi = max(max(_hi(a), _hi(b)) for a, b in fall)
+    return (split - 1) + min((split - 1) * (len(fall) - 1), widths[hi] - widths[lo])
 
 
 def _lo(v) -> int:
@@ -486,9 +491,7 @@ def merged_load(target, motions: frozenset, split: int) -> MergedLoad:
     for lines in motions:
         fall = [ab for ab in lines if ab is not None]
         if not all(isinstance(a, int) and isinstance(b, int) for a, b in fall):
-            lo = min(min(_lo(a), _lo(b)) for a, b in fall)
-            hi = max(max(_hi(a), _hi(b)) for a, b in fall)
-            falls = max(falls, (split - 1) + min((split - 1) * (len(fall) - 1), widths[hi] - widths[lo]))
+            falls = max(falls, _hull(widths, lines, split))
             groups = max(groups, len(fall))
             continue
         falling = [ab is not None for ab in lines]
@@ -636,8 +639,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         # and the background's chain from there to the next frame's items holds the whole frame's work
         top = max(budget.tops or (N_MAX,))
         return max(target.width_cycles(top) + budget.tail + budget.merge,
-                   budget.work + sum(budget.sorts) + budget.merge + sum(budget.rises) + sum(budget.falls)
-                   + runs(period))
+                   budget.work + sum(budget.sorts) + budget.merge + sum(budget.rises) + sum(budget.falls))
     rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
     span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
