@@ -153,15 +153,17 @@ def test_every_edge_stays_on_its_cycle_with_interrupts_held_off(hold):
     assert report.ok and report.max_error_cycles == 0, (hold, report.summary(), [str(m) for m in report.mismatches[:5]])
 
 
-@settings(max_examples=6, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
+@settings(max_examples=8, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
 @given(st.data())
 def test_random_programs_verify_at_the_minimum_of_the_ports_at_once(data):
     """Random programs on two or three ports, each line between two random N, every frame a move
     (after a hold, or not):
     the build with the ports at once, at its own shortest period, every pulse exact in ucsim, and 1 us
-    less refused by its budget (at 22.1184 MHz; two ports also at 18.432 MHz, 12 or 13 cycles a DIV)."""
+    less refused by its budget (at 22.1184 MHz, 24 MHz, 11.0592 MHz and 12 MHz in 6T mode; two ports also
+    at 18.432 MHz, 12 or 13 cycles a DIV)."""
     ports_ = data.draw(st.sampled_from([(0, 1), (0, 2), (0, 1, 2), (1, 2)]))
-    clock = data.draw(st.sampled_from([STC22, STC6T] + (["target at89c52 clock 18.432MHz\n"] if len(ports_) == 2 else [])))
+    clock = data.draw(st.sampled_from([STC22, STC6T, "target at89c52 clock 24MHz\n", "target stc89c52rc clock 12MHz mode 6T\n"]
+                                      + (["target at89c52 clock 18.432MHz\n"] if len(ports_) == 2 else [])))
     servos = [(port, bit, data.draw(st.integers(0, 250)), data.draw(st.integers(0, 250)))
               for port in ports_ for bit in range(data.draw(st.integers(1, 8 if len(ports_) == 2 else 4)))]
     template = clock + between_two_poses(servos, eased=data.draw(st.booleans()))

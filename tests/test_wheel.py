@@ -81,3 +81,12 @@ def test_the_wheel_runs_every_command(installed, tmp_path):
     # three ports, each rising its fitted span after the one before
     hexapod = servoc(installed, tmp_path, "plan", "hexapod.servo")
     assert hexapod.returncode == 0 and "ports: P0 rises at 0 ms (its lines reach N 149)" in hexapod.stdout, hexapod.stdout
+    # the ports at once (frame_merged.asm.j2, irq_merged.asm.j2 in the wheel): the hexapod on an
+    # STC89C52RC at 22.1184 MHz, compiled and verified from the wheel
+    text = (ROOT / "examples" / "hexapod.servo").read_text(encoding="utf-8")
+    body = "\n".join(line for line in text.splitlines() if not line.startswith(("target ", "frame ")))
+    (tmp_path / "fast.servo").write_text("target stc89c52rc clock 22.1184MHz\n" + body + "\n")
+    fast = servoc(installed, tmp_path, "verify", "fast.servo", "--frames", "60")
+    assert fast.returncode == 0 and "fast.servo: OK" in fast.stdout and "max error 0 cycles" in fast.stdout, (fast.stdout, fast.stderr)
+    fast = servoc(installed, tmp_path, "compile", "fast.servo", "-o", "fast.hex")
+    assert fast.returncode == 0 and "all at once" in fast.stdout, (fast.stdout, fast.stderr)
