@@ -7,7 +7,9 @@
   that verifies exactly in ucsim, for the worst-case stress programs and a
   held pose (budget.py), and the default P servoc picks; `budget.clock_budget`
   the same at other crystals and with the serial line busy; `budget.examples_budget`
-  for the examples (real programs) at three clocks.
+  for the examples (real programs) at three clocks; `engine_terms.goal_rows` for the 24-servo goal
+  program (every port's lines over the full range) at 12 MHz, 22.1184 MHz on two chips and
+  11.0592 MHz 6T (full run only: about 13 minutes).
 - `memory`: ROM (runtime, per keyframe, keyframes that fit 8 KB) and RAM.
 - `compiler_time`: the time of each compiler stage.
 
@@ -26,6 +28,7 @@ from pathlib import Path
 from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
                        measure_baseline, positions_source)
 from budget import SPAN, clock_budget, examples_budget, frame_budget, hold_source
+from engine_terms import goal_rows
 from servoc import api, codegen, target, toolchain
 from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
@@ -289,6 +292,7 @@ def run_all(quick: bool = False, progress=None) -> dict:
         "frame_budget": frame_budget(quick, progress),
         "clock_budget": clock_budget(quick, progress),
         "examples_budget": examples_budget(quick, progress),
+        "goal_budget": [] if quick else goal_rows(60, progress),
         "memory": memory(quick, progress),
         "compiler": compiler_time(quick, progress),
     }
@@ -324,6 +328,11 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
         rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, worst case, "
                      f"{_servos(x['ports'])}, {x['target']}{kind} (us)", "", "",
                      f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
+                     f"{x['difference_us']:+d} ({_over(x)})"))
+    for x in fb.get("goal", ()):
+        rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, the goal program "
+                     f"(24 moving servos, N 0 and 250 on every port), {x['clock']}, ports {x['build']} (us)", "", "",
+                     f"{x['reported_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
                      f"{x['difference_us']:+d} ({_over(x)})"))
     for x in fb.get("examples", ()):
         rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, {x['program']}, "
@@ -364,7 +373,8 @@ def table(r: dict) -> str:
     cmp("jitter, max - min rise-to-rise (us)", "jitter_us")
     cmp("lines high after reset, first_low max (us)", "reset_high_max_us")
     cmp("ROM bytes", "rom_bytes")
-    fb, mem, comp = ({**r["frame_budget"], "clocks": r.get("clock_budget", []), "examples": r.get("examples_budget", [])},
+    fb, mem, comp = ({**r["frame_budget"], "clocks": r.get("clock_budget", []), "examples": r.get("examples_budget", []),
+                                  "goal": r.get("goal_budget", [])},
                      r["memory"], r["compiler"])
     rows += _budget_rows(fb)
     rows += [

@@ -35,6 +35,7 @@ def _load(module_name: str, file_name: str):
 
 baselines = _load("baselines", "baselines.py")
 budget = _load("budget", "budget.py")
+_load("engine_terms", "engine_terms.py")
 suite = _load("suite", "suite.py")
 run_cli = _load("bench_run", "run.py")
 
@@ -196,6 +197,8 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
         "examples_budget": [{"program": "examples/biped.servo", "target": "at89c52 clock 22.1184MHz",
                              "reported_min_p_us": 1810, "shortest_exact_p_us": 1800, "difference_us": 10,
                              "resolution_us": 1}],
+        "goal_budget": [{"clock": "22.1184 MHz, STC89C52RC", "build": "at once", "reported_us": 3337,
+                         "shortest_exact_p_us": 2881, "resolution_us": 8, "difference_us": 456}],
         "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "ram_bytes_8_servos": 196,
                    "ram_bytes_24_servos": 230,
                    **{f"{key}_{how}": {"bytes_per_item": 24.0, "runtime_bytes": 15, "estimate": 146, "confirmed": 146,
@@ -221,6 +224,8 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 (+2.4%) |" in text
     assert ("difference, examples/biped.servo, at89c52 clock 22.1184MHz (us) |  |  | 1810 / 1800 / +10 (+0.6%) |"
             in text)
+    assert ("the goal program (24 moving servos, N 0 and 250 on every port), 22.1184 MHz, STC89C52RC, ports at once "
+            "(us) |  |  | 3337 / 2881 (to 8 us) / +456 (+15.8%) |") in text
 
 
 def test_the_examples_benchmark_builds_each_example_at_each_clock_and_period():
