@@ -404,7 +404,8 @@ def port_load(target, motions: frozenset) -> PortLoad:
             worst, swapped = max(worst, bound), most
             continue
         budget -= cost
-        worst, swapped = _sweep(widths, lines, worst, bound, swapped, most)
+        falls, swapped_here = _sweep(target, lines)
+        worst, swapped = max(worst, falls), max(swapped, swapped_here)
     return PortLoad(worst, swapped)
 
 
@@ -458,11 +459,16 @@ def _frames(lines):
         yield cur
 
 
-def _sweep(widths, lines, worst: int, bound: int, swapped: int, most: int) -> tuple[int, int]:
-    """The most `edges_load` (up to `bound`) and the most `swaps` (up to `most`) over the frames of
-    one move (`_frames`; see `port_load`), from the worst found before. A line without a target
-    (None) is sorted, never falling."""
+@lru_cache(maxsize=4096)
+def _sweep(target, lines: tuple) -> tuple[int, int]:
+    """The most `edges_load` and the most `swaps` over the frames of one move (`_frames`; see
+    `port_load`), each up to its bound (the move's hull, its network's comparators). A line
+    without a target (None) is sorted, never falling. (Kept per move: programs that share moves,
+    and the builds of one program, sweep each once.)"""
+    widths = [target.width_cycles(n) for n in range(256)]
+    bound, most = _hull(widths, lines, SPLIT), len(SORTING_NETWORKS[len(lines)])
     falling = [ab is not None for ab in lines]
+    worst = swapped = 0
     for cur in _frames(lines):
         worst = max(worst, edges_load(widths, [v for v, f in zip(cur, falling) if f]))
         swapped = max(swapped, swaps(cur))

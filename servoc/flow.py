@@ -628,13 +628,14 @@ def move_starts(plan: Plan) -> dict[int, frozenset | None]:
     start where one of its lines is not known (after an interruption). The power-up's moves count
     from the states it passes through (`port_motions`)."""
     out: dict[int, set | None] = {port: set() for port in plan.ports}
+    lines = {port: [c.index for c in plan.channels if c.port == port] for port in plan.ports}
 
     def add(before: tuple, first: tuple, step: MoveStep) -> None:
         for port in plan.ports:
             if out[port] is None:
                 continue
-            pair = tuple(tuple(state[c.index] for c in plan.channels if c.port == port) for state in (before, first))
-            if all(v is None or isinstance(v, int) for half in pair for v in half):
+            pair = (tuple(before[i] for i in lines[port]), tuple(first[i] for i in lines[port]))
+            if all(v is None or type(v) is int for half in pair for v in half):
                 out[port].add(pair + (step.ease != "linear", step.frames is None, id(step)))
             else:
                 out[port] = None
