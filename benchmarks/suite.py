@@ -331,7 +331,8 @@ def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
                      f"{x['difference_us']:+d} ({_over(x)})"))
     for x in fb.get("goal", ()):
         rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, the goal program "
-                     f"(24 moving servos, N 0 and 250 on every port), {x['clock']}, ports {x['build']} (us)", "", "",
+                     f"(24 moving servos, N 0 and 250 on every port), {x['clock']}"
+                     f"{'' if x['build'] in x['clock'] else ', ports ' + x['build']} (us)", "", "",
                      f"{x['reported_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
                      f"{x['difference_us']:+d} ({_over(x)})"))
     for x in fb.get("examples", ()):
