@@ -209,3 +209,21 @@ def test_frames_before_the_first_move_end_in_the_rise_s_entry():
     template = STC22 + decls + "main { hold {3P}us; hold {3P}us;" + rest
     built, period = check_at_minimum(template, 12000)
     assert built.firmware.unit.budget.merged and built.plan.ports_at_once
+
+
+def test_linear_moves_of_every_kind_of_f_with_the_motion_state_in_xram():
+    """With the motion state in XRAM, a linear move's DDA terms and first frame are one call
+    (dda_step's XRAM variant): F of 3 and 7 frames (Q and REM from a DIV, carries on the first
+    frame or not), 60, and 257 (over 255: Q = 0, REM = |delta|). 24 servos over three ports, the
+    lines of a port each a different |delta|, up or down: every pulse of every frame exact in ucsim."""
+    lines = [f"servo s{i} = P{i // 8}.{i % 8} speed 0.0001s/60deg" for i in range(24)]
+    a = ", ".join(f"s{i}: {(37 * (i % 8)) % 251}" for i in range(24))
+    b = ", ".join(f"s{i}: {(250 - 53 * (i % 8)) % 251}" for i in range(24))
+    text = (STC22 + "frame 5000us\n" + "\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
+            "main { move a in 5ms; move b in 15ms; move a in 35ms; move b in 300ms; move a in 1285ms; hold 10ms }\n")
+    built = build_text(text)
+    unit = built.firmware.unit
+    assert unit.budget.merged and "XSTATE" in unit.text and "dda_pin:" not in unit.text
+    assert [st.frames for st in built.plan.main if hasattr(st, "frames")][1:5] == [3, 7, 60, 257]
+    report = built.verify(1 + 3 + 7 + 60 + 257 + 2)
+    assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
