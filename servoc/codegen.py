@@ -909,13 +909,12 @@ def _engine(plan: Plan, ram: layout.RamAllocator, period_cycles: int, bport: int
     # the others in port order; the engine starts once the first port's N are sorted
     order = sorted(ports, key=lambda p: p["port"] != bport)
     blocks = [{"p": p, "to_b": p["port"] == bport, "start": p is ports[0]} for p in order]
+    near_dn = costs.near_dn(target, costs.SPLIT)
     if target.grid:
-        near_dn = -(-costs.SPLIT // 8)
         ctime = ["SWAP    A                       ; t = C(N) = 500 + 8 N, in R7:A", "RR      A",
                  "MOV     R7, A", "ANL     A, #0xF8", f"ADD     A, #<{target.width_cycles(0)}", "XCH     A, R7",
                  "ANL     A, #0x07", f"ADDC    A, #>{target.width_cycles(0)}", "XCH     A, R7"]
     else:
-        near_dn = next(d for d in range(1, 256) if int(d * target.div_cycles) >= costs.SPLIT)
         ctime = ["MOV     R7, A                   ; t = C(N) from the table (DPTR = ctab), in R7:A",
                  "MOVC    A, @A+DPTR", "XCH     A, R7", "INC     DPH", "MOVC    A, @A+DPTR", "XCH     A, R7"]
     table = [] if target.grid else ["MOV     DPTR, #ctab"]
@@ -960,7 +959,7 @@ def _set_merged(e: dict, plan: Plan, groups: int) -> None:
     e.update(merged=True, mwin="win_m", mstep=step, mstep_port=costs.PORT_WRITE, msplit=split, msled=sled,
              msled_add=(sled + step + 1) % 0x100, fall_off=sled, mexit_off=sled + 4 * m + 3,
              mend_off=sled + 4 * m + 6, groups=groups,
-             mnear_dn=next(d for d in range(1, 256) if int(d * target.div_cycles) >= split))
+             mnear_dn=costs.near_dn(target, split))
 
 
 def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) -> None:

@@ -116,6 +116,17 @@ def merged_split(m: int) -> int:
     return ENTRY + PORT_WRITE * (m - 1) + MEXIT + 1
 
 
+@lru_cache(maxsize=64)
+def near_dn(target, split: int) -> int:
+    """The least difference of N from which every two falls are `split` cycles apart or more
+    (C(N + dN) - C(N) >= split for every N, from the widths the firmware uses): the edge handler
+    or frame_io takes a group that far from the one before as an entry of its own without
+    looking up the gap."""
+    widths = [target.width_cycles(n) for n in range(N_MAX + 1)]
+    return next(d for d in range(1, N_MAX + 1)
+                if all(widths[n + d] - widths[n] >= split for n in range(N_MAX + 1 - d)))
+
+
 def merged_step(m: int) -> int:
     """The shortest step from one group of m ports to the next: each port's write, the read and
     jump (4)."""

@@ -65,6 +65,7 @@ import functools
 import re
 import sys
 from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
@@ -689,12 +690,8 @@ class Code:
         not counted) or the routine returns (its RET or RETI counted)."""
         if start not in self.labels:
             raise WcetError(f"no label `{start}`")
-        limit = sys.getrecursionlimit()
-        sys.setrecursionlimit(max(limit, 4 * len(self.instrs) + 1000))     # a path's depth: its instructions
-        try:
+        with _deep(4 * len(self.instrs)):      # a path's depth: its instructions
             return self._longest(self.labels[start], {self.labels[s] for s in stops if s in self.labels})
-        finally:
-            sys.setrecursionlimit(limit)
 
     def loop_cycles(self, head: int, end: int, k: int) -> int:
         """The longest k passes of the counted loop from `head` to its `DJNZ` at `end`: k times its
@@ -898,13 +895,20 @@ class Code:
         resumes = [ins.index + 1 for ins in self.instrs if ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE]
         if not resumes:
             raise WcetError("the code never calls frame_io")
-        limit = sys.getrecursionlimit()
         # a path visits each instruction once in each state (FRAMED, the flag bits it knows)
-        sys.setrecursionlimit(max(limit, 32 * len(self.instrs) + 1000))
-        try:
+        with _deep(32 * len(self.instrs)):
             return {i: self.resume(i) for i in resumes}
-        finally:
-            sys.setrecursionlimit(limit)
+
+
+@contextmanager
+def _deep(depth: int):
+    """Python's recursion limit raised for a walk `depth` calls deep (and 1000 more), then put back."""
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, depth + 1000))
+    try:
+        yield
+    finally:
+        sys.setrecursionlimit(limit)
 
 
 def _plus(d: dict[str, int], c: int) -> dict[str, int]:

@@ -227,3 +227,19 @@ def test_linear_moves_of_every_kind_of_f_with_the_motion_state_in_xram():
     assert [st.frames for st in built.plan.main if hasattr(st, "frames")][1:5] == [3, 7, 60, 257]
     report = built.verify(1 + 3 + 7 + 60 + 257 + 2)
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
+@pytest.mark.parametrize("clock_hz, six_t", [(12_000_000, False), (22_118_400, False), (11_059_200, True),
+                                             (18_432_000, False), (4_497_664, False), (9_999_616, False)])
+def test_a_group_taken_as_far_without_its_gap_is_far_at_every_n(clock_hz, six_t):
+    """costs.near_dn, from which frame_io (and the handler of the other builds) takes a group as an
+    entry of its own without looking up its gap: the least dN at which every C(N + dN) - C(N) is
+    the split or more, at 1 us cycles, at others, and at clocks where dN x the DIV's cycles, floored,
+    would say one more."""
+    from servoc import target as target_mod
+    t = target_mod.Target(target_mod.CHIPS["stc89c52rc"], clock_hz, six_t)
+    widths = [t.width_cycles(n) for n in range(251)]
+    for split in (costs.SPLIT, costs.merged_split(2), costs.merged_split(3)):
+        d = costs.near_dn(t, split)
+        assert all(widths[n + d] - widths[n] >= split for n in range(251 - d))
+        assert any(widths[n + d - 1] - widths[n] < split for n in range(252 - d))
