@@ -243,3 +243,16 @@ def test_a_group_taken_as_far_without_its_gap_is_far_at_every_n(clock_hz, six_t)
         d = costs.near_dn(t, split)
         assert all(widths[n + d] - widths[n] >= split for n in range(251 - d))
         assert any(widths[n + d - 1] - widths[n] < split for n in range(252 - d))
+
+
+def test_lines_near_dn_apart_verify_where_the_floored_div_would_say_one_more():
+    """At 12.681472 MHz dN x the DIV's cycles, floored, reaches SPLIT only at 12, while every pair of
+    N 11 apart is already SPLIT cycles apart (costs.near_dn): lines 11 apart, and 10 apart, on a
+    port, at the shortest period reported: every pulse exact, 1 us less refused."""
+    from test_stagger import held
+    from servoc import target as target_mod
+    t = target_mod.Target(target_mod.CHIPS["at89c52"], 12_681_472, False)
+    d = costs.near_dn(t, costs.SPLIT)
+    assert d == 11 and next(k for k in range(1, 250) if int(k * t.div_cycles) >= costs.SPLIT) == 12
+    check_at_minimum("target at89c52 clock 12.681472MHz\n"
+                     + held([[20 + d * k for k in range(4)] + [150 + (d - 1) * k for k in range(4)]]), 9000)
