@@ -205,9 +205,9 @@ def _overflow(p: Plan) -> tuple[str, str] | None:
         unit = _unit(p)
     except layout.LayoutError:
         return None                         # a resource limit: reported as such, whatever the build
-    chip = unit.target.chip
-    if layout.rom_end(unit.text) + 512 * len(unit.fneed_pages) <= chip.code_bytes:
+    if unit.fits_code():
         return None
+    chip = unit.target.chip
     try:
         image = toolchain.assemble(unit.text, name="servo")
     except toolchain.ToolNotFound:

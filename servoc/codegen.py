@@ -63,6 +63,11 @@ class AsmUnit:
     both_passes: bool = False       # some moves take the one call (Plan.first_step), others the two passes:
                                     # both are laid out, so the build without first_step has less code
 
+    def fits_code(self) -> bool:
+        """Whether the code memory surely holds it, by the size read from the text
+        (`layout.rom_end`) and a page for each frames-needed table."""
+        return layout.rom_end(self.text) + 512 * len(self.fneed_pages) <= self.target.chip.code_bytes
+
 
 _hex8 = layout.hex8
 
@@ -406,7 +411,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
             continue
         if (other.min_period_us is not None and best.min_period_us is not None
                 and other.min_period_us < best.min_period_us
-                and layout.rom_end(other.text) + 512 * len(other.fneed_pages) <= other.target.chip.code_bytes):
+                and other.fits_code()):
             best = other
     if (reason is not None and not best.period_holds and best.min_period_us is not None
             and reason.shortest_us < best.min_period_us):
@@ -419,7 +424,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
                 each.__traceback__ = None
             return best
         if (other.min_period_us is not None and other.min_period_us < best.min_period_us
-                and layout.rom_end(other.text) <= other.target.chip.code_bytes):
+                and other.fits_code()):
             best = other
     return best
 
@@ -493,12 +498,12 @@ def _steps_may_pay(without: AsmUnit, best: AsmUnit) -> bool:
 
 
 def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, stepping: bool,
-                      stagger: bool = False, facts: dict | None = None, merged: bool = False) -> AsmUnit:
+                      stagger: bool = False, facts: dict | None = None) -> AsmUnit:
     """`generate`, with or without rises as steps (or among the falls before them: `stagger`);
     `facts`: `flow.at_start` of the plan, where already found."""
     facts = at_start(plan) if facts is None else facts
     if not (plan.program.serial is not None and hosted(plan)):
-        return _generate(plan, source, hold_off, 1, stepping, stagger, facts, merged)
+        return _generate(plan, source, hold_off, 1, stepping, stagger, facts)
     try:
         return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger, facts)
     except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
