@@ -29,8 +29,9 @@ clock, from one budget read from its generated code (`costs.Budget`), side by si
   frame, each fall an entry of its own when it is SPLIT cycles or more from the one before.
 
 With the ports at once (`codegen.can_merge`), the pulses' term is the longest pulse, the last
-group's run of the handler and frame_io's merging of the ports' lists (Budget.tail, Budget.merge),
-and the CPU's term counts the merging with the sorts.
+group's run of the handler and the part of frame_io's merging of the ports' lists that must come
+before the next rise (Budget.tail, `costs.merged_late`), and the CPU's term counts the whole
+merging with the sorts.
 
 The pulses' term is what overlapping the ports' pulses removes; the CPU's term stays. Where it
 is above a goal, no order of the pulses reaches that goal with this handler and this work.
@@ -42,7 +43,7 @@ import argparse
 import sys
 
 from budget import build_unchecked, exact, holds_down_to, plan_text
-from servoc import api
+from servoc import api, costs
 
 CLOCKS = (("12 MHz", ""), ("22.1184 MHz, AT89C52", "target at89c52 clock 22.1184MHz"),
           ("22.1184 MHz, STC89C52RC", "target stc89c52rc clock 22.1184MHz"),
@@ -74,7 +75,8 @@ def terms(target_line: str, build: dict | None = None) -> dict:
     us = lambda cycles: round(cycles * target.cycle_us)     # noqa: E731
     rises = sum(budget.rises)
     cpu = budget.work + sum(budget.sorts) + budget.merge + rises + sum(budget.falls)
-    pulses = (target.width_cycles(max(budget.tops)) + budget.tail + budget.merge) if budget.merged else sum(budget.spans)
+    pulses = (target.width_cycles(max(budget.tops)) + budget.tail + costs.merged_late(target, budget)
+              if budget.merged else sum(budget.spans))
     return {"reported_us": unit.min_period_us if build else plan.min_period_us, "pulses_us": us(pulses),
             "cpu_us": us(cpu), "cpu_cycles": cpu, "work": budget.work, "sorts": sum(budget.sorts) + budget.merge,
             "rises": rises, "falls": sum(budget.falls), "build": "at once" if budget.merged else

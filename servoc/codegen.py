@@ -1145,8 +1145,9 @@ def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tu
                    loads: tuple[costs.PortLoad, ...], merged: costs.MergedLoad) -> costs.Budget:
     """The budget of the build whose ports' pulses overlap (frame_merged.asm.j2, irq_merged.asm.j2):
     frame_io's sorts before its wait (less the swaps no frame makes) and its return once the rise's
-    items are read, its merging between the two, the rise's entry and the falls'
-    (`costs.merged_load`), and the last group's exit to the merging."""
+    items are read, its merging between the two (and the part of it up to the items the rise's entry
+    reads: `costs.merged_late`), the rise's entry and the falls' (`costs.merged_load`), and the last
+    group's exit to the merging."""
     m = len(ports)
     # from a group's last edge: the next item's read and jump (4), the LJMP (2), the exit to its RETI
     exit_ = 6 + code.longest_exit({"exit_far", "exit_end"})
@@ -1163,6 +1164,7 @@ def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tu
     group = costs.PORT_WRITE * (m - 1)         # a group's first edge to its last
     return costs.Budget(work, (sorts + back,), (costs.ENTRY + group + exit_,), lines, (merged.falls,),
                         merged=True, merge=code.longest("fm_post", {"fm_rise"}),
+                        head=code.longest("fm_post", {"mg0_m", "fm_rise"}),
                         tail=costs.ENTRY + group + end + spin("fm_wait", "fm_post"))
 
 

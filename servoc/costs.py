@@ -70,11 +70,16 @@ port into a list of its own, waits for the handler's last group of the frame bef
 the lists into the items (Budget.merge). Two terms (`merged_load`: the falls and the groups of
 the worst frame over every port's lines together):
 
-    P >= C(highest N) + the last group's entry and exit to the merging (Budget.tail) + merge
+    P >= C(highest N) + the last group's entry and exit to the merging (Budget.tail) + late
     P >= W + the sorts + merge + the rise's entry + the falls
 
-(the first: the items are written before the next rise; the second: the background's chain from
-one frame's items to the next holds all of the frame's work and every run of the handler in it).
+(the first: the items the rise's entry reads are written before the next rise; `late`
+(`merged_late`) is the merging up to them (Budget.head) where the rest of it, and the rise's entry,
+fit in C(the lowest N any line falls at), so that every group is written before the handler reads
+it; else the whole merging. The second: the background's chain from one frame's items to the next
+holds all of the frame's work and every run of the handler in it. Where the merging starts later
+than the first term's, the chain has started it: then it was begun at the latest `head` before the
+rise too, and so ends before the frame's first fall as well).
 """
 
 from __future__ import annotations
@@ -550,6 +555,8 @@ class Budget:
     merge: int = 0              # merged: frame_io's merging of the ports' lists into items, after the wait
     tail: int = 0               # merged: from the frame's rise overflow, less C(the last group's N), to
                                 # where frame_io goes on merging: the last group's entry and exit
+    head: int = 0               # merged: the merging up to the items the rise's entry reads (every port's
+                                # lines and the first group's link), or where no line falls, to MBUSY set
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -652,10 +659,10 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     m = len(budget.lines)
     if m == 0:
         return budget.work + runs(period)
-    if budget.merged:   # the items are written after the last group's exit and before the next rise,
-        # and the background's chain from there to the next frame's items holds the whole frame's work
+    if budget.merged:   # the items are written after the last group's exit, and the background's chain
+        # from there to the next frame's items holds the whole frame's work
         top = max(budget.tops or (N_MAX,))
-        return max(target.width_cycles(top) + budget.tail + budget.merge,
+        return max(target.width_cycles(top) + budget.tail + merged_late(target, budget),
                    budget.work + sum(budget.sorts) + budget.merge + sum(budget.rises) + sum(budget.falls))
     rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
     span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
@@ -690,6 +697,19 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
                           f"handler's {runs(span[j - 1])}) does not fit between the rise before it and its own")
     return max(need)
+
+
+def merged_late(target, budget: Budget) -> int:
+    """With the ports at once: the part of the merging that must be done before the next rise. The
+    handler reads the items as it goes: the rise's entry only the rise's lines and the first group's
+    link (`Budget.head`), each later entry its own group's. So where the rest of the merging, and the
+    rise's entry that may come in it, fit in C(lowest N any line falls at), the merging begun no
+    later than `head` before the rise is done before the frame's first fall; else the whole merging
+    comes before the rise."""
+    bottom = min(budget.bottoms or (0,))
+    if budget.merge - budget.head + sum(budget.rises) <= target.width_cycles(bottom):
+        return budget.head
+    return budget.merge
 
 
 def rise_edge(budget: Budget, j: int) -> int:
