@@ -21,7 +21,8 @@ Firmware shape (AT89C52, 12 MHz, 1 us per machine cycle):
 from __future__ import annotations
 
 import dataclasses
-
+import functools
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import jinja2
@@ -733,7 +734,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                   div_text=f"{float(target.div_cycles):g}",
                   fall_text="500 + 8 x N" if target.grid else "round_half_up((500 + 8 N) us / t_c)")
     text = lay_out()
-    deepest = runtime_stack(text, [sq["label"] for sq in sequences])
+    deepest = runtime_stack(text, tuple(sq["label"] for sq in sequences))
     if deepest > costs.runtime_stack(deep_runtime, wrapped):
         raise RuntimeError(f"the runtime goes {deepest} bytes deep below a program's call, more than the "
                            f"{costs.runtime_stack(deep_runtime, wrapped)} the stack bound counts")
@@ -1027,9 +1028,11 @@ def _set_beside(e: dict, p: dict, target) -> None:
     assert p["rf_off"] <= 0xFF, "a rise beside a fall: the window's blocks are out of a jump's reach"
 
 
-def runtime_stack(text: str, sequence_labels: list[str]) -> int:
+@functools.lru_cache(maxsize=16)
+def runtime_stack(text: str, sequence_labels: tuple[str, ...]) -> int:
     """The most bytes any runtime routine the code calls puts on the stack below its call (return
-    addresses and pushes included), read from the code: costs.runtime_stack must cover it."""
+    addresses and pushes included), read from the code: costs.runtime_stack must cover it. (Kept
+    for the last texts: the builds the period stage tries for one program often lay out the same.)"""
     code = wcet.Code(text)
     called = sorted({i.args[0] for i in code.instrs if i.op in ("LCALL", "ACALL")} - set(sequence_labels))
     memo: dict[int, int] = {}
@@ -1067,7 +1070,26 @@ def record_names(records: list[dict], chans: list[dict], ports: tuple[int, ...]
     return names, of_step
 
 
-def frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loads: tuple[costs.PortLoad, ...],
+_BUDGETS_MOST = 16      # the texts `frame_budget` keeps the answer for
+_budgets: OrderedDict = OrderedDict()
+
+
+def frame_budget(text: str, *args, **kwargs) -> tuple[costs.Budget | None, str]:
+    """`_frame_budget`, kept for the last texts with the same facts: the builds the period stage
+    tries for one program (with and without the host's holds or `first_step`, where those change
+    nothing, and each command's own period stage) often lay out the same text."""
+    key = (text, repr((args, sorted(kwargs.items()))))
+    got = _budgets.get(key)
+    if got is None:
+        got = _budgets[key] = _frame_budget(text, *args, **kwargs)
+        while len(_budgets) > _BUDGETS_MOST:
+            _budgets.popitem(last=False)
+    else:
+        _budgets.move_to_end(key)
+    return got
+
+
+def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loads: tuple[costs.PortLoad, ...],
                  starts: frozenset | None = None, byte_cycles: int = 0, last_in_b: bool = False,
                  sends: bool = False, holds: bool = True,
                  barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,

@@ -33,6 +33,7 @@ starts with a flags byte (RECORD_FLAGS) and a flags byte with ENDF ends the list
 
 from __future__ import annotations
 
+import functools
 import re
 from dataclasses import dataclass
 
@@ -459,6 +460,7 @@ def _data_items(rest: str) -> list[str]:
 _STATEMENT = re.compile(r"^[ \t]*(?:(\w+)::?)?[ \t]*([^;\n]*)", re.M)
 
 
+@functools.lru_cache(maxsize=16)
 def rom_end(text: str) -> int:
     """The end of the code and data the assembly text lays out, as the assembler lays them out
     (`instruction_bytes`, each .db item a byte or a string's characters, .bndry padding to its
