@@ -710,7 +710,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
             f"a frame of {plan.period_us} us is {period_cycles} machine cycles at {target.describe()}, "
             f"and Timer0 counts at most {target_mod.TIMER_CYCLES}")
     host_ctx = _host(plan, chans, fneed, rxq, fbase, answers) if hosting else None
-    passes = _first_steps(uses["kinds"], plan.first_step and not (plan.compact or in_xram or host_ctx and host_ctx["plays"]))
+    passes = _first_steps(uses["kinds"], plan.first_step and not (plan.compact or host_ctx and host_ctx["plays"]), in_xram)
     lay_out = lambda: render("firmware.asm.j2",   # noqa: E731  (again when the spans change)
                   source="" if source is None else source.path.rsplit("/", 1)[-1], period=plan.period_us,
                   ram=ram.symbols, flag_bits=layout.flag_equates(), hl=layout.HLINE, framed_bit=framed_bit, bfull_bit=framed_bit + 1, txon_bit=framed_bit + 2, playh_bit=framed_bit + 3,
@@ -840,15 +840,17 @@ def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
     return out
 
 
-def _first_steps(kinds: set[tuple[bool, bool]], can: bool) -> dict:
+def _first_steps(kinds: set[tuple[bool, bool]], can: bool, xram: bool = False) -> dict:
     """Which moves set each pin up and step its first frame in one call (`Plan.first_step`), from
     the kinds of move records the program has, (eased, F found at run time): `fused` "linear"
     where a linear move of known F is one of them (an eased one then goes the two passes), else
-    "eased" where an eased move of known F is, else None; `sx`: some record goes the two passes,
-    `dda`: a linear one among them (without, neither pass is laid out)."""
+    "eased" where an eased move of known F is (not with the motion state in XRAM: `xram`), else
+    None; `sx`: some record goes the two passes, `dda`: a linear one among them (without, neither
+    pass is laid out)."""
     fused = None
     if can:
-        fused = "linear" if (False, False) in kinds else "eased" if (True, False) in kinds else None
+        fused = ("linear" if (False, False) in kinds else "eased" if (True, False) in kinds and not xram
+                 else None)
     two = {k for k in kinds if fused is None or k[1] or (fused == "linear" and k[0])}
     return {"fused": fused, "sx": bool(two) or not fused, "dda": any(not eased for eased, _ in two) or not kinds}
 

@@ -7,6 +7,8 @@ before's last group, merges their lists into the items. Each program here runs i
 the shortest period servoc reports for it, every pulse exact, and that period less 1 us is refused.
 """
 
+import dataclasses
+
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
@@ -218,21 +220,31 @@ def test_frames_before_the_first_move_end_in_the_rise_s_entry():
     assert built.firmware.unit.budget.merged and built.plan.ports_at_once
 
 
-def test_linear_moves_of_every_kind_of_f_with_the_motion_state_in_xram():
-    """With the motion state in XRAM, a linear move's DDA terms and first frame are one call
-    (dda_step's XRAM variant): F of 3 and 7 frames (Q and REM from a DIV, carries on the first
-    frame or not), 60, and 257 (over 255: Q = 0, REM = |delta|). 24 servos over three ports, the
-    lines of a port each a different |delta|, up or down: every pulse of every frame exact in ucsim."""
+@pytest.mark.parametrize("first_step", [True, False])
+def test_linear_moves_of_every_kind_of_f_with_the_motion_state_in_xram(first_step):
+    """With the motion state in XRAM, a linear move's set-up, DDA terms and first frame are one call
+    (setup_step's XRAM variant, the record pointer kept in R2:R3 while DPTR reaches XRAM), or without
+    `first_step` two (setup_pin, then dda_step's XRAM variant): F of 3 and 7 frames (Q and REM from a
+    DIV, carries on the first frame or not), 60, and 257 (over 255: Q = 0, REM = |delta|). 24 servos
+    over three ports, the lines of a port each a different |delta|, up or down: every pulse of every
+    frame exact in ucsim."""
     lines = [f"servo s{i} = P{i // 8}.{i % 8} speed 0.0001s/60deg" for i in range(24)]
     a = ", ".join(f"s{i}: {(37 * (i % 8)) % 251}" for i in range(24))
     b = ", ".join(f"s{i}: {(250 - 53 * (i % 8)) % 251}" for i in range(24))
     text = (STC22 + "frame 5000us\n" + "\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
             "main { move a in 5ms; move b in 15ms; move a in 35ms; move b in 300ms; move a in 1285ms; hold 10ms }\n")
     built = build_text(text)
-    unit = built.firmware.unit
+    plan, fw = built.plan, built.firmware
+    if not first_step:
+        plan = dataclasses.replace(plan, first_step=False)
+        reporter = Reporter(built.source)
+        fw = api.assemble(codegen.generate(plan, built.source), reporter)
+        assert fw is not None, reporter.diagnostics
+    unit = fw.unit
     assert unit.budget.merged and "XSTATE" in unit.text and "dda_pin:" not in unit.text
-    assert [st.frames for st in built.plan.main if hasattr(st, "frames")][1:5] == [3, 7, 60, 257]
-    report = built.verify(1 + 3 + 7 + 60 + 257 + 2)
+    assert ("LCALL   setup_step" in unit.text) == first_step and ("LCALL   dda_step" in unit.text) != first_step
+    assert [st.frames for st in plan.main if hasattr(st, "frames")][1:5] == [3, 7, 60, 257]
+    report = api.verify(plan, fw, 1 + 3 + 7 + 60 + 257 + 2)
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
 
 
