@@ -28,7 +28,7 @@ from . import verify as _verify
 from .diagnostics import Reporter, limit_diagnostic
 from .source import NO_SPAN, SourceFile, Span
 from .flow import hosted
-from .steps import MoveStep, Plan, steps
+from .steps import HoldStep, MoveStep, Plan, steps
 from .units import round_half_up
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
 
@@ -261,10 +261,17 @@ def _least_period(program, at: Plan) -> int:
     built for a shorter P does less and may hold a shorter P still (the arm in 6T mode: 2.73 ms from
     the code for 5.3 ms, 2.56 ms from its own). From that shortest period this goes up while the
     code built for P needs more than P, and down while it needs less, until P holds and P - 1 us
-    does not. Without `host` the code's cycles do not depend on P (only immediates and tables
-    do), and the code's own shortest period is the answer."""
-    if at.firmware_limit is not None or program.serial is None or not hosted(at):
+    does not. Without `host` the code's cycles depend on P only through the records' F: a record
+    whose F fits one byte (flag F8) is read a byte shorter, and a linear move's DDA terms take a DIV
+    only then (the analysis follows the flag). So where the records' F8 are the same at the
+    shortest period as at P, the code's own shortest period is the answer; where they are not
+    (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at 2.8 ms), the search above."""
+    if at.firmware_limit is not None:
         return at.min_period_us
+    if program.serial is None or not hosted(at):
+        if at.min_period_us >= at.period_us or _one_byte_fs(at) == _one_byte_fs(
+                _built_as(_plan_at(program, at.min_period_us), at)):
+            return at.min_period_us
     known = {at.period_us: at.min_period_us}
 
     def need(p: int) -> int:            # the shortest period of the code built for p (p + 1: none)
@@ -283,6 +290,11 @@ def _least_period(program, at: Plan) -> int:
         else:
             return p
     return min((q for q, m in known.items() if m <= q), default=at.min_period_us)
+
+
+def _one_byte_fs(p: Plan) -> tuple[bool, ...]:
+    """Which of the plan's move and hold records have F in one byte (layout.frames_bytes' F8)."""
+    return tuple(st.frames is not None and st.frames < 0x100 for st in steps(p) if isinstance(st, (MoveStep, HoldStep)))
 
 
 def _budgeted(p: Plan) -> Plan:

@@ -844,13 +844,15 @@ def _first_steps(kinds: set[tuple[bool, bool]], can: bool, xram: bool = False) -
     """Which moves set each pin up and step its first frame in one call (`Plan.first_step`), from
     the kinds of move records the program has, (eased, F found at run time): `fused` "linear"
     where a linear move of known F is one of them (an eased one then goes the two passes), else
-    "eased" where an eased move of known F is (not with the motion state in XRAM: `xram`), else
-    None; `sx`: some record goes the two passes, `dda`: a linear one among them (without, neither
-    pass is laid out)."""
+    "eased" where an eased move of known F is, else None; with the motion state in XRAM (`xram`)
+    "both" where both kinds are (setup_step tests EASED); `sx`: some record goes the two passes,
+    `dda`: a linear one among them (without, neither pass is laid out)."""
     fused = None
-    if can:
-        fused = ("linear" if (False, False) in kinds else "eased" if (True, False) in kinds and not xram
-                 else None)
+    if can and xram:
+        fused = {(True, True): "both", (True, False): "eased", (False, True): "linear"}.get(
+            ((True, False) in kinds, (False, False) in kinds))
+    elif can:
+        fused = "linear" if (False, False) in kinds else "eased" if (True, False) in kinds else None
     two = {k for k in kinds if fused is None or k[1] or (fused == "linear" and k[0])}
     return {"fused": fused, "sx": bool(two) or not fused, "dda": any(not eased for eased, _ in two) or not kinds}
 

@@ -248,6 +248,54 @@ def test_linear_moves_of_every_kind_of_f_with_the_motion_state_in_xram(first_ste
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
 
 
+@pytest.mark.parametrize("linear", [True, False])
+def test_eased_and_linear_moves_each_set_up_and_stepped_in_one_call_with_the_motion_state_in_xram(linear):
+    """With the motion state in XRAM and both kinds of move of known F, setup_step takes both (it
+    tests EASED: an eased move's N0 and |delta| written to XRAM, then step_eased's first frame; a
+    linear one's DDA terms and first step); with eased moves only, those: eased (and linear) moves
+    of F 1, 3, 7, 60 and 257 frames in turn, 24 servos over three ports, up and down: every pulse
+    of every frame exact in ucsim."""
+    lines = [f"servo s{i} = P{i // 8}.{i % 8} speed 0.0001s/60deg" for i in range(24)]
+    a = ", ".join(f"s{i}: {(37 * (i % 8)) % 251}" for i in range(24))
+    b = ", ".join(f"s{i}: {(250 - 53 * (i % 8)) % 251}" for i in range(24))
+    moves = [("a", 5, " ease in-out"), ("b", 15, ""), ("a", 35, " ease in"), ("b", 300, ""), ("a", 1285, " ease out"),
+             ("b", 5, ""), ("a", 15, " ease in-out"), ("b", 35, ""), ("a", 300, " ease in-out"), ("b", 1285, "")]
+    moves = [(p, ms, e or ("" if linear else " ease in")) for p, ms, e in moves]
+    text = (STC22 + "frame 5000us\n" + "\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
+            "main { " + "; ".join(f"move {p} in {ms}ms{e}" for p, ms, e in moves) + "; hold 10ms }\n")
+    built = build_text(text)
+    unit = built.firmware.unit
+    assert unit.budget.merged and "XSTATE" in unit.text and built.plan.first_step
+    assert ("JNB     EASED, ss_l" in unit.text) == linear and "LJMP    se_a" in unit.text
+    assert "LCALL   setup_pin" not in unit.text
+    frames = [st.frames for st in built.plan.main if hasattr(st, "frames")]
+    assert frames[:10] == [1, 3, 7, 60, 257] * 2
+    report = built.verify(sum(frames) + 2)
+    assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
+
+
+def test_the_shortest_period_reported_is_that_of_the_code_built_for_it_where_the_records_f_change():
+    """At `frame 20ms` a 1.2 s linear move has F 60, in one byte, and its DDA terms take a DIV; at
+    the shortest period its F is over 255 and the code built there takes none (wcet follows the
+    record's F8). So the shortest period reported at 20 ms is the least P whose own code holds P
+    (api._least_period), below what the code built for 20 ms holds: `frame P` builds, and 1 us less
+    is refused."""
+    lines = [f"servo s{i} = P{i // 8}.{i % 8}{' speed 0.3s/60deg' if i % 2 else ''}" for i in range(24)]
+    low = (0, 250, 36, 72, 108, 144, 180, 216)
+    a = ", ".join(f"s{i}: {low[i % 8]}" for i in range(24))
+    b = ", ".join(f"s{i}: {250 - low[i % 8]}" for i in range(24))
+    body = (f"\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
+            "main {\n  loop {\n    move a in 1200ms ease in-out\n    move b in 1200ms\n  }\n}\n")
+    fe, _ = front_end_text(STC22 + "frame 20ms\n" + body)
+    reported = fe.plan.min_period_us
+    own = codegen.generate(fe.plan).min_period_us        # the code built for 20 ms: with the DIV
+    assert reported < own
+    at, diags = front_end_text(STC22 + f"frame {reported}us\n" + body)
+    assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
+    _, diags = front_end_text(STC22 + f"frame {reported - 1}us\n" + body)
+    assert [d.code for d in diags if d.is_error] == ["period-too-short"]
+
+
 @pytest.mark.parametrize("clock_hz, six_t", [(12_000_000, False), (22_118_400, False), (11_059_200, True),
                                              (18_432_000, False), (4_497_664, False), (9_999_616, False)])
 def test_a_group_taken_as_far_without_its_gap_is_far_at_every_n(clock_hz, six_t):
