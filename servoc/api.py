@@ -268,10 +268,16 @@ def _least_period(program, at: Plan) -> int:
     (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at 2.8 ms), the search above."""
     if at.firmware_limit is not None:
         return at.min_period_us
-    if program.serial is None or not hosted(at):
-        if at.min_period_us >= at.period_us or _one_byte_fs(at) == _one_byte_fs(
-                _built_as(_plan_at(program, at.min_period_us), at)):
-            return at.min_period_us
+    by_f = program.serial is None or not hosted(at)     # the code follows P through F8 only
+    fs: dict[int, tuple[bool, ...]] = {at.period_us: _one_byte_fs(at)}
+
+    def f8(p: int) -> tuple[bool, ...]:
+        if p not in fs:
+            fs[p] = _one_byte_fs(_built_as(_plan_at(program, p), at))
+        return fs[p]
+
+    if by_f and (at.min_period_us >= at.period_us or f8(at.min_period_us) == fs[at.period_us]):
+        return at.min_period_us
     known = {at.period_us: at.min_period_us}
 
     def need(p: int) -> int:            # the shortest period of the code built for p (p + 1: none)
@@ -285,7 +291,8 @@ def _least_period(program, at: Plan) -> int:
         m = need(p)
         if m != p:
             p = m                       # up while the code for p needs more, down while it needs less
-        elif p > 1 and need(p - 1) <= p - 1:
+        elif p > 1 and not (by_f and f8(p - 1) == f8(p)) and need(p - 1) <= p - 1:   # (the same F8: the
+            # code for p - 1 takes the cycles of the code for p, which does not hold p - 1)
             p = need(p - 1)
         else:
             return p
