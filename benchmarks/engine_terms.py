@@ -68,8 +68,11 @@ def goal_source(target: str, period_us: int | None = None) -> str:
 
 
 def terms(target_line: str, build: dict | None = None) -> dict:
-    """The terms of the build servoc chooses (`build` given: of that build, codegen.generate's)."""
+    """The terms of the build servoc chooses, built at the shortest period it reports (`build`
+    given: of that build, codegen.generate's, at the program's own 20 ms)."""
     _, plan = plan_text(goal_source(target_line), "goal")
+    if build is None:       # the code at the reported P (its records' F can differ from 20 ms's)
+        _, plan = plan_text(goal_source(target_line, plan.min_period_us), "goal")
     unit = api.codegen.generate(plan, **(build or {}))
     target, budget = plan.program.target, unit.budget
     us = lambda cycles: round(cycles * target.cycle_us)     # noqa: E731
