@@ -9,7 +9,9 @@ whose XRAM takes the motion state for that build.)
 The program (`goal_source`): 24 servos on P0, P1 and P2, every other one slower (two speed
 classes), moving between two poses that put every port's lines over the full range (N 0 and 250
 in the same frame, the others 36 apart), an eased move and a linear one, in a loop. For each
-clock, from one budget read from its generated code (`costs.Budget`), side by side:
+clock, from one budget read from the code generated at the shortest period servoc reports
+(`costs.Budget`; the program's own 20 ms gives its moves F of one byte, which that period does
+not: `api._least_period`), side by side:
 
 - the shortest period servoc reports (`Plan.min_period_us`) and the shortest from which the
   firmware, built with `frame` at each P (the budget bypassed), verifies exactly in ucsim at every
