@@ -300,8 +300,9 @@ def _least_period(program, at: Plan) -> int:
 
 
 def _one_byte_fs(p: Plan) -> tuple[bool, ...]:
-    """Which of the plan's move and hold records have F in one byte (layout.frames_bytes' F8)."""
-    return tuple(st.frames is not None and st.frames < 0x100 for st in steps(p) if isinstance(st, (MoveStep, HoldStep)))
+    """Which of the plan's move and hold records have F in one byte (flag F8)."""
+    return tuple(st.frames is not None and layout.one_byte_f(st.frames) for st in steps(p)
+                 if isinstance(st, (MoveStep, HoldStep)))
 
 
 def _budgeted(p: Plan) -> Plan:

@@ -337,9 +337,15 @@ def hex8(v: int) -> str:
     return f"0x{v & 0xFF:02X}"
 
 
+def one_byte_f(frames: int) -> bool:
+    """Whether a record's F is one byte (flag F8): its code reads a byte less, and a linear move's
+    first frame takes a DIV (`api._least_period` follows it)."""
+    return frames < 0x100
+
+
 def frames_bytes(frames: int) -> tuple[int, list[str]]:
     """F as one byte (flag F8) when it fits, else two (low, high)."""
-    if frames < 0x100:
+    if one_byte_f(frames):
         return FLAG["F8"], [hex8(frames)]
     return 0, [hex8(frames), hex8(frames >> 8)]
 
