@@ -248,8 +248,8 @@ def test_linear_moves_of_every_kind_of_f_with_the_motion_state_in_xram(first_ste
     assert report.ok and report.max_error_cycles == 0, (report.summary(), [str(m) for m in report.mismatches[:5]])
 
 
-@pytest.mark.parametrize("linear", [True, False])
-def test_eased_and_linear_moves_each_set_up_and_stepped_in_one_call_with_the_motion_state_in_xram(linear):
+@pytest.mark.parametrize("clock, linear", [(STC22, True), (STC22, False), (STC6T, True)])
+def test_eased_and_linear_moves_each_set_up_and_stepped_in_one_call_with_the_motion_state_in_xram(clock, linear):
     """With the motion state in XRAM and both kinds of move of known F, setup_step takes both (it
     tests EASED: an eased move's N0 and |delta| written to XRAM, then step_eased's first frame; a
     linear one's DDA terms and first step); with eased moves only, those: eased (and linear) moves
@@ -261,7 +261,7 @@ def test_eased_and_linear_moves_each_set_up_and_stepped_in_one_call_with_the_mot
     moves = [("a", 5, " ease in-out"), ("b", 15, ""), ("a", 35, " ease in"), ("b", 300, ""), ("a", 1285, " ease out"),
              ("b", 5, ""), ("a", 15, " ease in-out"), ("b", 35, ""), ("a", 300, " ease in-out"), ("b", 1285, "")]
     moves = [(p, ms, e or ("" if linear else " ease in")) for p, ms, e in moves]
-    text = (STC22 + "frame 5000us\n" + "\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
+    text = (clock + "frame 5000us\n" + "\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
             "main { " + "; ".join(f"move {p} in {ms}ms{e}" for p, ms, e in moves) + "; hold 10ms }\n")
     built = build_text(text)
     unit = built.firmware.unit
@@ -279,7 +279,7 @@ def test_the_shortest_period_reported_is_that_of_the_code_built_for_it_where_the
     the shortest period its F is over 255 and the code built there takes none (wcet follows the
     record's F8). So the shortest period reported at 20 ms is the least P whose own code holds P
     (api._least_period), below what the code built for 20 ms holds: `frame P` builds, and 1 us less
-    is refused."""
+    is refused; at that period every pulse of the whole loop is exact in ucsim."""
     lines = [f"servo s{i} = P{i // 8}.{i % 8}{' speed 0.3s/60deg' if i % 2 else ''}" for i in range(24)]
     low = (0, 250, 36, 72, 108, 144, 180, 216)
     a = ", ".join(f"s{i}: {low[i % 8]}" for i in range(24))
@@ -294,6 +294,9 @@ def test_the_shortest_period_reported_is_that_of_the_code_built_for_it_where_the
     assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
     _, diags = front_end_text(STC22 + f"frame {reported - 1}us\n" + body)
     assert [d.code for d in diags if d.is_error] == ["period-too-short"]
+    built = build_text(STC22 + f"frame {reported}us\n" + body)
+    report = built.verify(sum(m.frames for m in built.plan.moves) + 2)      # both moves' first frames
+    assert report.ok and report.max_error_cycles == 0, report.summary()
 
 
 @pytest.mark.parametrize("clock_hz, six_t", [(12_000_000, False), (22_118_400, False), (11_059_200, True),
