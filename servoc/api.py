@@ -261,17 +261,18 @@ def _least_period(program, at: Plan) -> int:
     built for a shorter P does less and may hold a shorter P still (the arm in 6T mode: 2.73 ms from
     the code for 5.3 ms, 2.56 ms from its own). From that shortest period this goes up while the
     code built for P needs more than P, and down while it needs less, until P holds and P - 1 us
-    does not. Without `host` the code's cycles depend on P only through the records' F: a record
-    whose F fits one byte (flag F8) is read a byte shorter, and a linear move's DDA terms take a DIV
-    only then (the analysis follows the flag). So where the records' F8 are the same at the
-    shortest period as at P, the code's own shortest period is the answer; where they are not
-    (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at 2.8 ms), the search above."""
+    does not. Without `host` the code's cycles follow P through its moves' and holds' records: a
+    hold shorter than half a frame lays out none, a record whose F fits one byte (flag F8) is read
+    a byte shorter, and a linear move's DDA terms take a DIV only then (the analysis follows the
+    flag). So where those are the same at the shortest period as at P, the code's own shortest
+    period is the answer; where they are not (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at
+    2.8 ms), the search above."""
     if at.firmware_limit is not None:
         return at.min_period_us
-    by_f = program.serial is None or not hosted(at)     # the code follows P through F8 only
-    fs: dict[int, tuple[bool, ...]] = {at.period_us: _one_byte_fs(at)}
+    by_f = program.serial is None or not hosted(at)     # the code follows P through its records only
+    fs: dict[int, tuple] = {at.period_us: _one_byte_fs(at)}
 
-    def f8(p: int) -> tuple[bool, ...]:
+    def f8(p: int) -> tuple:
         if p not in fs:
             fs[p] = _one_byte_fs(_built_as(_plan_at(program, p), at))
         return fs[p]
@@ -299,9 +300,10 @@ def _least_period(program, at: Plan) -> int:
     return min((q for q, m in known.items() if m <= q), default=at.min_period_us)
 
 
-def _one_byte_fs(p: Plan) -> tuple[bool, ...]:
-    """Which of the plan's move and hold records have F in one byte (flag F8)."""
-    return tuple(st.frames is not None and layout.one_byte_f(st.frames) for st in steps(p)
+def _one_byte_fs(p: Plan) -> tuple[tuple[bool, bool], ...]:
+    """For each of the plan's moves and holds: whether it takes no frame (a hold shorter than half a
+    frame lays out no record), and whether its F is one byte (flag F8)."""
+    return tuple((st.frames == 0, st.frames is not None and layout.one_byte_f(st.frames)) for st in steps(p)
                  if isinstance(st, (MoveStep, HoldStep)))
 
 
