@@ -606,7 +606,10 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
     Sampled motion is fitted at the longest frame period that puts every source frame on a frame
     and is no shorter than the default period of a program on the same pins; when 1/fps is shorter
     than that default, at P = 1/fps if the firmware written for it holds that P, else at a multiple
-    of 1/fps (every `step`-th source frame met, with a note)."""
+    of 1/fps (every `step`-th source frame met, with a note). Maestro frames and CSV keys start on
+    the frames of that default. Where the motion written needs a longer period than that program
+    (more comparators of a sort swap in its frames, say), it is written again from the period it
+    needs."""
     from .imports import write as _write
     from .imports.keyframes import ImportError_
     fmt, kf = read_motion(path, fmt, options)
@@ -616,33 +619,57 @@ def import_motion(path: str, fmt: str | None = None, pins: dict | None = None, o
     if options is not None and options.ticks_hz is not None and fmt in ("maestro", "bottango"):
         notes += (f"--ticks ignored: a {'Maestro settings file' if fmt == 'maestro' else 'Bottango export'} "
                   f"gives its widths in {'quarter µs' if fmt == 'maestro' else 'µs'}",)
-    timing, exact = None, None
-    if any(t.sampled for t in kf.tracks):
-        floor_us = _default_period_on(sorted(set(pin_of.values())))
-        keyed = [t for t in kf.tracks if t.curve is None and len(t.keys) > 1]
-        if keyed:
-            intervals = {t.keys[1].at_ms - t.keys[0].at_ms for t in keyed}
-            if len(intervals) > 1:
-                raise UsageError(f"{path}: its animations run at different frame rates; import them one at a time")
-            interval = intervals.pop()
-            if interval <= 0:
-                raise UsageError(f"{path}: the frames are not 1/fps apart")
-            timing = _write.sampled_timing(Fraction(1000) / interval, floor_us)
-            if timing.step > 1:
-                exact = _write.Timing(round_half_up(interval * 1000))
-        else:
-            timing = _write.Timing(floor_us)
-    elif kf.tracks:     # Maestro frames start, and CSV keys arrive, on the frames of this period
-        timing = _write.Timing(_default_period_on(sorted(set(pin_of.values()))))
+    floor_us = _default_period_on(sorted(set(pin_of.values()))) if kf.tracks else None
     try:
-        imported = _write.write(kf, pin_of, exact or timing, os.path.basename(path))
-        if exact is not None and not _holds(imported.text, exact.period_us):
-            imported = _write.write(kf, pin_of, timing, os.path.basename(path))
+        for _ in range(FIT_ROUNDS):
+            timing, exact = _import_timing(kf, floor_us, path)
+            imported = _write.write(kf, pin_of, exact or timing, os.path.basename(path))
+            fell_back = exact is not None and not _holds(imported.text, exact.period_us)
+            if fell_back:
+                imported = _write.write(kf, pin_of, timing, os.path.basename(path))
+            need = None if timing is None else _shortest(imported.text)
+            if need is None or need <= timing.period_us:
+                break
+            floor_us = need     # the motion written needs more than the program on its pins: again from there
+        if fell_back:
             notes += (f"1/fps ({exact.period_us} us) is shorter than the shortest frame the firmware holds on "
                       f"these pins: one source frame in {timing.step} is met, those between are passed on the way",)
     except ImportError_ as exc:
         raise UsageError(f"{path}: {exc}") from None
     return dataclasses.replace(imported, notes=notes + imported.notes)
+
+
+FIT_ROUNDS = 4      # imports written again at the period the motion written needs (each needs it longer)
+
+
+def _import_timing(kf, floor_us: int | None, path: str):
+    """(timing, exact) of an import whose frames are no shorter than `floor_us`: sampled motion at
+    the longest P that puts every source frame on a frame (exact: at P = 1/fps where 1/fps is shorter
+    than the floor, for `_holds` to try); Maestro frames and CSV keys start on the frames of P =
+    the floor; (None, None) with no tracks."""
+    from .imports import write as _write
+    if not kf.tracks:
+        return None, None
+    if not any(t.sampled for t in kf.tracks):
+        return _write.Timing(floor_us), None
+    keyed = [t for t in kf.tracks if t.curve is None and len(t.keys) > 1]
+    if not keyed:
+        return _write.Timing(floor_us), None
+    intervals = {t.keys[1].at_ms - t.keys[0].at_ms for t in keyed}
+    if len(intervals) > 1:
+        raise UsageError(f"{path}: its animations run at different frame rates; import them one at a time")
+    interval = intervals.pop()
+    if interval <= 0:
+        raise UsageError(f"{path}: the frames are not 1/fps apart")
+    timing = _write.sampled_timing(Fraction(1000) / interval, floor_us)
+    return timing, (_write.Timing(round_half_up(interval * 1000)) if timing.step > 1 else None)
+
+
+def _shortest(text: str) -> int | None:
+    """The shortest frame period reported for the program `text` (None where it does not plan)."""
+    source = SourceFile("<import>", text)
+    fe = front_end(source, Reporter(source))
+    return None if fe.plan is None else fe.plan.min_period_us
 
 
 def _holds(text: str, period_us: int) -> bool:
