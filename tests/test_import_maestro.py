@@ -639,3 +639,28 @@ def test_twenty_four_channels_of_four_speeds_verify_in_ucsim(tmp_path):
     report = api.verify(fe.plan, firmware, verify_frames(fe.plan))
     assert report.ok and report.max_error_cycles == 0 and report.pulses >= 24 * fe.plan.total_frames - 24, \
         report.mismatches[:5]
+
+
+def test_an_import_whose_motion_needs_more_than_the_default_is_written_at_the_period_it_needs(tmp_path, monkeypatch):
+    """Maestro frames start on the frames of the default period of a program on the same pins; a
+    motion that needs more than that program (here a floor far too short for 24 servos) is written
+    again from the period it needs: the program written holds its own frame and lints clean."""
+    from servoc import api
+    channels = "".join(f'<Channel name="c{i}" mode="Servo" min="3968" max="8000" homemode="Goto" home="6000" '
+                       f'speed="{(0, 20)[i % 2]}" />' for i in range(24))
+    frames = "".join(f'<Frame name="F{k}" duration="{(300, 600)[k % 2]}">'
+                     + " ".join(str((4000, 8000, 5000, 7000)[(i + k) % 4]) for i in range(24)) + "</Frame>"
+                     for k in range(3))
+    src = tmp_path / "big.xml"
+    src.write_bytes(settings(f'<Sequence name="S">{frames}</Sequence>', channels))
+    monkeypatch.setattr(api, "_default_period_on", lambda pins: 2000)
+    text = api.import_motion(str(src)).text
+    frame_us = round(Fraction(text.split("frame ", 1)[1].split("ms", 1)[0]) * 1000)
+    assert frame_us > 2000 and api._shortest(text) <= frame_us
+    out = tmp_path / "big.servo"
+    out.write_text(text)
+    source, reporter = api.load_source(str(out))
+    fe = api.front_end(source, reporter)
+    assert fe.plan is not None and not any(d.is_error for d in reporter.diagnostics), \
+        [d.message for d in reporter.diagnostics if d.is_error]
+    assert fe.plan.period_us == frame_us and fe.plan.min_period_us <= frame_us
