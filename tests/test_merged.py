@@ -220,28 +220,39 @@ def test_frames_before_the_first_move_end_in_the_rise_s_entry():
     assert built.firmware.unit.budget.merged and built.plan.ports_at_once
 
 
-@pytest.mark.parametrize("first_step", [True, False])
-def test_linear_moves_of_every_kind_of_f_with_the_motion_state_in_xram(first_step):
-    """With the motion state in XRAM, a linear move's set-up, DDA terms and first frame are one call
-    (setup_step's XRAM variant, the record pointer kept in R2:R3 while DPTR reaches XRAM), or without
-    `first_step` two (setup_pin, then dda_step's XRAM variant): F of 3 and 7 frames (Q and REM from a
-    DIV, carries on the first frame or not), 60, and 257 (over 255: Q = 0, REM = |delta|). 24 servos
-    over three ports, the lines of a port each a different |delta|, up or down: every pulse of every
-    frame exact in ucsim."""
+def every_kind_of_f(clock: str, period_us: int) -> str:
+    """24 servos over three ports, the lines of a port each a different |delta|, up or down, moved
+    in F of 1 (the first move: targets set at once), 3 and 7 frames (Q and REM from a DIV, carries
+    on the first frame or not), 60, and 257 (over 255: Q = 0, REM = |delta|), at `period_us`."""
     lines = [f"servo s{i} = P{i // 8}.{i % 8} speed 0.0001s/60deg" for i in range(24)]
     a = ", ".join(f"s{i}: {(37 * (i % 8)) % 251}" for i in range(24))
     b = ", ".join(f"s{i}: {(250 - 53 * (i % 8)) % 251}" for i in range(24))
-    text = (STC22 + "frame 5000us\n" + "\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
-            "main { move a in 5ms; move b in 15ms; move a in 35ms; move b in 300ms; move a in 1285ms; hold 10ms }\n")
-    built = build_text(text)
+    moves = "; ".join(f"move {pose} in {frames * period_us // 1000}ms"
+                      for pose, frames in (("a", 1), ("b", 3), ("a", 7), ("b", 60), ("a", 257)))
+    return (clock + f"frame {period_us}us\n" + "\n".join(lines) + f"\npose a {{ {a} }}\npose b {{ {b} }}\n"
+            f"main {{ {moves}; hold {2 * period_us // 1000}ms }}\n")
+
+
+@pytest.mark.parametrize("clock, period_us, xram", [(STC22, 5000, True), ("", 8000, False),
+                                                    ("target at89c52 clock 22.1184MHz\n", 7000, False)])
+@pytest.mark.parametrize("first_step", [True, False])
+def test_linear_moves_of_every_kind_of_f(clock, period_us, xram, first_step):
+    """A linear move's set-up, DDA terms and first frame are one call (setup_step; with the motion
+    state in XRAM, the record pointer kept in R2:R3 while DPTR reaches XRAM), or without
+    `first_step` two (setup_pin, then dda_step): on the first frame the carry's path steps the pin
+    in place, the other jumps to step_pin's. Every pulse of every frame exact in ucsim, with the
+    motion state in XRAM (the ports at once) and in internal RAM (at 12 MHz and 22.1184 MHz on
+    the AT89C52)."""
+    built = build_text(every_kind_of_f(clock, period_us))
     plan, fw = built.plan, built.firmware
     if not first_step:
         plan = dataclasses.replace(plan, first_step=False)
         reporter = Reporter(built.source)
         fw = api.assemble(codegen.generate(plan, built.source), reporter)
         assert fw is not None, reporter.diagnostics
+        plan = api.with_rises(plan, fw.unit)        # that build's ports' rises
     unit = fw.unit
-    assert unit.budget.merged and "XSTATE" in unit.text and "dda_pin:" not in unit.text
+    assert ("XSTATE" in unit.text) == xram and unit.budget.merged == xram and "dda_pin:" not in unit.text
     assert ("LCALL   setup_step" in unit.text) == first_step and ("LCALL   dda_step" in unit.text) != first_step
     assert [st.frames for st in plan.main if hasattr(st, "frames")][1:5] == [3, 7, 60, 257]
     report = api.verify(plan, fw, 1 + 3 + 7 + 60 + 257 + 2)

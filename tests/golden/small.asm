@@ -482,12 +482,35 @@ ds_err: MOV     @R1, B                  ; REM
         INC     R1
         MOV     A, ERR0                 ; E - F + REM: the first frame's carry
         ADD     A, B
-        MOV     @R1, A                  ; E - F, low byte
-        INC     R1
+        MOV     R7, A
         MOV     A, ERR0+1
         ADDC    A, #0
+        JNC     ds_nc                   ; E + REM < F: no carry
+        XCH     A, R7                   ; E + REM >= F: E -= F
+        CLR     C
+        SUBB    A, SEGF
+        MOV     @R1, A                  ; E - F, low byte
+        INC     R1
+        MOV     A, R7
+        SUBB    A, SEGF+1
         MOV     @R1, A                  ; high byte
-        JC      sl_carry                ; E + REM >= F: a carry
+        INC     R6                      ; and one step more
+        MOV     A, R6
+        JB      DIRF, ds_down
+        ADD     A, @R0
+        MOV     @R0, A
+        RET
+ds_down:
+        XCH     A, @R0                  ; A = N, @R0 = step
+        CLR     C
+        SUBB    A, @R0
+        MOV     @R0, A
+        RET
+ds_nc:  XCH     A, R7
+        MOV     @R1, A                  ; E - F, low byte
+        INC     R1
+        MOV     A, R7
+        MOV     @R1, A                  ; high byte
         SJMP    sl_move
 
 ; step_pin: one frame of the current move for one pin. R0 -> CUR, R1 -> STATE, C = down.
