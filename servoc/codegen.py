@@ -433,11 +433,12 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
 def can_merge(plan: Plan) -> bool:
     """Whether a build can pulse the ports at once, their falls one timeline (frame_merged.asm.j2,
     irq_merged.asm.j2): two ports or more, at a clock where a group of every port's writes fits
-    between the falls of two consecutive N (`costs.merged_step`), built for speed, with no serial line.
-    (With a serial line its handler's latency, and a `host`'s work, are not in this build's budget.)"""
+    between the falls of two consecutive N (`costs.merged_step`), built for speed, without `host`
+    (whose reading and answers are not in this build's budget; a serial line's handler is: its runs
+    in each window of the frame, and the edge handler's longest stretch, `costs.busy_stretch`)."""
     target = plan.program.target
     m = len(plan.ports)
-    return (m >= 2 and not plan.compact and plan.program.serial is None
+    return (m >= 2 and not plan.compact and not (plan.program.serial is not None and hosted(plan))
             and min(target.width_cycles(n + 1) - target.width_cycles(n) for n in range(N_MAX)) >= costs.merged_step(m))
 
 
@@ -1121,8 +1122,13 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
         except wcet.WcetError:
             frames = code                           # its message, with this text's lines
             work, at = frames.between_frames()
+        serial = {}
+        if byte_cycles:     # from the vector's LCALL (2): the handler is at the vector
+            serial = {"serial_run": 2 + code.longest("uart_isr", set()),
+                      "serial_head": 2 + code.straight("uart_isr", "ui_got") + 1,
+                      "byte_cycles": byte_cycles, "serial_sends": sends}
         if merged is not None:
-            return _merged_budget(code, work, ports, lines, loads, merged), code.label_at(at)
+            return _merged_budget(code, work, ports, lines, loads, merged, serial), code.label_at(at)
         fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
         # with rises among falls a port is sorted first, then its items written once the handler
         # took the port before's (ft: after the wait): the sort's term is both
@@ -1155,11 +1161,6 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
         else:
             rises = tuple((costs.RISE_HEAD if stepped else costs.ENTRY + 2) + code.longest(f"emit_p{p}", exits)
                           + code.longest_exit(exits) for p in ports)
-        serial = {}
-        if byte_cycles:     # from the vector's LCALL (2): the handler is at the vector
-            serial = {"serial_run": 2 + code.longest("uart_isr", set()),
-                      "serial_head": 2 + code.straight("uart_isr", "ui_got") + 1,
-                      "byte_cycles": byte_cycles, "serial_sends": sends}
     except wcet.WcetError as exc:
         return None, str(exc)
     return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
@@ -1168,12 +1169,12 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
 
 
 def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tuple[int, ...],
-                   loads: tuple[costs.PortLoad, ...], merged: costs.MergedLoad) -> costs.Budget:
+                   loads: tuple[costs.PortLoad, ...], merged: costs.MergedLoad, serial: dict) -> costs.Budget:
     """The budget of the build whose ports' pulses overlap (frame_merged.asm.j2, irq_merged.asm.j2):
     frame_io's sorts before its wait (less the swaps no frame makes) and its return once the rise's
     items are read, its merging between the two (and the part of it up to the items the rise's entry
     reads: `costs.merged_late`), the rise's entry and the falls' (`costs.merged_load`), and the last
-    group's exit to the merging."""
+    group's exit to the merging; with a serial line, its handler's (`serial`: as frame_budget's)."""
     m = len(ports)
     # from a group's last edge: the next item's read and jump (4), the LJMP (2), the exit to its RETI
     exit_ = 6 + code.longest_exit({"exit_far", "exit_end"})
@@ -1191,7 +1192,7 @@ def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tu
     return costs.Budget(work, (sorts + back,), (costs.ENTRY + group + exit_,), lines, (merged.falls,),
                         merged=True, merge=code.longest("fm_post", {"fm_rise"}),
                         head=code.longest("fm_post", {"mg0_m", "fm_rise"}),
-                        tail=costs.ENTRY + group + end + spin("fm_wait", "fm_post"))
+                        tail=costs.ENTRY + group + end + spin("fm_wait", "fm_post"), **serial)
 
 
 def _pl_barred(plan: Plan, sequences: list[dict]) -> tuple[str, tuple[tuple[str, str], ...]] | None:

@@ -79,7 +79,10 @@ fit in C(the lowest N any line falls at), so that every group is written before 
 it; else the whole merging. The second: the background's chain from one frame's items to the next
 holds all of the frame's work and every run of the handler in it. Where the merging starts later
 than the first term's, the chain has started it: then it was begun at the latest `head` before the
-rise too, and so ends before the frame's first fall as well).
+rise too, and so ends before the frame's first fall as well). With a serial line each window has
+the serial handler's runs in it (`serial_load`): the merging's from the last group's exit to the
+rise, the rest of it before the first fall, and the whole frame's; and the edge handler can keep
+the serial handler waiting for at most everything it does in a frame (`busy_stretch`).
 """
 
 from __future__ import annotations
@@ -660,10 +663,12 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     if m == 0:
         return budget.work + runs(period)
     if budget.merged:   # the items are written after the last group's exit, and the background's chain
-        # from there to the next frame's items holds the whole frame's work
-        top = max(budget.tops or (N_MAX,))
-        return max(target.width_cycles(top) + budget.tail + merged_late(target, budget),
-                   budget.work + sum(budget.sorts) + budget.merge + sum(budget.rises) + sum(budget.falls))
+        # from there to the next frame's items holds the whole frame's work (each with the serial
+        # handler's runs in its window)
+        last = target.width_cycles(max(budget.tops or (N_MAX,))) + budget.tail
+        return max(last + merged_late(target, budget, runs) + runs(period - last),
+                   budget.work + sum(budget.sorts) + budget.merge + sum(budget.rises) + sum(budget.falls)
+                   + runs(period))
     rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
     span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
@@ -699,15 +704,15 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     return max(need)
 
 
-def merged_late(target, budget: Budget) -> int:
+def merged_late(target, budget: Budget, runs=lambda cycles: 0) -> int:
     """With the ports at once: the part of the merging that must be done before the next rise. The
     handler reads the items as it goes: the rise's entry only the rise's lines and the first group's
     link (`Budget.head`), each later entry its own group's. So where the rest of the merging, and the
-    rise's entry that may come in it, fit in C(lowest N any line falls at), the merging begun no
-    later than `head` before the rise is done before the frame's first fall; else the whole merging
-    comes before the rise."""
-    bottom = min(budget.bottoms or (0,))
-    if budget.merge - budget.head + sum(budget.rises) <= target.width_cycles(bottom):
+    rise's entry and the serial handler's runs (`runs` of a window) that may come in it, fit in
+    C(lowest N any line falls at), the merging begun no later than `head` before the rise is done
+    before the frame's first fall; else the whole merging comes before the rise."""
+    first = target.width_cycles(min(budget.bottoms or (0,)))
+    if budget.merge - budget.head + sum(budget.rises) + runs(first) <= first:
         return budget.head
     return budget.merge
 
@@ -766,6 +771,8 @@ def busy_stretch(target, budget: Budget) -> int:
     m = len(budget.lines)
     c0 = target.width_cycles(0)
     need = serial_gap(budget)
+    if budget.merged:       # at most everything the handler does in a frame: the rise, every group, the last's exit
+        return sum(budget.rises) + sum(budget.falls) + budget.tail
     if budget.stagger:
         return _stagger_stretch(target, budget, need)
     worst = 0

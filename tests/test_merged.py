@@ -128,8 +128,8 @@ def test_the_window_and_the_exits_are_where_the_items_say():
 
 def test_which_programs_can_have_the_ports_at_once():
     """Two ports or more, at a clock where a group of every port fits between the falls of two
-    consecutive N (3 cycles a port and 4: 13 with three ports, 10 with two), built for speed, with
-    no serial line."""
+    consecutive N (3 cycles a port and 4: 13 with three ports, 10 with two), built for speed,
+    without `host` (a serial line alone is in its budget)."""
     two, three = ports(1, 8), CASES["N 0 and N 250 on every port"]
     assert codegen.can_merge(plan_of(STC22 + three))
     assert codegen.generate(plan_of(STC22 + three)).budget.merged
@@ -138,7 +138,9 @@ def test_which_programs_can_have_the_ports_at_once():
     assert not codegen.can_merge(plan_of(three))                                          # 12 MHz: 8 a DIV
     assert codegen.can_merge(plan_of("target at89c52 clock 18.432MHz\n" + two))          # 12 or 13 a DIV
     assert not codegen.can_merge(plan_of("target at89c52 clock 18.432MHz\n" + three))
-    assert not codegen.can_merge(plan_of(STC22 + "serial 9600\n" + three))
+    assert codegen.can_merge(plan_of(STC22 + "serial 9600\n" + three))
+    hosting = STC22 + "serial 9600\nhost ssc32\n" + three.replace("main {", "main {\n  host\n", 1)
+    assert not codegen.can_merge(plan_of(hosting))
     assert not codegen.can_merge(plan_of(STC22 + held([[100]])))                        # one port
 
 
@@ -337,3 +339,46 @@ def test_lines_near_dn_apart_verify_where_the_floored_div_would_say_one_more():
     assert d == 11 and next(k for k in range(1, 250) if int(k * t.div_cycles) >= costs.SPLIT) == 12
     check_at_minimum("target at89c52 clock 12.681472MHz\n"
                      + held([[20 + d * k for k in range(4)] + [150 + (d - 1) * k for k in range(4)]]), 9000)
+
+
+def serial_goal(clock: str, baud: int, period_us: int) -> str:
+    """24 servos on three ports (every port N 0 and 250 in the same frame, the others 36 apart)
+    moved by bytes from a host: "a" and "b", each answered once its move is done."""
+    low = (0, 250, 36, 72, 108, 144, 180, 216)
+    text = clock + f"serial {baud}\nframe {period_us}us\n"
+    text += "".join(f"servo s{i} = P{i // 8}.{i % 8} speed 0.0001s/60deg\n" for i in range(24))
+    text += "pose a { " + ", ".join(f"s{i}: {low[i % 8]}" for i in range(24)) + " }\n"
+    text += "pose b { " + ", ".join(f"s{i}: {250 - low[i % 8]}" for i in range(24)) + " }\n"
+    return text + ('main {\n  move a\n  send "R"\n  loop {\n    select {\n'
+                   '      on "a" { move a in 60ms ease in-out; send "A" }\n'
+                   '      on "b" { move b in 60ms; send "B" }\n    }\n  }\n}\n')
+
+
+@pytest.mark.parametrize("clock", [STC22, STC6T])
+def test_the_ports_at_once_with_a_serial_line_at_its_fastest_rate_under_bursts(clock):
+    """With a serial line the ports still pulse at once: the serial handler's runs are charged to
+    each window (the work's, the merging's before the rise) and the edge handler's longest stretch
+    is everything it does in a frame (the rise, every group, the last one's exit), which 14400 baud
+    leaves time for and 19200 does not (that rate gets the ports overlapping). At 14400 baud, at the
+    shortest period reported, bursts of four bytes back to back at four phases of the frame (each
+    byte a move of 60 ms between N 0 and 250 on every port): every pulse exact, every byte answered
+    in order; 1 us less refused."""
+    from servoc import events
+    from test_serial import run, sent
+    fast = build_text(serial_goal(clock, 19200, 20000))
+    assert not fast.firmware.unit.budget.merged
+    first = build_text(serial_goal(clock, 14400, 20000))
+    period = first.plan.min_period_us
+    built = build_text(serial_goal(clock, 14400, period))
+    b = built.firmware.unit.budget
+    assert b.merged and b.byte_cycles and b.serial_sends and built.plan.ports_at_once
+    assert built.plan.min_period_us == period < fast.plan.min_period_us
+    target = built.plan.program.target      # the serial handler's runs are in the budget
+    assert costs.frame_cycles(target, dataclasses.replace(b, byte_cycles=0)) < costs.frame_cycles(target, b)
+    lines = [f'{40 + 300 * k + 0.27 * k * period / 1000:.3f}ms "a" "b" "a" "b"' for k in range(4)]
+    frames = int(1_400_000 / period)
+    plan, trace, evs, report = run(serial_goal(clock, 14400, period), "\n".join(lines) + "\n", frames)
+    assert report.ok and report.max_error_cycles == 0, [str(m) for m in report.mismatches[:3]]
+    assert sent(trace) == "R" + "ABAB" * 4
+    fe, diags = front_end_text(serial_goal(clock, 14400, period - 1))
+    assert "period-too-short" in str(diags)
