@@ -210,9 +210,19 @@ def serial_exact_at(ports: int, period: int, target: str = "", runtime_f: bool =
     """The stress program with `serial` at `period` (the budget bypassed), verified in ucsim while
     bytes keep coming."""
     plan, fw = build_unchecked(stress_source(ports, 8, period, runtime_f, target=target, serial=True), "stress")
+    return exact_with_bytes(plan, fw, frames)
+
+
+def exact_with_bytes(plan: Plan, fw: api.Firmware, frames: int, back_to_back: bool = False) -> bool:
+    """Does the firmware of a program with `serial` verify exactly in ucsim over `frames` frames
+    while bytes keep coming: four back to back every BURST_MS ms, or (`back_to_back`) one after
+    another for the whole run?"""
     cycles = api.cycles_needed(plan, frames)
     span_ms = cycles * plan.program.target.cycle_us / 1000
-    text = "".join(f'{5 + BURST_MS * k}ms "x" "y" "z" "w"\n' for k in range(int((span_ms - 15) // BURST_MS)))
+    if back_to_back:
+        text = "5ms " + " ".join(['"x"'] * int((span_ms - 10) * plan.program.serial.baud / 10_000)) + "\n"
+    else:
+        text = "".join(f'{5 + BURST_MS * k}ms "x" "y" "z" "w"\n' for k in range(int((span_ms - 15) // BURST_MS)))
     evs = events.parse(text, plan.program.inputs, True)
     trace = api.simulate(fw.hex_text, cycles, plan.program.target, api.stimulus(plan, evs))
     return api.check_trace(plan, trace, frames).ok

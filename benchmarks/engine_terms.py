@@ -44,12 +44,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from budget import build_unchecked, exact, holds_down_to, plan_text
+from budget import build_unchecked, exact, exact_with_bytes, holds_down_to, plan_text
 from servoc import api, costs
 
 CLOCKS = (("12 MHz", ""), ("22.1184 MHz, AT89C52", "target at89c52 clock 22.1184MHz"),
           ("22.1184 MHz, STC89C52RC", "target stc89c52rc clock 22.1184MHz"),
-          ("11.0592 MHz 6T, STC89C52RC", "target stc89c52rc clock 11.0592MHz mode 6T"))
+          ("11.0592 MHz 6T, STC89C52RC", "target stc89c52rc clock 11.0592MHz mode 6T"),
+          ("22.1184 MHz, STC89C52RC, serial 14400 (bytes back to back)", "target stc89c52rc clock 22.1184MHz\nserial 14400"))
 # at 12 MHz, side by side, the build servoc does not choose there: the ports one after another
 APART = ("12 MHz, ports one after another", "", {"stepping": True, "stagger": False})
 STEP = 8        # where the reported P is over 1 % above the pulses' term: every STEP us down to a failure
@@ -93,7 +94,9 @@ def exact_period(target_line: str, reported: int, frames: int, build: dict | Non
     every `step` us down to a failure, then every us above it)."""
     def ok(p: int) -> bool:
         plan, fw = build_unchecked(goal_source(target_line, p), "goal", build)
-        return exact(plan, fw, frames)
+        if plan.program.serial is None:
+            return exact(plan, fw, frames)
+        return exact_with_bytes(plan, fw, max(frames, sum(m.frames for m in plan.moves) + 2), back_to_back=True)
     return holds_down_to(ok, reported * 2 // 3, reported, step)
 
 
