@@ -615,6 +615,17 @@ def _starts(text: str, period_us: int) -> dict:
     return starts
 
 
+def twenty_four(speeds: tuple, durations: tuple, count: int) -> bytes:
+    """A Mini Maestro 24's settings: channel i at speeds[i % len], `count` frames of the durations in
+    turn, each moving every channel (4000, 8000, 5000, 7000 quarter µs, shifted a channel a frame)."""
+    channels = "".join(f'<Channel name="c{i}" mode="Servo" min="3968" max="8000" homemode="Goto" home="6000" '
+                       f'speed="{speeds[i % len(speeds)]}" />' for i in range(24))
+    frames = "".join(f'<Frame name="F{k}" duration="{durations[k % len(durations)]}">'
+                     + " ".join(str((4000, 8000, 5000, 7000)[(i + k) % 4]) for i in range(24)) + "</Frame>"
+                     for k in range(count))
+    return settings(f'<Sequence name="S">{frames}</Sequence>', channels)
+
+
 @pytest.mark.toolchain
 def test_twenty_four_channels_of_four_speeds_verify_in_ucsim(tmp_path):
     """A Mini Maestro 24: channels at 4 speeds (0, 5, 20, 60), every frame moving all of them, some
@@ -622,13 +633,8 @@ def test_twenty_four_channels_of_four_speeds_verify_in_ucsim(tmp_path):
     program lints clean and its firmware sends every planned pulse on three ports."""
     from servoc import api
     from servoc.plan import verify_frames
-    channels = "".join(f'<Channel name="c{i}" mode="Servo" min="3968" max="8000" homemode="Goto" home="6000" '
-                       f'speed="{(0, 5, 20, 60)[i % 4]}" />' for i in range(24))
-    frames = "".join(f'<Frame name="F{k}" duration="{(300, 1200, 50)[k % 3]}">'
-                     + " ".join(str((4000, 8000, 5000, 7000)[(i + k) % 4]) for i in range(24)) + "</Frame>"
-                     for k in range(4))
     src = tmp_path / "big.xml"
-    src.write_bytes(settings(f'<Sequence name="S">{frames}</Sequence>', channels))
+    src.write_bytes(twenty_four((0, 5, 20, 60), (300, 1200, 50), 4))
     imported = api.import_motion(str(src))
     out = tmp_path / "big.servo"
     out.write_text(imported.text)
@@ -646,13 +652,8 @@ def test_an_import_whose_motion_needs_more_than_the_default_is_written_at_the_pe
     motion that needs more than that program (here a floor far too short for 24 servos) is written
     again from the period it needs: the program written holds its own frame and lints clean."""
     from servoc import api
-    channels = "".join(f'<Channel name="c{i}" mode="Servo" min="3968" max="8000" homemode="Goto" home="6000" '
-                       f'speed="{(0, 20)[i % 2]}" />' for i in range(24))
-    frames = "".join(f'<Frame name="F{k}" duration="{(300, 600)[k % 2]}">'
-                     + " ".join(str((4000, 8000, 5000, 7000)[(i + k) % 4]) for i in range(24)) + "</Frame>"
-                     for k in range(3))
     src = tmp_path / "big.xml"
-    src.write_bytes(settings(f'<Sequence name="S">{frames}</Sequence>', channels))
+    src.write_bytes(twenty_four((0, 20), (300, 600), 3))
     monkeypatch.setattr(api, "_default_period_on", lambda pins: 2000)
     text = api.import_motion(str(src)).text
     frame_us = round(Fraction(text.split("frame ", 1)[1].split("ms", 1)[0]) * 1000)
