@@ -266,7 +266,8 @@ def _least_period(program, at: Plan) -> int:
     a byte shorter, and a linear move's DDA terms take a DIV only then (the analysis follows the
     flag). So where those are the same at the shortest period as at P, the code's own shortest
     period is the answer; where they are not (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at
-    2.8 ms), the search above."""
+    2.8 ms), the search above. (Not followed: where `send`s bound the period, the frames between
+    them also follow P, so the answer can be above the least P that builds.)"""
     if at.firmware_limit is not None:
         return at.min_period_us
     by_f = program.serial is None or not hosted(at)     # the code follows P through its records only
