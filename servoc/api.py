@@ -27,7 +27,7 @@ from . import sim as _sim
 from . import verify as _verify
 from .diagnostics import Reporter, limit_diagnostic
 from .source import NO_SPAN, SourceFile, Span
-from .flow import hosted
+from .flow import hosted, send_run
 from .steps import HoldStep, MoveStep, Plan, steps
 from .units import round_half_up
 from .target import CHIPS, DEFAULT as DEFAULT_TARGET, Target, byte_cycles
@@ -266,11 +266,12 @@ def _least_period(program, at: Plan) -> int:
     a byte shorter, and a linear move's DDA terms take a DIV only then (the analysis follows the
     flag). So where those are the same at the shortest period as at P, the code's own shortest
     period is the answer; where they are not (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at
-    2.8 ms), the search above. (Not followed: where `send`s bound the period, the frames between
-    them also follow P, so the answer can be above the least P that builds.)"""
+    2.8 ms), the search above. A program that `send`s takes the search too: where its sends bound
+    the period (`codegen._send_floor`), the frames between them also follow P (`frame 20ms`, a
+    30 ms move between runs of sends: 3.294 ms from the code for 20 ms, 0.785 ms from its own)."""
     if at.firmware_limit is not None:
         return at.min_period_us
-    by_f = program.serial is None or not hosted(at)     # the code follows P through its records only
+    by_f = program.serial is None or not (hosted(at) or send_run(at))  # the code follows P through its records only
     fs: dict[int, tuple] = {at.period_us: _one_byte_fs(at)}
 
     def f8(p: int) -> tuple:

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from conftest import build_text, front_end_text, simulate_events
-from servoc import api, cli, costs, events, layout, verify
+from servoc import api, cli, codegen, costs, events, layout, verify
 from servoc.flow import send_gap, send_run
 from servoc.target import byte_cycles, timer1_baud, working_bauds
 
@@ -504,3 +504,25 @@ def test_send_overrun_names_the_shortest_period_at_which_the_sends_fit():
     assert d.code == "send-overrun" and f"`frame {shortest / 1000:g}ms` or longer" in d.help, d.help
     _, diags = front_end_text(f"frame {shortest}us\n" + text)
     assert not [d for d in diags if d.is_error]
+
+
+def test_the_shortest_period_of_a_program_whose_sends_bound_it_follows_the_frames_between_them():
+    """Runs of three bytes at 2400 baud with two 30 ms moves between them: the frames between the
+    runs follow P, so the code built for 20 ms holds a longer period than the code built for a
+    shorter one. The shortest period reported, at `frame 20ms` and by default, is the least P whose
+    own code holds P (api._least_period): `frame P` builds, 1 us less is refused, and at P every
+    pulse and every byte sent is exact in ucsim."""
+    body = ('serial 2400\nservo a = P1.0\nservo b = P1.1\npose lo { a: 0, b: 0 }\npose hi { a: 1, b: 1 }\nhome lo\n'
+            'main { loop { send "x"; send "y"; send "z"; move hi in 30ms; move lo in 30ms } }\n')
+    fe, _ = front_end_text("frame 20ms\n" + body)
+    reported = fe.plan.min_period_us
+    assert codegen.generate(fe.plan).min_period_us > reported      # the code built for 20 ms: fewer frames
+    assert front_end_text(body)[0].plan.min_period_us == reported
+    at, diags = front_end_text(f"frame {reported}us\n" + body)
+    assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
+    _, diags = front_end_text(f"frame {reported - 1}us\n" + body)
+    assert [d.code for d in diags if d.is_error] in (["period-too-short"], ["send-overrun"])
+    built = build_text(f"frame {reported}us\n" + body)
+    report = api.verify(built.plan, built.firmware, 400)
+    assert report.ok and report.max_error_cycles == 0, [str(m) for m in report.mismatches[:5]]
+    assert report.bytes_sent >= 12
