@@ -27,12 +27,17 @@ ROOT = HERE.parent
 EXAMPLES = ("biped", "pan_tilt", "hexapod", "hexapod_serial", "serial_arm", "ssc32_arm", "greeter",
             "sweep_until_pressed", "stc_board")
 
-# run in a fresh interpreter with the side's servoc first on the path: builds the file, prints
+# run in a fresh interpreter with the side's servoc first on the path, and its templates and grammar
+# (an editable install maps servoc.firmware_templates to its own tree): builds the file, prints
 # the seconds the build took and a digest of its HEX
 _CHILD = """
 import hashlib, json, sys, time
 sys.path.insert(0, sys.argv[1])
+import servoc
+servoc.__path__.append(sys.argv[1])     # its templates and grammar too (not an editable install's)
+from importlib import resources
 from servoc import api
+assert str(resources.files("servoc.firmware_templates")).startswith(sys.argv[1]), "another tree's templates"
 source, reporter = api.load_source(sys.argv[2])
 start = time.perf_counter()
 fe, fw = api.build(source, reporter)

@@ -316,12 +316,28 @@ def _budgeted(p: Plan) -> Plan:
     try:
         unit = codegen.generate(p)
     except layout.LayoutError as exc:
+        _forget_frames(exc)
         return dataclasses.replace(p, min_period_us=p.period_us,
                                    firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
     result = dataclasses.replace(with_rises(p, unit), min_period_us=unit.min_period_us or p.period_us,
                                  period_holds=unit.min_period_us is None or unit.period_holds)
     _last_budgeted = (result, unit)
     return result
+
+
+def _forget_frames(exc: BaseException) -> None:
+    """Drop the tracebacks of `exc`, of the limits it holds and of what they came from: code
+    generation keeps the limits it found in a local list, so a traceback through its frame would
+    hold them in a reference cycle (the period search builds, and is refused, many times)."""
+    seen: set[int] = set()
+    work = [exc, *layout.each(exc)]
+    while work:
+        e = work.pop()
+        if e is None or id(e) in seen:
+            continue
+        seen.add(id(e))
+        e.__traceback__ = None
+        work += [e.__context__, e.__cause__]
 
 
 def with_rises(p: Plan, unit: codegen.AsmUnit) -> Plan:

@@ -17,6 +17,7 @@ import argparse
 import csv
 import dataclasses
 import difflib
+import functools
 import importlib
 import gc
 import io
@@ -302,8 +303,14 @@ def _color(stream) -> bool:
     return "NO_COLOR" not in os.environ and hasattr(stream, "isatty") and stream.isatty()
 
 
+@functools.lru_cache(maxsize=1)
+def _parser() -> argparse.ArgumentParser:
+    """The command line's parser, built once a process (parsing leaves it as it was)."""
+    return build_parser()
+
+
 def _main(argv: list[str], run: _Run) -> int:
-    parser = build_parser()
+    parser = _parser()
     args, extra = parser.parse_known_args(argv)
     if extra:                   # the command's own usage, not the top level's
         sub = next((a for a in parser._actions if isinstance(a, argparse._SubParsersAction)), None)

@@ -61,11 +61,13 @@ def ease_value(ease: str, u: Fraction) -> Union[Fraction, float]:
     if ease == "out":
         return 1 - (1 - u) * (1 - u)
     # in-out: (1 - cos(pi u)) / 2; exact at multiples of 1/3 and 1/2, where cos is rational
-    exact = {Fraction(0): Fraction(1), Fraction(1, 3): Fraction(1, 2), Fraction(1, 2): Fraction(0),
-             Fraction(2, 3): Fraction(-1, 2), Fraction(1): Fraction(-1)}
-    if u in exact:
-        return (1 - exact[u]) / 2
+    if u in _COS_EXACT:
+        return (1 - _COS_EXACT[u]) / 2
     return (1 - math.cos(math.pi * u)) / 2
+
+
+_COS_EXACT = {Fraction(0): Fraction(1), Fraction(1, 3): Fraction(1, 2), Fraction(1, 2): Fraction(0),
+              Fraction(2, 3): Fraction(-1, 2), Fraction(1): Fraction(-1)}     # cos(pi u) where rational
 
 
 def frame_value(n0: int, n1: int, k: int, frames: int, ease: str) -> int:

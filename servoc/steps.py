@@ -139,12 +139,22 @@ def host_playable(program: model.Program) -> tuple[str, ...]:
     """The sequences `PL 0 SQ n` plays, in declaration order: those that run no `host` statement
     (in them or in what they play); a `PL` of another does nothing (it would play itself). A select
     in a sequence `PL` plays waits for inputs and time only: the bytes received are the host's."""
+    hit = _playable.get(id(program))
+    if hit is not None and hit[0] is program:       # (each plan at each P asks again)
+        return hit[1]
     bodies = {q.name: q.body for q in program.sequences}
 
     def playable(name: str) -> bool:
         names = {name} | walk.reachable(bodies[name], bodies.__getitem__)
         return not any(isinstance(st, (model.Host,)) for st in walk.statements([bodies[n] for n in names]))
-    return tuple(q.name for q in program.sequences if playable(q.name))
+    out = tuple(q.name for q in program.sequences if playable(q.name))
+    if len(_playable) >= 64:
+        _playable.clear()
+    _playable[id(program)] = (program, out)     # (the program held: its id names no other meanwhile)
+    return out
+
+
+_playable: dict[int, tuple[model.Program, tuple[str, ...]]] = {}
 
 
 Step = Union[MoveStep, HoldStep, RepeatStep, LoopStep, PlayStep, SelectStep, SendStep, HostStep]

@@ -7,7 +7,6 @@ Default servo (HG14-M): 0.2 s per 60 deg, so t_DAV = 0.74 deg x 0.2 s / 60 deg.
 
 from __future__ import annotations
 
-import math
 from fractions import Fraction
 
 BASE_US = 500
@@ -74,7 +73,8 @@ def move_frames(duration_us: Fraction, period_us: int) -> int:
 
 def frames_needed(delta: int, t_dav_us: Fraction, period_us: int) -> int:
     """Frames a servo needs to travel |delta| DAV at its top speed: ceil(|d| x t_DAV / P)."""
-    return math.ceil(abs(delta) * Fraction(t_dav_us) / period_us)
+    t = Fraction(t_dav_us)      # (in integers: a plan's speed tables take 251 of these per class)
+    return -(-abs(delta) * t.numerator // (t.denominator * period_us))
 
 
 def fmt_deg(x: Fraction) -> str:
