@@ -266,12 +266,14 @@ def _least_period(program, at: Plan) -> int:
     a byte shorter, and a linear move's DDA terms take a DIV only then (the analysis follows the
     flag). So where those are the same at the shortest period as at P, the code's own shortest
     period is the answer; where they are not (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at
-    2.8 ms), the search above. A program that `send`s takes the search too: where its sends bound
-    the period (`codegen._send_floor`), the frames between them also follow P (`frame 20ms`, a
-    30 ms move between runs of sends: 3.294 ms from the code for 20 ms, 0.785 ms from its own)."""
+    2.8 ms), the search above. So does a program whose `send`s bound the period of the code built
+    for `at` (`AsmUnit.sends_bind`): the frames between them also follow P (`frame 20ms`, a 30 ms
+    move between runs of sends: 3.294 ms from the code for 20 ms, 0.785 ms from its own). Where they
+    do not bind there, they do not at a shorter P either: the frames between them only grow."""
     if at.firmware_limit is not None:
         return at.min_period_us
-    by_f = program.serial is None or not (hosted(at) or send_run(at))  # the code follows P through its records only
+    by_f = program.serial is None or not (hosted(at) or send_run(at) and _unit(at).sends_bind)   # the code
+    # follows P through its records only
     fs: dict[int, tuple] = {at.period_us: _one_byte_fs(at)}
 
     def f8(p: int) -> tuple:

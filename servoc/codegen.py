@@ -63,6 +63,8 @@ class AsmUnit:
     xram_bytes: int = 0             # XRAM in use (flow.host_xram: the host's arrays, the motion state)
     both_passes: bool = False       # some moves take the one call (Plan.first_step), others the two passes:
                                     # both are laid out, so the build without first_step has less code
+    sends_bind: bool = False        # the runs of `send` need a longer period than the rest of the code
+                                    # (`_send_floor`): the frames between them follow P
 
     def fits_code(self) -> bool:
         """Whether the code memory surely holds it, by the size read from the text
@@ -793,9 +795,11 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
             _check_serial_rate(plan, budget)
         except layout.SerialTooFast as exc:
             limits.append(exc)
+    least = floor = None
     try:
         least = None if budget is None else costs.frame_cycles(target, budget)
-        shortest = None if least is None else target.us_at_least(_send_floor(plan, budget, least))
+        floor = None if least is None else _send_floor(plan, budget, least)
+        shortest = None if floor is None else target.us_at_least(floor)
         # a period below the shortest that holds by chance (with a serial line the need is a step
         # function of it) is refused too: every period accepted is one the minimum reported covers
         period_holds = least is None or (period_cycles >= least and costs.holds(target, budget, period_cycles))
@@ -821,7 +825,8 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                    target, plan.compact, tuple(ctx.selects), period_holds,
                    (flow_mod.HOST_XRAM_PER_SERVO * len(plan.channels) + layout.HOLD_BYTES * layout.host_holds(plan, in_xram)
                     + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0,
-                   passes["fused"] is not None and passes["sx"])
+                   passes["fused"] is not None and passes["sx"],
+                   floor is not None and least is not None and floor > least)
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:
