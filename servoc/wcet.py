@@ -311,6 +311,12 @@ def _same(i: int) -> int:
 _STUB = ("JMP", ("@A+DPTR",), 2)        # the engine's code, in `frames_code`: no path goes on from it
 
 
+@functools.lru_cache(maxsize=1 << 16)
+def _names_in(args: tuple[str, ...]) -> frozenset[str]:
+    """The names in an instruction's operands (the texts of a program's builds share most)."""
+    return frozenset(n for a in args for n in _NAME.findall(a))
+
+
 def _engine_apart(instrs: tuple[Instr, ...], labels: dict[str, int], s: int, e: int) -> bool:
     """Whether the engine's code (instructions s to e - 1) calls only its own routines, never
     frame_io; no code outside it names one of its labels but frame_io's calls and the interrupt
@@ -321,9 +327,8 @@ def _engine_apart(instrs: tuple[Instr, ...], labels: dict[str, int], s: int, e: 
     if any(ins.op in _CALLS and (ins.args[0] not in inside or ins.args[0] == FRAME_ROUTINE) for ins in instrs[s:e]):
         return False
     vectors = labels.get("reset", 0)
-    if any(k >= vectors and not (ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE)
-           and any(n in inside for a in ins.args for n in _NAME.findall(a))
-           for k, ins in enumerate(instrs) if not s <= k < e):
+    if any(not (ins.op in _CALLS and ins.args[0] == FRAME_ROUTINE) and not inside.isdisjoint(_names_in(ins.args))
+           for ins in instrs[vectors:s] + instrs[max(vectors, e):]):
         return False
     return any(ins.op in _CALLS and labels.get(ins.args[0]) == e for ins in instrs[:s] + instrs[e:]) or \
         labels.get("main") == e
@@ -356,6 +361,7 @@ class Code:
         self._fact_bits = {b for bits in self._fact_bytes.values() for b in bits if b is not None}
         self._walk_memo: dict[tuple, dict] = {}
         self._touch: list[bool] | None = None
+        self._plains: dict[int, bool] = {}     # `_plain` of each instruction asked about
         self._frames: dict[int, dict] | None = None
         self._on_path: set[int] = set()
         self._f0_memo: dict[int, bool] = {}
@@ -512,7 +518,34 @@ class Code:
             return _plus(self.walk(nxt, clear, known), c * k)
         if ins.op in _BRANCH2:
             return _plus(_merge(self.walk(nxt, clear, known), self.walk(self.target(ins), clear, known)), c)
+        # on through the plain instructions after it (each would only add its cycles) to the next
+        # one that does more, or to where `walk` shares the walk among records: the same cycles,
+        # without a step of the recursion and a memo entry for each
+        n = len(self.instrs)
+        while nxt < n and self._plain(nxt):
+            if self._fact_bits and known:
+                if not self._touches(nxt) and any(f[0] in self._fact_bits or f[0] == REC for f in known):
+                    break
+                if any(f[0] == CARRY for f in known) and not _keeps_carry(self.instrs[nxt]):
+                    known = frozenset(f for f in known if f[0] != CARRY)
+            c += self.instrs[nxt].cycles
+            nxt += 1
         return _plus(self.walk(nxt, clear, known), c)
+
+    def _plain(self, i: int) -> bool:
+        """Whether `_walk` at instruction i only adds its cycles and goes on to the next one (and
+        drops a known carry it does not keep), whatever the path knows."""
+        got = self._plains.get(i)
+        if got is None:
+            ins = self.instrs[i]
+            a = ins.args
+            got = self._plains[i] = not (
+                ins.op in _CALLS or ins.op in _JUMPS or ins.op in _BRANCH2 or ins.op in ("RET", "RETI", "JMP")
+                or a and (a[0] in ("SP", FRAME_FLAG, self.flag_byte) or a[0] in self._fact_bits
+                          or a[0] in self._fact_bytes or a[0] in self.flag_bits or a[0] in self.state_bits)
+                or ins.op == "MOV" and len(a) > 1 and a[0] == "C" and a[1] in self._fact_bits
+                or self._counted(ins) is not None or ins.op == "DJNZ" and a and a[-1] == ".")
+        return got
 
     def _acts(self, rec: int) -> frozenset:
         """The ACT bits record `rec` knows at its fork: set where every start of its move has a target."""
