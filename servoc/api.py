@@ -101,7 +101,41 @@ def check(tree, reporter: Reporter):
 def plan(program, reporter: Reporter) -> Plan:
     """model.Program -> Plan (frame period, steps with frame counts, move instances), its period
     fixed by the period stage (`choose_period`)."""
-    return choose_period(program, _plan.plan(program, reporter))
+    with _stage():
+        return choose_period(program, _plan.plan(program, reporter))
+
+
+_built: list | None = None      # the builds of the period stage under way (`_stage`): (plan as a key, code)
+
+
+@contextmanager
+def _stage():
+    """A period stage: the code generated for a plan is kept until it ends, and an equal plan
+    (but for `min_period_us` and `period_is_default`, which code generation does not read) gets
+    it back (the searches meet the same periods; `_least_fitting` runs the stage again)."""
+    global _built
+    outer = _built
+    if outer is None:
+        _built = []
+    try:
+        yield
+    finally:
+        if outer is None:
+            _built = None
+
+
+def _generate(p: Plan) -> codegen.AsmUnit:
+    """`codegen.generate(p)`, or, within a period stage, the code it generated for an equal plan."""
+    if _built is None:
+        return codegen.generate(p)
+    key = dataclasses.replace(p, min_period_us=0, period_is_default=False)
+    for k, unit in _built:
+        if (k.period_us, k.compact, k.holds, k.first_step) == (key.period_us, key.compact, key.holds, key.first_step) \
+                and k == key:
+            return unit
+    unit = codegen.generate(p)
+    _built.append((key, unit))
+    return unit
 
 
 RAM_LIMITS = frozenset({"ram-overflow", "too-deep", "host-ram"})     # a firmware the internal RAM cannot hold
@@ -165,7 +199,7 @@ def _unit(p: Plan) -> codegen.AsmUnit:
     """The code generated for `p`: the one `_budgeted` generated, where `p` is the plan it returned
     (the fields it sets are read from that code, not by code generation)."""
     last = _last_budgeted
-    return last[1] if last is not None and last[0] is p else codegen.generate(p)
+    return last[1] if last is not None and last[0] is p else _generate(p)
 
 
 def _built_as(p: Plan, like: Plan) -> Plan:
@@ -248,8 +282,12 @@ def _periods(program, first: Plan) -> Plan:
         seen.add(result.period_us)
         period = max(want, result.period_us) if len(seen) > 4 else want
         result = _budgeted(_built_as(_plan.plan(program, None, period), first))
-    least = _least_period(program, result)
-    return result if least == result.min_period_us else dataclasses.replace(result, min_period_us=least)
+    last = _last_budgeted
+    least = _least_period(program, result)      # (which may build at other periods)
+    out = result if least == result.min_period_us else dataclasses.replace(result, min_period_us=least)
+    if last is not None and last[0] is result:
+        _keep_unit(out, last[1])    # the same code: generation does not read min_period_us
+    return out
 
 
 def _least_period(program, at: Plan) -> int:
@@ -314,17 +352,22 @@ def _one_byte_fs(p: Plan) -> tuple[tuple[bool, bool], ...]:
 def _budgeted(p: Plan) -> Plan:
     """`p` with `min_period_us` read from the firmware generated for it; when no firmware can be
     generated (a resource limit, reported later), P itself and the limit."""
-    global _last_budgeted
     try:
-        unit = codegen.generate(p)
+        unit = _generate(p)
     except layout.LayoutError as exc:
         _forget_frames(exc)
         return dataclasses.replace(p, min_period_us=p.period_us,
                                    firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
     result = dataclasses.replace(with_rises(p, unit), min_period_us=unit.min_period_us or p.period_us,
                                  period_holds=unit.min_period_us is None or unit.period_holds)
-    _last_budgeted = (result, unit)
+    _keep_unit(result, unit)
     return result
+
+
+def _keep_unit(p: Plan, unit: codegen.AsmUnit) -> None:
+    """`unit` is the code generated for `p` (`_unit` gives it back)."""
+    global _last_budgeted
+    _last_budgeted = (p, unit)
 
 
 def _forget_frames(exc: BaseException) -> None:
@@ -456,7 +499,8 @@ def build(source: SourceFile, reporter: Reporter, for_size: bool = False) -> tup
             for d in trial.diagnostics:
                 reporter.report(d)
             return fe, firmware
-    fe = dataclasses.replace(fe, plan=choose_period(fe.plan.program, dataclasses.replace(fe.plan, compact=True)))
+    with _stage():
+        fe = dataclasses.replace(fe, plan=choose_period(fe.plan.program, dataclasses.replace(fe.plan, compact=True)))
     unit = generate(fe.plan, source, reporter)
     return fe, None if unit is None else assemble(unit, reporter)
 
