@@ -456,6 +456,22 @@ def test_the_front_end_leaves_no_cycles(program):
     assert left == []
 
 
+def test_the_period_stage_builds_each_plan_once_and_keeps_nothing_after_it(monkeypatch):
+    """Within one period stage an equal plan is built once (the searches meet the same periods):
+    the biped example's stage builds twice, at its own P and at its shortest. Nothing is kept after
+    the stage: a cost model patched between two front ends is seen by the second."""
+    from servoc import codegen, costs
+    calls = []
+    real = codegen.generate
+    monkeypatch.setattr(codegen, "generate", lambda p, *a, **k: calls.append(p.period_us) or real(p, *a, **k))
+    path = Path(__file__).resolve().parent.parent / "examples" / "biped.servo"
+    first = cli.api.front_end(*cli.api.load_source(str(path))).plan
+    assert len(calls) == len(set(calls)) == 2 and cli.api._built is None
+    cycles = costs.frame_cycles
+    monkeypatch.setattr(costs, "frame_cycles", lambda target, budget: 2 * cycles(target, budget))
+    assert cli.api.front_end(*cli.api.load_source(str(path))).plan.min_period_us > first.min_period_us
+
+
 def test_json_without_a_file_goes_to_stderr(capsys):
     rc, out, err = run(["--format", "json"], capsys)
     assert rc == 2 and out == "" and json_doc(err)["error"]["kind"] == "usage"

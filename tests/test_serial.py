@@ -10,6 +10,7 @@ firmware sends must be the plan's, in order, within 2 P of its frame.
 from __future__ import annotations
 
 import dataclasses
+from fractions import Fraction
 import re
 import sys
 from pathlib import Path
@@ -506,16 +507,19 @@ def test_send_overrun_names_the_shortest_period_at_which_the_sends_fit():
     assert not [d for d in diags if d.is_error]
 
 
-def test_the_shortest_period_of_a_program_whose_sends_bound_it_follows_the_frames_between_them():
+@pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n",
+                                   "target stc89c52rc clock 11.0592MHz mode 6T\n"])
+def test_the_shortest_period_of_a_program_whose_sends_bound_it_follows_the_frames_between_them(clock):
     """Runs of three bytes at 2400 baud with two 30 ms moves between them: the frames between the
     runs follow P, so the code built for 20 ms holds a longer period than the code built for a
     shorter one. The shortest period reported, at `frame 20ms` and by default, is the least P whose
     own code holds P (api._least_period): `frame P` builds, 1 us less is refused, and at P every
-    pulse and every byte sent is exact in ucsim."""
-    body = ('serial 2400\nservo a = P1.0\nservo b = P1.1\npose lo { a: 0, b: 0 }\npose hi { a: 1, b: 1 }\nhome lo\n'
-            'main { loop { send "x"; send "y"; send "z"; move hi in 30ms; move lo in 30ms } }\n')
+    pulse and every byte sent is exact in ucsim (at 12 MHz, and where a cycle is no whole us)."""
+    body = (clock + 'serial 2400\nservo a = P1.0\nservo b = P1.1\npose lo { a: 0, b: 0 }\npose hi { a: 1, b: 1 }\n'
+            'home lo\nmain { loop { send "x"; send "y"; send "z"; move hi in 30ms; move lo in 30ms } }\n')
     fe, _ = front_end_text("frame 20ms\n" + body)
     reported = fe.plan.min_period_us
+    assert fe.plan.program.target.cycle_us == (1 if not clock else Fraction(15625, 14400 * (2 if "6T" in clock else 1)))
     assert codegen.generate(fe.plan).min_period_us > reported      # the code built for 20 ms: fewer frames
     assert front_end_text(body)[0].plan.min_period_us == reported
     at, diags = front_end_text(f"frame {reported}us\n" + body)
