@@ -386,7 +386,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     not fit the chip's code memory, `layout.rom_end`); a build for size has neither. `stepping` or `stagger` given:
     that build (True only where a build can have it). Then, where `can_merge`, the build with the ports
     at once, kept where its period is shorter still (`merged` True: that build, where `can_merge`;
-    False: never)."""
+    False: never). Each build keeps its motion state in internal RAM, or where that is full and the
+    chip has XRAM, there (`_state_where_it_fits`). Where the build without either cannot hold the
+    program's sends at P (`layout.SendOverrun`), the others are built all the same."""
     can = costs.rise_steps(plan.compact) and bool(plan.ports)
     can_stagger = can and _can_stagger(plan)
     if merged and can_merge(plan):
@@ -395,27 +397,40 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
         staggered = bool(stagger) and can_stagger
         return _generate_answers(plan, source, hold_off, bool(stepping) and can and not staggered, staggered)
     facts = at_start(plan)
-    best = without = _generate_answers(plan, source, hold_off, False, facts=facts)
+    reason = first = None   # a build that holds a shorter period than `best` but not this one: why
+
+    def dropped(exc: layout.LayoutError) -> None:   # its traceback would keep _generate's frame in a cycle
+        nonlocal reason
+        for each in (exc, *getattr(exc, "errors", ())):
+            each.__traceback__ = None
+        if isinstance(exc, layout.SendOverrun) and exc.shortest_us is not None and (
+                reason is None or exc.shortest_us < reason.shortest_us):
+            reason = exc
+
+    try:
+        best = without = _generate_answers(plan, source, hold_off, False, facts=facts)
+    except layout.SendOverrun as exc:   # its sends need a longer P than this one: another build's may not
+        if not can:
+            raise
+        dropped(exc)
+        first, best, without = exc, None, None
     if not can:
         return without
-    reason = None       # a build that holds a shorter period than `best` but not this one: why
     for kind in ("stagger", "steps"):
-        pays = (can_stagger and _stagger_may_pay(without)) if kind == "stagger" else _steps_may_pay(without, best)
-        if not pays:
+        pays = without is None or ((can_stagger and _stagger_may_pay(without)) if kind == "stagger"
+                                   else _steps_may_pay(without, best))
+        if not pays or (kind == "stagger" and not can_stagger):
             continue
         try:
             other = _generate_answers(plan, source, hold_off, kind == "steps", kind == "stagger", facts)
-        except layout.LayoutError as exc:       # dropped: its traceback would keep _generate's frame in a cycle
-            for each in (exc, *getattr(exc, "errors", ())):
-                each.__traceback__ = None
-            if isinstance(exc, layout.SendOverrun) and exc.shortest_us is not None and (
-                    reason is None or exc.shortest_us < reason.shortest_us):
-                reason = exc
+        except layout.LayoutError as exc:
+            dropped(exc)
             continue
-        if (other.min_period_us is not None and best.min_period_us is not None
-                and other.min_period_us < best.min_period_us
-                and other.fits_code()):
+        if best is None or (other.min_period_us is not None and best.min_period_us is not None
+                            and other.min_period_us < best.min_period_us and other.fits_code()):
             best = other
+    if best is None:
+        raise reason or first       # every build's sends need a longer P (or it has another limit)
     if (reason is not None and not best.period_holds and best.min_period_us is not None
             and reason.shortest_us < best.min_period_us):
         raise reason        # the program's shortest period is that build's: its limit is the reason
@@ -454,15 +469,22 @@ def _merged_may_pay(best: AsmUnit) -> bool:
 
 
 def _merged(plan: Plan, source: SourceFile | None, hold_off: int, facts: dict | None = None) -> AsmUnit:
-    """The build whose ports' pulses overlap whole: its motion state in internal RAM, or where that
-    is full and the chip has XRAM, there."""
+    """The build whose ports' pulses overlap whole (`_state_where_it_fits`)."""
     facts = at_start(plan) if facts is None else facts
+    return _state_where_it_fits(plan, lambda xstate: _generate(plan, source, hold_off, 1, False, False, facts,
+                                                               merged=True, xstate=xstate))
+
+
+def _state_where_it_fits(plan: Plan, build) -> AsmUnit:
+    """`build(xstate)` with the motion state in internal RAM, or where that is full and the chip has
+    XRAM, there (`xstate`: a longer W, read from its code like any other)."""
     try:
-        return _generate(plan, source, hold_off, 1, False, False, facts, merged=True)
-    except layout.RamFull:
+        return build(False)
+    except layout.RamFull as exc:
         if plan.program.target.chip.xram_bytes < layout.RAM_SIZE:
             raise
-    return _generate(plan, source, hold_off, 1, False, False, facts, merged=True, xstate=True)
+        exc.__traceback__ = None        # its frames would keep the build's in a cycle
+    return build(True)
 
 
 def _can_stagger(plan: Plan) -> bool:
@@ -507,7 +529,8 @@ def _generate_answers(plan: Plan, source: SourceFile | None, hold_off: int, step
     `facts`: `flow.at_start` of the plan, where already found."""
     facts = at_start(plan) if facts is None else facts
     if not (plan.program.serial is not None and hosted(plan)):
-        return _generate(plan, source, hold_off, 1, stepping, stagger, facts)
+        return _state_where_it_fits(plan, lambda xstate: _generate(plan, source, hold_off, 1, stepping, stagger,
+                                                                   facts, xstate=xstate))
     try:
         return _generate(plan, source, hold_off, HOST_ANSWERS, stepping, stagger, facts)
     except (layout.HostRam, layout.StackTooDeep, layout.RamFull, layout.Several):
