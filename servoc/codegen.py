@@ -476,12 +476,13 @@ def _merged(plan: Plan, source: SourceFile | None, hold_off: int, facts: dict | 
 
 
 def _state_where_it_fits(plan: Plan, build) -> AsmUnit:
-    """`build(xstate)` with the motion state in internal RAM, or where that is full and the chip has
-    XRAM, there (`xstate`: a longer W, read from its code like any other)."""
+    """`build(xstate)` with the motion state in internal RAM, or where that is full (or leaves the
+    stack too little: lint's `too-deep` counts the room the XRAM leaves) and the chip has XRAM,
+    there (`xstate`: a longer W, read from its code like any other)."""
     try:
         return build(False)
-    except layout.RamFull as exc:
-        if plan.program.target.chip.xram_bytes < layout.RAM_SIZE:
+    except (layout.RamFull, layout.StackTooDeep) as exc:
+        if not flow_mod.state_may_go_to_xram(plan):
             raise
         exc.__traceback__ = None        # its frames would keep the build's in a cycle
     return build(True)

@@ -926,6 +926,7 @@ def stack_bytes(nesting: int, serial: bool = False, watch: bool = False, wrapped
     return 2 * nesting + runtime_stack(watch, wrapped) + HANDLER_STACK + (SERIAL_STACK if serial else 0)
 
 
-def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3, wrapped: bool = False) -> int:
-    return (stack_room(serial, taken, ports) - runtime_stack(watch, wrapped) - HANDLER_STACK
+def max_nesting(serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3, wrapped: bool = False,
+                xram: bool = False) -> int:
+    return (stack_room(serial, taken, ports, xram) - runtime_stack(watch, wrapped) - HANDLER_STACK
             - (SERIAL_STACK if serial else 0)) // 2

@@ -202,6 +202,13 @@ def host_short(plan: Plan, xram: bool | None = None) -> int:
     return max(0, costs.stack_bytes(0, serial, True, frame_wrapped(plan)) - room)
 
 
+def state_may_go_to_xram(plan: Plan) -> bool:
+    """Whether the chip has the XRAM (the STC89's) that the motion state moves to where internal
+    RAM cannot hold it beside the program's stack and buffers (codegen: `_state_where_it_fits`;
+    lint's `too-deep` counts the stack that leaves)."""
+    return plan.program.target.chip.xram_bytes >= XRAM_NEED
+
+
 def host_xram(plan: Plan) -> bool:
     """Whether the firmware keeps `host`'s per-servo state (HPW, HPS, HOF, HTAG) and the motion state
     in the chip's XRAM (the STC89's, MOVX @DPTR in page 0): only where the chip has it and internal

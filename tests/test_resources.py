@@ -20,11 +20,12 @@ def test_the_docs_table_of_nesting_levels_is_what_too_deep_allows():
     docs = (ROOT / "docs/language.md").read_text(encoding="utf-8")
     section = docs[docs.index("### too-deep (error)"):]
     rows = re.findall(r"^\| (\d)(?: \(or none\))? \| (\d+) bytes \| (\d+) \| (\d+) \| (\d+) \| (\d+) \|$", section, re.M)
-    assert [int(r[0]) for r in rows] == [1, 2, 3]
-    for ports, room, *levels in rows:
-        ports = int(ports)
-        assert costs.stack_room(False, 0, ports) == int(room)
-        want = [costs.max_nesting(serial, watch, 0, ports) for serial in (False, True) for watch in (False, True)]
+    assert [int(r[0]) for r in rows] == [1, 2, 3] * 2      # the motion state in internal RAM, then in XRAM
+    for k, (ports, room, *levels) in enumerate(rows):
+        ports, xram = int(ports), k >= 3
+        assert costs.stack_room(False, 0, ports, xram) == int(room)
+        want = [costs.max_nesting(serial, watch, 0, ports, False, xram) for serial in (False, True)
+                for watch in (False, True)]
         assert [int(x) for x in levels] == want
     assert costs.max_nesting(True, True, 4, 1) >= 8       # one port with serial: at least 8 levels
 
@@ -55,6 +56,29 @@ def test_the_deepest_one_port_program_lint_accepts_compiles():
     built = build_text(nested(costs.max_nesting(True, False, 0, 1)))
     assert built.firmware.unit.ram_bytes <= 256
     assert built.verify(400).ok
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("for_size", [False, True])
+def test_on_a_chip_with_xram_the_deepest_nesting_lint_accepts_compiles_with_the_motion_state_there(for_size):
+    """On the STC89C52RC the motion state moves to XRAM where the stack needs its internal RAM, and
+    `too-deep` counts the room that leaves (32 bytes more a port): three ports with a serial line
+    nested as deep as lint accepts compile, for speed and for size, and run exactly in ucsim; a
+    level more is refused; the AT89C52, which has no XRAM, refuses that depth."""
+    from conftest import build_text
+    stc, at89 = "target stc89c52rc clock 11.0592MHz\n", "target at89c52 clock 11.0592MHz\n"
+    limit = costs.max_nesting(True, False, 0, 3, False, True)
+    assert limit == costs.max_nesting(True, False, 0, 3) + 48
+    _, diags = front_end_text(stc + nested(limit + 1, 3))
+    deep = [d for d in diags if d.code == "too-deep"]
+    assert len(deep) == 1 and f"room for {limit} levels" in deep[0].message, [d.message for d in diags]
+    _, diags = front_end_text(at89 + nested(limit, 3))
+    assert "too-deep" in [d.code for d in diags if d.is_error]
+    built = build_text(stc + nested(limit, 3), for_size=for_size)
+    unit = built.firmware.unit
+    assert built.plan.compact == for_size and "XSTATE" in unit.text and unit.ram_bytes <= 256
+    report = built.verify(400)
+    assert report.ok and report.max_error_cycles == 0, report.summary()
 
 
 def test_one_level_is_said_in_the_singular(monkeypatch):

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from ... import costs, layout, walk
 from ...diagnostics import Reporter, Severity
-from ...flow import frame_wrapped, hosted, select_ram, watches
+from ...flow import frame_wrapped, hosted, select_ram, state_may_go_to_xram, watches
 from ...steps import Plan
 from ...source import Span
 from .. import RULES, Report, rule
@@ -23,9 +23,10 @@ def too_deep(plan: Plan, report: Report) -> None:
     wrapped = frame_wrapped(plan)
     if hosted(plan):
         return              # code generation says it (host-ram or too-deep), from the RAM it allocates
-    if plan.nesting > costs.max_nesting(serial, watch, taken, ports, wrapped):
+    xram = state_may_go_to_xram(plan)     # the motion state moves there where the stack needs its RAM
+    if plan.nesting > costs.max_nesting(serial, watch, taken, ports, wrapped, xram):
         _report(report, plan.nesting, plan.main, body_of(plan), plan.program.main_span, serial, watch, taken, ports,
-                wrapped)
+                wrapped, xram)
 
 
 def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span) -> None:
@@ -36,10 +37,10 @@ def report_too_deep(reporter: Reporter, depth: int, main: tuple, body_of: walk.B
 
 def _report(report: Report, depth: int, main: tuple, body_of: walk.BodyOf, main_span: Span,
             serial: bool = False, watch: bool = False, taken: int = 0, ports: int = 3,
-            wrapped: bool = False) -> None:
+            wrapped: bool = False, xram: bool = False) -> None:
     """At the first repeat or play past the limit."""
-    limit = max(0, costs.max_nesting(serial, watch, taken, ports, wrapped))
+    limit = max(0, costs.max_nesting(serial, watch, taken, ports, wrapped, xram))
     st = walk.first_too_deep(main, body_of, limit)
-    message, label = walk.too_deep_text(depth, costs.stack_room(serial, taken, ports), limit, st)
+    message, label = walk.too_deep_text(depth, costs.stack_room(serial, taken, ports, xram), limit, st)
     report(message, st.span if st is not None else main_span, label=label,
            help=layout.FLATTEN)
