@@ -8,6 +8,7 @@ and that period less 1 us is refused.
 """
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, example, given, settings, strategies as st
@@ -296,6 +297,9 @@ def test_on_a_chip_with_xram_the_motion_state_moves_there_to_leave_room_for_the_
         codegen._generate(built.plan, None, 0, 1, False, True, codegen.at_start(built.plan), xstate=False)
     apart = codegen.generate(built.plan, stepping=True, stagger=False)
     assert "XSTATE" not in apart.text and apart.min_period_us > period + 800
+    docs = " ".join((Path(__file__).resolve().parent.parent / "docs/language.md").read_text(encoding="utf-8").split())
+    assert (f"serial line on the STC89C52RC at 22.1184 MHz: {period / 1000:.3f} ms, where the ports one after "
+            f"another would take {apart.min_period_us / 1000:.3f}") in docs
 
 
 def nested(depth: int) -> str:
