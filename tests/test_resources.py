@@ -81,6 +81,37 @@ def test_on_a_chip_with_xram_the_deepest_nesting_lint_accepts_compiles_with_the_
     assert report.ok and report.max_error_cycles == 0, report.summary()
 
 
+def _watched(levels: int, ports: int, serial: bool) -> str:
+    """`nested` inside a select's meanwhile body, cut by a button (the select waiting: a level more)."""
+    text = nested(levels, ports, serial)
+    head, body = text.split("main {\n", 1)
+    return ("input b = P3.2\n" + head + "main {\n  loop { select { on press b { move p in 200ms } meanwhile { loop {\n"
+            + body.replace("in 100ms", "in 200ms").rstrip().rstrip("}") + " } } } }\n}\n")
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("ports", [1, 2, 3])
+@pytest.mark.parametrize("serial", [False, True])
+@pytest.mark.parametrize("watch", [False, True])
+def test_on_a_chip_with_xram_every_depth_lint_names_as_the_limit_compiles(ports, serial, watch):
+    """On the STC89C52RC at 11.0592 MHz in 6T mode: nested as deep as `too-deep` says the stack has
+    room for, with and without a serial line and a meanwhile body, the program compiles for speed and
+    for size (the motion state in XRAM where the stack needs the room); a level more is refused."""
+    from conftest import build_text
+    stc = "target stc89c52rc clock 11.0592MHz mode 6T\n"
+    make = (lambda n: _watched(n, ports, serial)) if watch else (lambda n: nested(n, ports, serial))
+    _, diags = front_end_text(stc + make(90))
+    (deep,) = [d.message for d in diags if d.code == "too-deep"]
+    limit = int(re.search(r"room for (\d+) level", deep).group(1))
+    assert limit >= costs.max_nesting(serial, watch, 0, ports) + 16 * ports - 4
+    repeats = limit - watch
+    for for_size in (False, True):
+        built = build_text(stc + make(repeats), for_size=for_size)
+        assert built.firmware.unit.ram_bytes <= 256 and built.plan.compact == for_size
+    _, diags = front_end_text(stc + make(repeats + 1))
+    assert [d.code for d in diags if d.is_error] == ["too-deep"]
+
+
 def test_one_level_is_said_in_the_singular(monkeypatch):
     monkeypatch.setattr(costs, "max_nesting", lambda *args: 1)
     fe, diags = front_end_text(nested(2, 3))
