@@ -101,16 +101,28 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
     order, from `start`, where `inner` is the folded value of the statement's own body (a
     repeat or a loop), the tuple of the folded values of its branches (a select, in the order
     written), the value of the sequence it plays, or None for a leaf. `memo` holds the
-    values of sequences by name; pass the same dict to share them between calls."""
+    values of sequences by name, and of the blocks folded (by id, beside the block itself, so
+    that the id stays its own): pass the same dict to calls with the same `step` on the same
+    tree to share them, so that folding each statement of a nested tree in turn stays linear."""
     memo = {} if memo is None else memo
     # Each frame: [statements, index of the next one, accumulator, the sequence they are the body
-    # of, the values of the blocks of the statement at the index folded so far].
-    stack: list[list] = [[body, 0, start, None, []]]
+    # of, the values of the blocks of the statement at the index folded so far, whether it is a
+    # block (its value kept in `memo`)].
+    stack: list[list] = [[body, 0, start, None, [], False]]
     done = False                      # a frame just finished: its value is `value`
     value: Any = None
     while True:
         frame = stack[-1]
-        sts, i, acc, _, got = frame
+        sts, i, acc, _, got, _ = frame
+        if not done and i < len(sts) and callee(sts[i]) is None:
+            bl = blocks(sts[i])         # the blocks already folded, from `memo`
+            while len(got) < len(bl):
+                hit = memo.get(id(bl[len(got)]))
+                if hit is None or hit[0] is not bl[len(got)]:
+                    break
+                got.append(hit[1])
+            if bl and len(got) == len(bl):
+                done, value = True, got.pop()
         if done:
             done = False
             st = sts[i]
@@ -118,7 +130,7 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
                 got.append(value)
                 bl = blocks(st)
                 if len(got) < len(bl):
-                    stack.append([bl[len(got)], 0, start, None, []])
+                    stack.append([bl[len(got)], 0, start, None, [], True])
                     continue
                 value = tuple(got) if kind(st) == "select" else got[0]
                 frame[4] = []
@@ -130,11 +142,11 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
             if name is not None and name not in memo:
                 if any(f[3] == name for f in stack):
                     raise ValueError(f"sequence `{name}` plays itself")
-                stack.append([body_of(name), 0, start, name, []])
+                stack.append([body_of(name), 0, start, name, [], False])
                 continue
             bl = blocks(st) if name is None else ()
             if bl:
-                stack.append([bl[0], 0, start, None, []])
+                stack.append([bl[len(got)], 0, start, None, [], True])
                 continue
             inner = None if name is None else memo[name]
             frame[2] = step(acc, st, () if kind(st) == "select" else inner)
@@ -143,6 +155,8 @@ def fold(body: tuple, body_of: BodyOf, start: Any, step: Callable[[Any, Any, Any
             stack.pop()
             if frame[3] is not None:
                 memo[frame[3]] = acc
+            elif frame[5]:
+                memo[id(sts)] = (sts, acc)
             if not stack:
                 return acc
             done, value = True, acc

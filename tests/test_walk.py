@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from fractions import Fraction
 
 import pytest
 
@@ -73,6 +74,47 @@ def test_fold_memoizes_sequences_and_refuses_cycles():
     assert len(calls) == 2 + 3 + 2       # a's body once, b's body once, main
     with pytest.raises(ValueError):
         walk.nesting((model.Play("x"),), {"x": (model.Play("x"),)}.__getitem__)
+
+
+def _shape(acc, st, inner):
+    """A fold step that keeps the whole shape it folds (so two folds agree only if they saw the
+    same tree the same way)."""
+    return acc + ((walk.kind(st), inner),)
+
+
+def _tree(depth: int, seed: int) -> tuple:
+    """A statement list of repeats, loops, selects (branches and a meanwhile body), holds and plays."""
+    if depth == 0:
+        return (H, model.Play("a")) if seed % 3 == 0 else (H,)
+    inner = _tree(depth - 1, seed * 7 + 3)
+    ev = model.Event(None, 120, '"x"')
+    kinds = [rep(*inner), model.Loop(inner),
+             model.Select((model.On(ev, inner), model.After(Fraction(1), (H,) + inner)), meanwhile=inner)]
+    return (kinds[seed % 3], H) + ((kinds[(seed + 1) % 3],) if seed % 2 else ())
+
+
+def test_folding_each_statement_of_a_nested_tree_in_turn_stays_linear_and_agrees():
+    """With one memo, folding every statement of a tree in turn (as code generation does) folds
+    each block once; every value is the one a fold without a memo gives."""
+    seqs = {"a": (H, rep(H))}
+    for seed in range(6):
+        tree = _tree(5, seed)
+        memo: dict = {}
+        for st in walk.statements((tree,)):
+            assert walk.fold((st,), seqs.__getitem__, (), _shape, memo) == walk.fold((st,), seqs.__getitem__, (), _shape)
+    calls = []
+
+    def count(acc, st, inner):
+        calls.append(st)
+        return acc + 1 + (inner or 0)
+    deep = (H,)
+    for _ in range(300):
+        deep = (rep(*deep),)
+    memo = {}
+    sts = list(walk.statements((deep,)))
+    values = [walk.fold((st,), seqs.__getitem__, 0, count, memo) for st in sts]
+    assert values[0] == 301 and values[-1] == 1
+    assert len(calls) == 2 * 301 - 1      # each statement's step once, and once more as the root of its own fold
 
 
 def test_bodies_and_statements_in_order():
