@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from . import layout
 from .observe import Observation, Visit
 from .flow import hosted, host_queue, host_watchers
-from .plan import Choice, HostRun, expand, UNDECIDED
+from .plan import Choice, HostRun, ListDecider, expand, UNDECIDED
 from .steps import AfterBranch, LoopStep, OnBranch, PlayStep, RepeatStep, SelectStep, branch_text, Plan
 from .sim import CLOCKS_PER_CYCLE, TICKS_WRAP, SimTrace
 from .target import byte_cycles
@@ -101,6 +101,27 @@ _FIRST_PULSE: dict = {}     # (id(plan), choices) -> (plan, the answer): the sea
 HLINE_QUEUING = layout.HLINE["VERQ"].mask | layout.HLINE["ANSQ"].mask   # host.asm.j2's HLINE: the reading goes on
 HLINE_WAITS = layout.HLINE["HANS"].mask      # the answers waiting for room fill their queue
 
+class _Still(Exception):
+    """A select waits forever with no meanwhile body: its frames repeat the targets as they are."""
+
+
+class _UntilStill(ListDecider):
+    """`choices` as `expand` takes them, until a select that will wait forever with no meanwhile
+    body is reached while no select reached before has a branch to take (one could cut the wait
+    from around it): before the first pulse no servo has a target, so none comes after it."""
+
+    def __init__(self, choices) -> None:
+        super().__init__(choices)
+        self.taking = False         # some select reached has a branch to take
+
+    def reach(self, select: SelectStep, frames: int):
+        token = super().reach(select, frames)
+        self.taking = self.taking or token is not None
+        if token is None and select.meanwhile is None and not self.taking:
+            raise _Still
+        return token
+
+
 def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     """0-based index of the first golden frame with a pulse, or None if there is none."""
     key = (id(plan), tuple(choices))
@@ -108,10 +129,13 @@ def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     if hit is not None and hit[0] is plan:
         return hit[1]
     found = None
-    for i, fr in enumerate(itertools.islice(expand(plan, choices), SEARCH_FRAMES)):
-        if any(n is not None for n in fr.n):
-            found = i
-            break
+    try:
+        for i, fr in enumerate(itertools.islice(expand(plan, _UntilStill(choices)), SEARCH_FRAMES)):
+            if any(n is not None for n in fr.n):
+                found = i
+                break
+    except _Still:
+        pass
     if len(_FIRST_PULSE) > 64:
         _FIRST_PULSE.clear()
     _FIRST_PULSE[key] = (plan, found)

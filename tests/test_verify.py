@@ -237,3 +237,38 @@ def test_write_to_a_port_without_servos_is_caught(good):
     mask = int(anl.args[1].lstrip("#"), 0)
     assert changed == [f"P0.{b}" for b in range(8) if not mask & (1 << b)]
     assert {m.servo for m in report.mismatches if "reset" in m.what} == {"a", "b", "c"}
+
+
+FIRST_PULSE_CASES = {
+    "waits for a byte": ('serial 4800\nservo a = P1.0\npose p { a: 10 }\n'
+                         'main { loop { select { on "a" { move p } } } }\n', None),
+    "a hold, then a move": "servo a = P1.0\npose p { a: 10 }\nmain { hold 2s; move p }\n",
+    "an `after` cuts a wait in its meanwhile body": (
+        "input b = P3.2\nservo a = P1.0\npose p { a: 10 }\nmain { select { on press b { move p } after 1s "
+        "{ move p } meanwhile { select { on press b { move p } } } } }\n"),
+    "an `after`": "input b = P3.2\nservo a = P1.0\npose p { a: 10 }\nmain { select { on press b { move p } after 300ms { move p } } }\n",
+    "a wait, then a move": ("input b = P3.2\nservo a = P1.0\npose p { a: 10 }\nmain { wait press b; move p }\n", None),
+}
+
+
+@pytest.mark.parametrize("name", sorted(FIRST_PULSE_CASES))
+def test_the_first_pulse_is_found_where_expand_puts_it_and_a_wait_forever_ends_the_search(name):
+    """`first_pulse_frame` gives the first frame of `expand` with a pulse; where a select that waits
+    forever (no choice, no `after` around it) comes before any pulse, there is none, and the search
+    ends there rather than after SEARCH_FRAMES frames."""
+    from conftest import front_end_text
+    case = FIRST_PULSE_CASES[name]
+    text, forever = case if isinstance(case, tuple) else (case, False)
+    fe, diags = front_end_text(text)
+    assert fe.plan is not None, [d.message for d in diags]
+    plan = fe.plan
+    frames = list(itertools.islice(expand(plan), 5000))
+    want = next((i for i, fr in enumerate(frames) if any(n is not None for n in fr.n)), None)
+    got = verify.first_pulse_frame(plan)
+    assert got == want
+    if forever is None:
+        assert got is None
+        with pytest.raises(verify._Still):
+            next(iter(expand(plan, verify._UntilStill(()))))
+    else:
+        assert got is not None
