@@ -417,9 +417,11 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     if not can:
         return without
     for kind in ("stagger", "steps"):
-        pays = without is None or ((can_stagger and _stagger_may_pay(without)) if kind == "stagger"
-                                   else _steps_may_pay(without, best))
-        if not pays or (kind == "stagger" and not can_stagger):
+        if kind == "stagger":
+            pays = can_stagger and (without is None or _stagger_may_pay(without))
+        else:
+            pays = without is None or _steps_may_pay(without, best)
+        if not pays:
             continue
         try:
             other = _generate_answers(plan, source, hold_off, kind == "steps", kind == "stagger", facts)

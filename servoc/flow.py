@@ -213,7 +213,7 @@ def host_xram(plan: Plan) -> bool:
     """Whether the firmware keeps `host`'s per-servo state (HPW, HPS, HOF, HTAG) and the motion state
     in the chip's XRAM (the STC89's, MOVX @DPTR in page 0): only where the chip has it and internal
     RAM alone is short (`host_short`). Internal RAM then keeps no STATE (layout.state_base)."""
-    return (hosted(plan) and plan.program.target.chip.xram_bytes >= XRAM_NEED
+    return (hosted(plan) and state_may_go_to_xram(plan)
             and host_short(dataclasses.replace(plan, holds=False), False) > 0)
 
 

@@ -129,8 +129,9 @@ def first_pulse_frame(plan: Plan, choices: tuple = ()) -> int | None:
     if hit is not None and hit[0] is plan:
         return hit[1]
     found = None
-    try:
-        for i, fr in enumerate(itertools.islice(expand(plan, _UntilStill(choices)), SEARCH_FRAMES)):
+    try:        # (with `host`, a line the host sends can end a sequence waiting at a select: no early end)
+        decider = ListDecider(choices) if hosted(plan) else _UntilStill(choices)
+        for i, fr in enumerate(itertools.islice(expand(plan, decider), SEARCH_FRAMES)):
             if any(n is not None for n in fr.n):
                 found = i
                 break

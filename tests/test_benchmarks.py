@@ -305,3 +305,43 @@ def test_each_stretch_of_the_background_measured_in_ucsim_is_within_what_the_bud
     assert set(charged) == set(parts) - {"chain handler"} and parts["chain handler"] > 0
     for name, cycles in charged.items():
         assert 0.8 * cycles <= parts[name] <= cycles, (name, parts[name], cycles, parts)
+
+
+def test_the_docs_figures_of_the_goal_program_are_the_codes_and_the_latest_benchmarks():
+    """docs/language.md ("The shortest frame period") quotes the 24-servo goal program's terms at
+    three clocks and the shortest periods that verify in ucsim: the terms are those of the code
+    generated now (engine_terms.terms), the exact periods those of benchmarks/results.json, whose
+    reported periods are the code's too (the latest run is current)."""
+    terms_mod = _load("engine_terms", "engine_terms.py")
+    docs = (BENCH.parent / "docs/language.md").read_text(encoding="utf-8")
+    section = " ".join(docs[docs.index("## The shortest frame period"):docs.index("## Bringing motion in")].split())
+    rows = {r["clock"]: r for r in json.loads((BENCH / "results.json").read_text(encoding="utf-8"))["goal_budget"]}
+    ms = lambda us: f"{us / 1000:.3f} ms"       # noqa: E731
+    n = lambda v: f"{v:,}"                      # noqa: E731
+    clocks = dict(terms_mod.CLOCKS)
+    want = []
+    for name in ("12 MHz", "22.1184 MHz, AT89C52", "22.1184 MHz, STC89C52RC"):
+        t = terms_mod.terms(clocks[name])
+        assert rows[name]["reported_us"] == t["reported_us"], name
+        want.append((name, t, rows[name]["shortest_exact_p_us"]))
+    (_, twelve, twelve_exact), (_, at89, at89_exact), (_, stc, stc_exact) = want
+    apart = terms_mod.terms(*terms_mod.APART[1:])
+    expected = [
+        f"the pulses' term is {ms(twelve_exact)} and the firmware verifies in ucsim from there up",
+        f"the period reported is {ms(twelve['reported_us'])}",
+        f"it would be {ms(apart['reported_us'])}, exact",
+        f"period: {ms(at89['reported_us'])} reported (rises among falls, the last port's pulses whole), and the "
+        f"firmware verifies in ucsim from {ms(at89_exact)} up",
+        f"{ms(stc['reported_us'])} reported, and the firmware verifies in ucsim from {ms(stc_exact)} up",
+        f"{n(stc['cpu_cycles'])} cycles of work",
+        f"{n(twelve['cpu_cycles'])} cycles at 12 MHz ({n(apart['cpu_cycles'])} with the ports one after another)",
+        f"{n(at89['cpu_cycles'])} on the AT89C52 at 22.1184 MHz ({ms(at89['cpu_us'])})",
+        f"W is {n(twelve['work'])}, the sorts {n(apart['sorts'])} ({n(twelve['sorts'])} at 12 MHz and {n(at89['sorts'])}",
+        f"the rise entries {n(apart['rises'])} ({twelve['rises']} and {at89['rises']}",
+        f"the falls {n(twelve['falls'])}",
+        f"one entry for the rise ({stc['rises']} cycles) and {stc['falls']} for the frame's groups",
+        f"the sorts and the merging take {n(stc['sorts'])}, and W is {n(stc['work'])}",
+    ]
+    assert at89["work"] == twelve["work"] == apart["work"] and at89["falls"] == twelve["falls"]
+    missing = [w for w in expected if w not in section]
+    assert not missing, missing
