@@ -355,7 +355,7 @@ def _budgeted(p: Plan) -> Plan:
     try:
         unit = _generate(p)
     except layout.LayoutError as exc:
-        _forget_frames(exc)
+        layout.forget_frames(exc)
         return dataclasses.replace(p, min_period_us=p.period_us,
                                    firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
     result = dataclasses.replace(with_rises(p, unit), min_period_us=unit.min_period_us or p.period_us,
@@ -368,21 +368,6 @@ def _keep_unit(p: Plan, unit: codegen.AsmUnit) -> None:
     """`unit` is the code generated for `p` (`_unit` gives it back)."""
     global _last_budgeted
     _last_budgeted = (p, unit)
-
-
-def _forget_frames(exc: BaseException) -> None:
-    """Drop the tracebacks of `exc`, of the limits it holds and of what they came from: code
-    generation keeps the limits it found in a local list, so a traceback through its frame would
-    hold them in a reference cycle (the period search builds, and is refused, many times)."""
-    seen: set[int] = set()
-    work = [exc, *layout.each(exc)]
-    while work:
-        e = work.pop()
-        if e is None or id(e) in seen:
-            continue
-        seen.add(id(e))
-        e.__traceback__ = None
-        work += [e.__context__, e.__cause__]
 
 
 def with_rises(p: Plan, unit: codegen.AsmUnit) -> Plan:

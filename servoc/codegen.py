@@ -399,10 +399,9 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
     facts = at_start(plan)
     reason = first = None   # a build that holds a shorter period than `best` but not this one: why
 
-    def dropped(exc: layout.LayoutError) -> None:   # its traceback would keep _generate's frame in a cycle
+    def dropped(exc: layout.LayoutError) -> None:
         nonlocal reason
-        for each in (exc, *getattr(exc, "errors", ())):
-            each.__traceback__ = None
+        layout.forget_frames(exc)
         if isinstance(exc, layout.SendOverrun) and exc.shortest_us is not None and (
                 reason is None or exc.shortest_us < reason.shortest_us):
             reason = exc
@@ -440,8 +439,7 @@ def generate(plan: Plan, source: SourceFile | None = None, hold_off: int = 0, st
         try:
             other = _merged(plan, source, hold_off, facts)
         except layout.LayoutError as exc:
-            for each in (exc, *getattr(exc, "errors", ())):
-                each.__traceback__ = None
+            layout.forget_frames(exc)
             return best
         if (other.min_period_us is not None and other.min_period_us < best.min_period_us
                 and other.fits_code()):
@@ -486,7 +484,7 @@ def _state_where_it_fits(plan: Plan, build) -> AsmUnit:
     except (layout.RamFull, layout.StackTooDeep) as exc:
         if not flow_mod.state_may_go_to_xram(plan):
             raise
-        exc.__traceback__ = None        # its frames would keep the build's in a cycle
+        layout.forget_frames(exc)
     return build(True)
 
 

@@ -227,6 +227,21 @@ def each(exc: LayoutError) -> list[LayoutError]:
     return list(exc.errors) if isinstance(exc, Several) else [exc]
 
 
+def forget_frames(exc: BaseException) -> None:
+    """Drop the tracebacks of `exc`, of the limits it holds (`each`) and of what they came from:
+    code generation keeps the limits it finds in a local list, so a traceback through its frame
+    would hold them in a reference cycle (the period search builds, and is refused, many times)."""
+    seen: set[int] = set()
+    work = [exc, *(each(exc) if isinstance(exc, LayoutError) else ())]
+    while work:
+        e = work.pop()
+        if e is None or id(e) in seen:
+            continue
+        seen.add(id(e))
+        e.__traceback__ = None
+        work += [e.__context__, e.__cause__]
+
+
 class RamFull(LayoutError):
     code = "ram-overflow"
     help = "use fewer ports or servos"
