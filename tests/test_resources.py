@@ -60,12 +60,13 @@ def test_the_deepest_one_port_program_lint_accepts_compiles():
 
 @pytest.mark.toolchain
 @pytest.mark.parametrize("for_size", [False, True])
-def test_on_a_chip_with_xram_the_deepest_nesting_lint_accepts_compiles_with_the_motion_state_there(for_size):
+def test_on_a_chip_with_xram_the_deepest_nesting_lint_accepts_compiles_with_the_motion_state_there(for_size, tmp_path):
     """On the STC89C52RC the motion state moves to XRAM where the stack needs its internal RAM, and
     `too-deep` counts the room that leaves (32 bytes more a port): three ports with a serial line
-    nested as deep as lint accepts compile, for speed and for size, and run exactly in ucsim; a
+    nested as deep as lint accepts compile, for speed and for size, and run exactly in ucsim at
+    their shortest period (1 us less refused); a
     level more is refused; the AT89C52, which has no XRAM, refuses that depth."""
-    from conftest import build_text
+    from conftest import build_text, compile_file
     stc, at89 = "target stc89c52rc clock 11.0592MHz\n", "target at89c52 clock 11.0592MHz\n"
     limit = costs.max_nesting(True, False, 0, 3, False, True)
     assert limit == costs.max_nesting(True, False, 0, 3) + 48
@@ -74,11 +75,17 @@ def test_on_a_chip_with_xram_the_deepest_nesting_lint_accepts_compiles_with_the_
     assert len(deep) == 1 and f"room for {limit} levels" in deep[0].message, [d.message for d in diags]
     _, diags = front_end_text(at89 + nested(limit, 3))
     assert "too-deep" in [d.code for d in diags if d.is_error]
-    built = build_text(stc + nested(limit, 3), for_size=for_size)
+    shortest = build_text(stc + nested(limit, 3), for_size=for_size).plan.min_period_us
+    built = build_text(stc + f"frame {shortest}us\n" + nested(limit, 3), for_size=for_size)
     unit = built.firmware.unit
     assert built.plan.compact == for_size and "XSTATE" in unit.text and unit.ram_bytes <= 256
-    report = built.verify(400)
+    assert built.plan.period_us == built.plan.min_period_us == shortest
+    report = built.verify(400)          # at exactly the shortest period, every pulse exact
     assert report.ok and report.max_error_cycles == 0, report.summary()
+    path = tmp_path / "below.servo"
+    path.write_text(stc + f"frame {shortest - 1}us\n" + nested(limit, 3), encoding="utf-8")
+    below, _, diags = compile_file(str(path), for_size)
+    assert below is None and "period-too-short" in [d.code for d in diags if d.is_error]
 
 
 def _watched(levels: int, ports: int, serial: bool) -> str:
