@@ -1,6 +1,6 @@
 """The background's stretches measured in ucsim, beside the parts of the budget that charge them.
 
-    .venv/bin/python benchmarks/background.py            # the goal program at 12 MHz, 7.313 ms
+    .venv/bin/python benchmarks/background.py            # the goal program at 12 MHz, 6.985 ms
     .venv/bin/python benchmarks/background.py --period 6751
 
 The program is `engine_terms.goal_source` (24 servos over the full range, an eased move and a
@@ -18,7 +18,10 @@ frames, beside what the budget charges for it (`costs.Budget`, read from the gen
 - the work after the last sort: from the end of the wait before the last port's items to the
   end of the first port's items in the next frame, wall time and the handler's runs in it,
   beside the budget's term for it from its start: the last port's items, W, the first port's
-  sort and items, and the handler's loads of the last two ports in it.
+  sort and items, and the handler's loads of the last two ports in it; and the same to where
+  the first port's header is written (the loop of its items, `fe`: all its handover reads),
+  its items charged up to there (`Budget.head`). The first must end ENTRY before that port's
+  first edge, the second ENTRY before its rise (`costs._frame_cycles`).
 
 A run of the handler is measured from its vector's call: the cycles before it, in which the
 background's instruction under way ends (1 or 2 in ucsim), are the background's. The budget
@@ -70,7 +73,8 @@ def measure(period: int, text: str | None = None) -> dict:
     unit = fw.unit
     labels, retis, vector_next = addresses(fw.image.listing)
     ports = plan.ports
-    names = [f"{k}{p}" for p in ports for k in ("fs", "fi", "ft")] + ["fi_done"]
+    header = next(f"{k}{ports[0]}_l" for k in ("fe", "fb") if f"{k}{ports[0]}_l" in labels)
+    names = [f"{k}{p}" for p in ports for k in ("fs", "fi", "ft")] + ["fi_done", header]
     points = {labels[n]: n for n in names}          # fs of the first port is frame_io itself
     probes = [(a, i, ()) for i, a in enumerate(points)] + [(vector_next, VEC, ())] + [(a, RET, ()) for a in retis]
     tag = {i: n for i, n in enumerate(points.values())}
@@ -107,11 +111,11 @@ def measure(period: int, text: str | None = None) -> dict:
         elif cur is not None and n not in cur:
             cur[n] = p.cycle          # a wait loop's label: its first pass
     first, last = ports[0], ports[-1]
-    parts: dict[str, int] = {"W": 0, "chain wall": 0, "chain handler": 0}
+    parts: dict[str, int] = {"W": 0, "chain wall": 0, "chain handler": 0, "header wall": 0, "header handler": 0}
     for p in ports:
         parts[f"sort P{p}"] = parts[f"items P{p}"] = 0
     for a, b in zip(calls[1:], calls[2:]):
-        if "fi_done" not in a or f"ft{first}" not in b or f"fs{ports[1]}" not in b:
+        if "fi_done" not in a or f"ft{first}" not in b or f"fs{ports[1]}" not in b or header not in b:
             continue
         pure = lambda t0, t1: t1 - t0 - handler_in(t0, t1)     # noqa: E731
         parts["W"] = max(parts["W"], pure(a["fi_done"], b[f"fs{first}"]))
@@ -122,6 +126,8 @@ def measure(period: int, text: str | None = None) -> dict:
         t0, t1 = a[f"ft{last}"], b[f"fs{ports[1]}"]
         if t1 - t0 > parts["chain wall"]:
             parts["chain wall"], parts["chain handler"] = t1 - t0, handler_in(t0, t1)
+        if b[header] - t0 > parts["header wall"]:
+            parts["header wall"], parts["header handler"] = b[header] - t0, handler_in(t0, b[header])
 
     b = unit.budget
     target = unit.target
@@ -129,8 +135,9 @@ def measure(period: int, text: str | None = None) -> dict:
     load = [costs.handler_load(r, f) for r, f in zip(b.rises, b.falls)]
     # the work after the last sort from its start: the last port's items, W, the first port's sort
     # and items, the handler's loads in it (costs._frame_cycles)
-    charged = {"W": b.work, "chain wall": b.items[-1] + b.work + b.sorts[0] + load[-1]
-               + load[-2] - costs.rise_edge(b, m - 2) + costs.ENTRY}
+    chain = (b.items[-1] + b.work + b.sorts[0] + load[-1]
+             + load[-2] - costs.rise_edge(b, m - 2) + costs.ENTRY)
+    charged = {"W": b.work, "chain wall": chain, "header wall": chain - b.items[0] + b.head}
     for k, p in enumerate(ports):
         charged[f"sort P{p}"] = b.sorts[k] - b.items[k]
         charged[f"items P{p}"] = b.items[k]
@@ -152,9 +159,11 @@ def main(argv: list[str] | None = None) -> int:
     parts, charged = r["parts"], r["charged"]
     for name, cycles in charged.items():
         shown = parts[name]
-        if name == "chain wall":
-            name = "the work after the last sort: handover to the first port's items done (wall)"
-            shown = f"{shown} (the handler's runs in it: {parts['chain handler']})"
+        if name in ("chain wall", "header wall"):
+            what = name.split()[0]
+            name = {"chain": "the work after the last sort: handover to the first port's items done (wall)",
+                    "header": "the same, to the first port's header written (wall)"}[what]
+            shown = f"{shown} (the handler's runs in it: {parts[what + ' handler']})"
         print(f"| {name} | {cycles} | {shown} |")
     return 0
 

@@ -56,7 +56,10 @@ The last port's span holds its pulses whole (C(top) + STEP), so that every perio
 shortest on holds. In the terms above, each port's rise is then its handover, and each sort
 must fit between the handover before it and its port's rise; a window from a port's handover holds
 its handover and falls, not its rise's edge, which comes before (`rise_edge`), and ends ENTRY
-before the first port's next rise. The handler never reads the sort
+before the first port's next rise, where the handover reads the first port's header (the first
+edge's N: Budget.head, the writing up to it); the rest of its items, read from its first edge on,
+end ENTRY before that edge (`first_read`), the rise's entry and handover in between. The handler
+never reads the sort
 buffer then: frame_io sorts a port before it waits, and writes only its items (Budget.items) after
 the handler took the port before's, so the last port's sort can end before its wait
 (`_items_start`).
@@ -559,7 +562,9 @@ class Budget:
     tail: int = 0               # merged: from the frame's rise overflow, less C(the last group's N), to
                                 # where frame_io goes on merging: the last group's entry and exit
     head: int = 0               # merged: the merging up to the items the rise's entry reads (every port's
-                                # lines and the first group's link), or where no line falls, to MBUSY set
+                                # lines and the first group's link), or where no line falls, to MBUSY set;
+                                # stagger: the first port's items (`items`) up to their header and first
+                                # edge, all its handover reads (0: not known apart, the whole)
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -684,13 +689,19 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     elif budget.items:      # stagger: a port is sorted before the wait, its items written after it
         # (a window from port j's handover holds its handover and falls, not its rise's edge, which
         # comes before; it ends ENTRY before the first port's next rise, where the handler takes
-        # over from the items being written)
+        # over from the items being written). The first port's handover reads only their header
+        # (Budget.head); the rest is read from its first edge on (`first_read`): each chain to the
+        # first port's items ends twice, at the header ENTRY before that rise, and whole ENTRY
+        # before that edge, the rise's entry and handover (`rises`) in between
         after = [ld - rise_edge(budget, j) + ENTRY for j, ld in enumerate(load)]
-        need.append(hand[m - 1] + budget.items[0] + after[-1] + runs(last))
+        first, late = first_read(target, budget), budget.items[0] - (budget.head or budget.items[0])
+        chains = [(hand[m - 1] + budget.items[0] + after[-1], last)]
         if m >= 2:
-            need.append(min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
-                        + budget.items[-1] + budget.work + budget.sorts[0] + after[-2] + load[-1]
-                        + runs(period - hand[m - 2]))
+            chains.append((min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
+                           + budget.items[-1] + budget.work + budget.sorts[0] + after[-2] + load[-1],
+                           period - hand[m - 2]))
+        for chain, window in chains:
+            need += [chain - late + runs(window), chain + budget.rises[0] - first + runs(window + first)]
     else:
         need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:
@@ -715,6 +726,15 @@ def merged_late(target, budget: Budget, runs=lambda cycles: 0) -> int:
     if budget.merge - budget.head + sum(budget.rises) + runs(first) <= first:
         return budget.head
     return budget.merge
+
+
+def first_read(target, budget: Budget) -> int:
+    """With rises among falls: the cycles from the first port's rise to the earliest edge of its
+    list, where the handler reads its items past the header: its lowest fall, less two N for the
+    edge with no line a block where a rise comes beside a fall can put first (irq_beside.asm.j2),
+    or the next port's rise."""
+    low = (budget.bottoms or (0,))[0]
+    return min(target.width_cycles(max(0, low - 2)), (budget.spans or (1 << 16,))[0])
 
 
 def rise_edge(budget: Budget, j: int) -> int:
