@@ -58,7 +58,8 @@ must fit between the handover before it and its port's rise; a window from a por
 its handover and falls, not its rise's edge, which comes before (`rise_edge`), and ends ENTRY
 before the first port's next rise, where the handover reads the first port's header (the first
 edge's N: Budget.head, the writing up to it); the rest of its items, read from its first edge on,
-end ENTRY before that edge (`first_read`), the rise's entry and handover in between. The handler
+end ENTRY before that rise, or before that edge (`first_read`) with the rise's entry and handover
+in between. The handler
 never reads the sort
 buffer then: frame_io sorts a port before it waits, and writes only its items (Budget.items) after
 the handler took the port before's, so the last port's sort can end before its wait
@@ -692,7 +693,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         # over from the items being written). The first port's handover reads only their header
         # (Budget.head); the rest is read from its first edge on (`first_read`): each chain to the
         # first port's items ends twice, at the header ENTRY before that rise, and whole ENTRY
-        # before that edge, the rise's entry and handover (`rises`) in between
+        # before that rise or before that edge, the rise's entry and handover (`rises`) in between
         after = [ld - rise_edge(budget, j) + ENTRY for j, ld in enumerate(load)]
         first, late = first_read(target, budget), budget.items[0] - (budget.head or budget.items[0])
         chains = [(hand[m - 1] + budget.items[0] + after[-1], last)]
@@ -700,8 +701,9 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
             chains.append((min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
                            + budget.items[-1] + budget.work + budget.sorts[0] + after[-2] + load[-1],
                            period - hand[m - 2]))
-        for chain, window in chains:
-            need += [chain - late + runs(window), chain + budget.rises[0] - first + runs(window + first)]
+        for chain, window in chains:     # (the whole before that rise holds too, where it comes first)
+            need += [chain - late + runs(window),
+                     min(chain + runs(window), chain + budget.rises[0] - first + runs(window + first))]
     else:
         need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:

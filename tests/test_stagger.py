@@ -609,3 +609,57 @@ def test_the_minimum_is_the_first_period_from_which_every_longer_one_holds(text)
     least = costs.frame_cycles(t, b)
     assert not costs.holds(t, b, least - 1)
     assert all(costs.holds(t, b, p) for p in range(least, least + 600, 7))
+
+
+
+def rotated_goal(period: int) -> str:
+    """24 servos moving between two poses over the full range (N 0 and 250 on every port), eased
+    and linear, two speed classes, as the benchmark's goal program, but each port's N in another
+    order: a port's items left from another port would move its edges."""
+    low = (0, 250, 36, 72, 108, 144, 180, 216)
+    n = lambda i: low[(i % 8 + 3 * (i // 8)) % 8]     # noqa: E731
+    text = f"frame {period}us\n" + "".join(f"servo s{i} = P{i // 8}.{i % 8}{' speed 0.3s/60deg' if i % 2 else ''}\n"
+                                           for i in range(24))
+    text += "pose a { " + ", ".join(f"s{i}: {n(i)}" for i in range(24)) + " }\n"
+    text += "pose b { " + ", ".join(f"s{i}: {250 - n(i)}" for i in range(24)) + " }\n"
+    return text + "main {\n  loop {\n    move a in 1000ms ease in-out\n    move b in 1000ms\n  }\n}\n"
+
+
+@pytest.mark.toolchain
+def test_the_first_ports_items_may_end_after_its_handover_for_it_reads_only_their_header():
+    """With rises among falls the first port's handover reads only its items' header; the handler
+    reads the rest from that port's first edge on. So the chain to those items ends twice: the
+    header before the port's rise, the whole before its earliest edge, the rise's run between
+    (`costs.first_read`): the goal program at 12 MHz is bound by them, less than where the whole
+    must be written before the rise. Built below that (the budget bypassed), some frame's
+    items are still being written when the handler takes them, and every pulse is exact in ucsim:
+    each port's N in its own order, so items left from another port would move edges."""
+    from servoc import api, sim
+    from servoc.diagnostics import Reporter
+    from servoc.observe import listing_lines
+    from servoc.source import SourceFile
+
+    at_min = build_text(rotated_goal(20000))
+    b, t = at_min.firmware.unit.budget, at_min.plan.program.target
+    assert b.stagger and len(b.lines) == 3 and 0 < b.head < b.items[0] and costs.first_read(t, b) > b.rises[0]
+    assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(b, head=0))  # all by the rise
+    period = at_min.plan.min_period_us - 150
+    source = SourceFile("goal.servo", rotated_goal(period))
+    reporter = Reporter(source)
+    plan = api.front_end(source, reporter).plan          # refused (period-too-short): built all the same
+    assert [d.code for d in reporter.diagnostics if d.is_error] == ["period-too-short"]
+    fw = api.assemble(api.codegen.generate(plan, source), reporter)
+    unit = fw.unit
+    labels = {line.split(":")[0].strip(): addr for addr, line, _ in listing_lines(fw.image.listing)
+              if addr is not None and ":" in line.split(";")[0]}
+    first = unit.ports[0]
+    marks = {labels[f"ft{first}"]: 0, labels[f"fs{unit.ports[1]}"]: 1, labels[f"emit_s{first}"]: 2}
+    frames = sum(m.frames for m in plan.moves) + 10
+    trace = sim.run(fw.hex_text, api.cycles_needed(plan, frames), probes=[(a, tag, ()) for a, tag in marks.items()],
+                    xtal_hz=t.clock_hz)
+    late, writing = 0, False
+    for p in trace.probes:
+        late += p.tag == 2 and writing      # the handover while the first port's items are being written
+        writing = p.tag == 0 or (writing and p.tag == 2)
+    assert late > 0
+    assert api.verify_hex(plan, fw.hex_text, frames).ok
