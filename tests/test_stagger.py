@@ -611,7 +611,6 @@ def test_the_minimum_is_the_first_period_from_which_every_longer_one_holds(text)
     assert all(costs.holds(t, b, p) for p in range(least, least + 600, 7))
 
 
-
 def rotated_goal(period: int) -> str:
     """24 servos moving between two poses over the full range (N 0 and 250 on every port), eased
     and linear, two speed classes, as the benchmark's goal program, but each port's N in another
