@@ -1163,8 +1163,8 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
         # took the port before's (ft: after the wait): the sort's term is both
         items = tuple(code.longest(f"ft{p}", {f"fs{q}" for q in ports} | {"fi_done"}) for p in ports
                       ) if ports and f"ft{ports[0]}" in code.labels else ()
-        # and the first port's up to their header and first edge (stagger_emit.asm.j2's loop)
-        head = code.longest(f"ft{ports[0]}", {f"fe{ports[0]}_l", f"fb{ports[0]}_l"}) if items else 0
+        # and the first port's up to their header and first edge
+        head = code.longest(f"ft{ports[0]}", set(items_loop(ports[0]))) if items else 0
         sorts = tuple(f - _unswapped(code, n, load.swaps) + (items[k] if items else 0)
                       for k, (f, n, load) in enumerate(zip(fs, lines, loads)))
         paired = {}
@@ -1198,6 +1198,12 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
                          steps=stepped and not staggered, stagger=staggered, emits=emits, items=items, head=head,
                          **paired, **serial),
             code.label_at(at))
+
+
+def items_loop(port: int) -> tuple[str, str]:
+    """The labels where stagger_emit.asm.j2's loop over a port's other edges begins, with a rise
+    beside a fall or without: the header and the first edge are written before it."""
+    return f"fe{port}_l", f"fb{port}_l"
 
 
 def _merged_budget(code: wcet.Code, work: int, ports: tuple[int, ...], lines: tuple[int, ...],

@@ -343,6 +343,17 @@ def test_hexapod_period_quoted(tmp_path: Path):
     plan = api.front_end(source, reporter).plan
     assert plan is not None and plan.nesting == 2 and plan.min_period_us == plan.period_us
     assert f"`examples/hexapod.servo`" in doc_text() and f"{plan.period_us} µs, which is also its default P" in doc_text()
+    # the spans, the pulses, everything a frame does and the ports one after another, as the code has them
+    from servoc import codegen, costs
+    unit = codegen.generate(plan, source)
+    b = unit.budget
+    load = sum(costs.handler_load(r, f) for r, f in zip(b.rises, b.falls))
+    apart = codegen.generate(plan, source, stepping=True, stagger=False).min_period_us
+    text = " ".join(doc_text().split())
+    spans = ", ".join(str(v) for v in b.spans[:-1]) + f" and {b.spans[-1]}"
+    assert b.stagger and f"their spans are {spans} cycles (the pulses: {sum(b.spans)})" in text
+    assert f"Everything the frame's work takes is {sum(b.sorts) + b.work + load} cycles" in text
+    assert f"P_min would be {apart} µs, the pulses themselves" in text
 
 
 def test_keyword_list():

@@ -611,13 +611,14 @@ def test_the_minimum_is_the_first_period_from_which_every_longer_one_holds(text)
     assert all(costs.holds(t, b, p) for p in range(least, least + 600, 7))
 
 
-def rotated_goal(period: int) -> str:
+def rotated_goal(clock: str = "") -> str:
     """24 servos moving between two poses over the full range (N 0 and 250 on every port), eased
     and linear, two speed classes, as the benchmark's goal program, but each port's N in another
-    order: a port's items left from another port would move its edges."""
+    order: a port's items left from another port would move its edges (a template for
+    `at_period`)."""
     low = (0, 250, 36, 72, 108, 144, 180, 216)
     n = lambda i: low[(i % 8 + 3 * (i // 8)) % 8]     # noqa: E731
-    text = f"frame {period}us\n" + "".join(f"servo s{i} = P{i // 8}.{i % 8}{' speed 0.3s/60deg' if i % 2 else ''}\n"
+    text = clock + "".join(f"servo s{i} = P{i // 8}.{i % 8}{' speed 0.3s/60deg' if i % 2 else ''}\n"
                                            for i in range(24))
     text += "pose a { " + ", ".join(f"s{i}: {n(i)}" for i in range(24)) + " }\n"
     text += "pose b { " + ", ".join(f"s{i}: {250 - n(i)}" for i in range(24)) + " }\n"
@@ -638,12 +639,12 @@ def test_the_first_ports_items_may_end_after_its_handover_for_it_reads_only_thei
     from servoc.observe import listing_lines
     from servoc.source import SourceFile
 
-    at_min = build_text(rotated_goal(20000))
+    at_min = build_text(at_period(rotated_goal(), 20000))
     b, t = at_min.firmware.unit.budget, at_min.plan.program.target
     assert b.stagger and len(b.lines) == 3 and 0 < b.head < b.items[0] and costs.first_read(t, b) > b.rises[0]
     assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(b, head=0))  # all by the rise
     period = at_min.plan.min_period_us - 150
-    source = SourceFile("goal.servo", rotated_goal(period))
+    source = SourceFile("goal.servo", at_period(rotated_goal(), period))
     reporter = Reporter(source)
     plan = api.front_end(source, reporter).plan          # refused (period-too-short): built all the same
     assert [d.code for d in reporter.diagnostics if d.is_error] == ["period-too-short"]
@@ -662,3 +663,26 @@ def test_the_first_ports_items_may_end_after_its_handover_for_it_reads_only_thei
         writing = p.tag == 0 or (writing and p.tag == 2)
     assert late > 0
     assert api.verify_hex(plan, fw.hex_text, frames).ok
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n"])
+def test_where_the_first_ports_items_end_by_its_first_edge_every_pulse_is_exact_at_the_minimum(clock):
+    """The goal program with each port's N in its own order, at 12 MHz and 11.0592 MHz: its
+    shortest period is set by the chain to the first port's items ending ENTRY before that port's
+    first edge (a later first edge would shorten it; it is shorter than all of them by the rise).
+    At exactly that period, over both moves whole (each start among them), every pulse is exact
+    in ucsim; 1 us less is refused."""
+    from servoc import api
+
+    period = own_minimum(rotated_goal(clock))
+    built = build_text(at_period(rotated_goal(clock), period))
+    plan, b, t = built.plan, built.firmware.unit.budget, built.plan.program.target
+    assert b.stagger and plan.min_period_us == period and t.us_at_least(costs.frame_cycles(t, b)) == period
+    later = dataclasses.replace(b, bottoms=(b.bottoms[0] + 30,) + b.bottoms[1:])
+    assert costs.frame_cycles(t, later) < costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(b, head=0))
+    assert costs.frame_cycles(t, b) > sum(b.spans)        # not the pulses
+    report = api.verify_hex(plan, built.firmware.hex_text, sum(m.frames for m in plan.moves) + 3)
+    assert report.ok and report.max_error_cycles == 0, report.summary()
+    _, diags = front_end_text(at_period(rotated_goal(clock), period - 1))
+    assert "period-too-short" in [d.code for d in diags if d.is_error]
