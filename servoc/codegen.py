@@ -1163,8 +1163,9 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
         # took the port before's (ft: after the wait): the sort's term is both
         items = tuple(code.longest(f"ft{p}", {f"fs{q}" for q in ports} | {"fi_done"}) for p in ports
                       ) if ports and f"ft{ports[0]}" in code.labels else ()
-        # and the first port's up to their header and first edge
-        head = code.longest(f"ft{ports[0]}", set(items_loop(ports[0]))) if items else 0
+        # and each port's up to their header and first edge (stagger_emit.asm.j2's loop)
+        heads = tuple(code.longest(f"ft{p}", set(items_loop(p))) for p in ports) if items else ()
+        head = heads[0] if heads else 0
         sorts = tuple(f - _unswapped(code, n, load.swaps) + (items[k] if items else 0)
                       for k, (f, n, load) in enumerate(zip(fs, lines, loads)))
         paired = {}
@@ -1195,7 +1196,7 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
     except wcet.WcetError as exc:
         return None, str(exc)
     return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), last_in_b=last_in_b,
-                         steps=stepped and not staggered, stagger=staggered, emits=emits, items=items, head=head,
+                         steps=stepped and not staggered, stagger=staggered, emits=emits, items=items, head=head, heads=heads,
                          **paired, **serial),
             code.label_at(at))
 

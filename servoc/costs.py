@@ -120,6 +120,7 @@ EXIT = 53
 # The build whose ports' pulses overlap (never at a 1 us cycle): exit_far's C(N) comes from the
 # table, a cycle more; its groups of m ports are 3 (m - 1) cycles longer than one port's edge.
 MEXIT = EXIT + 1
+RISEM_AT = 2        # stagger: a port's items begin with its rise's lines: MOV RISEM, ACT+p
 PORT_WRITE = 3      # a group's write to one port: MOV A,@R0; INC R0; XRL Px,A (the rise's too)
 
 
@@ -330,16 +331,49 @@ def _stagger_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int
     m = len(budget.lines)
     gap = serial_gap(budget) if budget.byte_cycles else 0     # the serial handler's time between two ports' runs
     low = budget.bottoms or (0,) * m
-    spans = [stagger_span(target, top, budget.emits[(k + 1) % m] + gap, k == m - 1, low[k], low[(k + 1) % m])
-             for k, top in enumerate(tops)]
-    for j in range(1, m - 1 if budget.last_in_b else m):
-        while True:
-            late = handovers(target, tops, spans)[j - 1] - sum(spans[:j - 1])
-            need = late + _sort_need(target, budget, j, spans[j - 1]) + SPLIT - 1
-            if need <= spans[j - 1]:
-                break
-            spans[j - 1] = rise_slot(target, tops[j - 1], need, low[j - 1])      # j - 1 < m - 1: never the last
-    return tuple(spans)
+    fits = []
+    for whole in (False, True):     # each sort and items by the next rise, or only what each read needs:
+        spans = [stagger_span(target, top, budget.emits[(k + 1) % m] + gap, k == m - 1, low[k], low[(k + 1) % m])
+                 for k, top in enumerate(tops)]
+        for j in range(1, m - 1 if budget.last_in_b else m):
+            while True:
+                need = _stagger_need(target, budget, tops, spans, j, whole)
+                if need <= spans[j - 1]:
+                    break
+                spans[j - 1] = rise_slot(target, tops[j - 1], need, low[j - 1])      # j - 1 < m - 1: never the last
+        fits.append(tuple(spans))
+    if fits[0] == fits[1] or not (budget.heads and budget.items):
+        return fits[1]
+    # a shorter span puts the next port's handover later: the fit whose period is shorter
+    def period(spans):
+        try:
+            return _least(target, dataclasses.replace(budget, spans=spans, tops=tops))
+        except TooSlow:
+            return 1 << 17
+    return min(fits, key=period)
+
+
+def _stagger_need(target, budget: "Budget", tops: tuple[int, ...], spans, j: int, whole: bool = False) -> int:
+    """The shortest span of port j - 1 that leaves port j's sort and items their time, from the
+    handover of port j - 1 (the background's wait ends there at the latest) with that port's load
+    and the serial handler's runs: the rise of port j reads only RISEM (written first), SPLIT - 1
+    before it; its handover only the items' header (`Budget.heads`), ENTRY before it; the rest
+    is read from port j's first edge on (`first_read`), so it ends ENTRY before that edge, port
+    j's rise and handover in between, or SPLIT - 1 before the rise."""
+    late = handovers(target, tops, tuple(spans))[j - 1] - sum(spans[:j - 1])
+    base = late + handler_load(budget.rises[j - 1], budget.falls[j - 1])
+    runs = serial_load(target, budget, spans[j - 1]) if budget.byte_cycles else 0
+    if whole or not budget.heads or not budget.items:
+        return base + budget.sorts[j] + runs + SPLIT - 1
+    whole = base + budget.sorts[j] + runs
+    net = budget.sorts[j] - budget.items[j]
+    first = first_read(target, dataclasses.replace(budget, bottoms=(budget.bottoms or (0,) * len(spans))[j:],
+                                                   spans=tuple(spans[j:])))
+    more = serial_load(target, budget, spans[j - 1] + first) if budget.byte_cycles else 0
+    header = base + net + budget.heads[j] + runs + ENTRY
+    return max(base + net + RISEM_AT + runs + SPLIT - 1,
+               header if header > target.width_cycles(tops[j - 1]) else 0,
+               min(whole + SPLIT - 1, whole - runs + more + budget.rises[j] + ENTRY - first))
 
 
 def handovers(target, tops: tuple[int, ...], spans: tuple[int, ...]) -> list[int]:
@@ -566,6 +600,8 @@ class Budget:
                                 # lines and the first group's link), or where no line falls, to MBUSY set;
                                 # stagger: the first port's items (`items`) up to their header and first
                                 # edge, all its handover reads (0: not known apart, the whole)
+    heads: tuple[int, ...] = ()     # stagger: each port's items up to their header and first edge (none:
+                                # not known apart: a later port's sort and items by its rise)
 
 
 def frame_cycles(target, budget: Budget) -> int:
@@ -711,7 +747,8 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
                         + runs(period - hand[m - 2]))
     for j in range(1, m - 1 if budget.last_in_b else m):   # each later port's sort in A fits between the rise before and its own
         room = span[j - 1] - (hand[j - 1] - rise[j - 1]) - (SPLIT - 1 if budget.stagger else 0)
-        if _sort_need(target, budget, j, span[j - 1]) > room:
+        if (_stagger_need(target, budget, budget.tops or (N_MAX,) * m, span, j) > span[j - 1] if budget.stagger
+                else _sort_need(target, budget, j, span[j - 1]) > room):
             raise TooSlow(f"the sort of the port pulsed {j + 1}. ({budget.sorts[j]} machine cycles, and the serial "
                           f"handler's {runs(span[j - 1])}) does not fit between the rise before it and its own")
     return max(need)
