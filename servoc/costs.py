@@ -327,12 +327,14 @@ def _fit_spans(target, budget: "Budget", tops: tuple[int, ...], gap: int | None)
 def _stagger_spans(target, budget: "Budget", tops: tuple[int, ...]) -> tuple[int, ...]:
     """`fit_spans` where each rise may come among the falls of the port before it: each span
     `stagger_span`, longer where the next port's sort needs more between the handover before it
-    (`handovers`) and its rise."""
+    (`handovers`) and its rise (`_stagger_need`): fitted with each later port's sort and items
+    whole by its rise, and with each part only by the read that needs it; the fit whose period
+    is shorter."""
     m = len(budget.lines)
     gap = serial_gap(budget) if budget.byte_cycles else 0     # the serial handler's time between two ports' runs
     low = budget.bottoms or (0,) * m
     fits = []
-    for whole in (False, True):     # each sort and items by the next rise, or only what each read needs:
+    for whole in (False, True):
         spans = [stagger_span(target, top, budget.emits[(k + 1) % m] + gap, k == m - 1, low[k], low[(k + 1) % m])
                  for k, top in enumerate(tops)]
         for j in range(1, m - 1 if budget.last_in_b else m):
@@ -365,7 +367,7 @@ def _stagger_need(target, budget: "Budget", tops: tuple[int, ...], spans, j: int
     runs = serial_load(target, budget, spans[j - 1]) if budget.byte_cycles else 0
     if whole or not budget.heads or not budget.items:
         return base + budget.sorts[j] + runs + SPLIT - 1
-    whole = base + budget.sorts[j] + runs
+    written = base + budget.sorts[j] + runs
     net = budget.sorts[j] - budget.items[j]
     first = first_read(target, dataclasses.replace(budget, bottoms=(budget.bottoms or (0,) * len(spans))[j:],
                                                    spans=tuple(spans[j:])))
@@ -373,7 +375,7 @@ def _stagger_need(target, budget: "Budget", tops: tuple[int, ...], spans, j: int
     header = base + net + budget.heads[j] + runs + ENTRY
     return max(base + net + RISEM_AT + runs + SPLIT - 1,
                header if header > target.width_cycles(tops[j - 1]) else 0,
-               min(whole + SPLIT - 1, whole - runs + more + budget.rises[j] + ENTRY - first))
+               min(written + SPLIT - 1, written - runs + more + budget.rises[j] + ENTRY - first))
 
 
 def handovers(target, tops: tuple[int, ...], spans: tuple[int, ...]) -> list[int]:

@@ -194,7 +194,8 @@ def test_each_port_is_sorted_before_the_wait_and_its_items_written_after_it(cloc
         assert sorted_ == ["sort8", "distinct8"], sorted_
         after = instrs[labels[f"ft{p}"]:labels[f"ft{p}"] + 3]
         assert ("MOV", "RISEM") in [(ins.op, ins.args[0]) for ins in after]
-    whole = costs._frame_cycles(t, dataclasses.replace(b, items=()), 0)    # each sort whole after its wait
+    after = dataclasses.replace(b, items=(), heads=())      # each sort whole after its wait, spans fitted to it
+    whole = costs._frame_cycles(t, dataclasses.replace(after, spans=costs.fit_spans(t, after, b.tops)), 0)
     assert costs.frame_cycles(t, b) < whole
 
 
@@ -388,7 +389,7 @@ def block_program(clock: str, shape: tuple) -> tuple[str, int]:
     it (P1's lowest line, which P0's span depends on, tried at a few N where it does not settle)."""
     offsets = [o for o in shape if o != "first"]
     for low in (100, 97, 94, 103, 91):
-        values = [[0, 250, 10, 20, 30, 40, 50, 60], [low, 250, 120, 130, 140, 150, 160, 170],
+        values = [[10, 20, 30, 0, 250, 40, 50, 60], [low, 250, 120, 130, 140, 150, 160, 170],
                   [100, 250, 180, 190, 200, 210, 220, 230]]
         for _ in range(6):
             template = clock + held(values)
@@ -686,3 +687,74 @@ def test_where_the_first_ports_items_end_by_its_first_edge_every_pulse_is_exact_
     assert report.ok and report.max_error_cycles == 0, report.summary()
     _, diags = front_end_text(at_period(rotated_goal(clock), period - 1))
     assert "period-too-short" in [d.code for d in diags if d.is_error]
+
+
+def later_port(clock: str = "") -> str:
+    """One servo on P0 within N 150..185 and eight on P1 within N 120..185, moved there and back
+    (eased and linear): P1's sort and items take longer than P0's pulses, so where they had to be
+    written whole by P1's rise, P0's span would be that long (a template for `at_period`)."""
+    low = (120, 185, 130, 175, 140, 165, 150, 160)
+    text = clock + "servo a = P0.0 speed 0.0001s/60deg\n"
+    text += "".join(f"servo b{i} = P1.{i} speed 0.0001s/60deg\n" for i in range(8))
+    text += "pose lo { a: 150, " + ", ".join(f"b{i}: {n}" for i, n in enumerate(low)) + " }\n"
+    text += "pose hi { a: 185, " + ", ".join(f"b{i}: {305 - n}" for i, n in enumerate(low)) + " }\n"
+    return text + "main {\n  move lo\n  loop {\n    move hi in 200ms ease in-out\n    move lo in 200ms\n  }\n}\n"
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n"])
+def test_a_later_ports_span_need_only_leave_its_rise_mask_by_its_rise(clock):
+    """With rises among falls a later port's rise reads only RISEM, which its items write first;
+    its handover reads their header, and the handler the rest from its first edge on
+    (`costs._stagger_need`). So the span of the port before it can end before that port's sort and
+    items would: P0's span here is far shorter than where they must be written whole by P1's
+    rise, and so is the period. At that minimum, over both moves whole, every pulse is exact in
+    ucsim; 1 us less is refused."""
+    from servoc import api
+
+    built, period = check_at_minimum(later_port(clock), 20000)
+    plan, b, t = built.plan, built.firmware.unit.budget, built.plan.program.target
+    assert b.stagger and len(b.lines) == 2 and b.heads and b.heads[1] < b.items[1]
+    whole = dataclasses.replace(b, heads=())       # each later port's sort and items by its rise
+    spans = costs.fit_spans(t, whole, b.tops)
+    assert b.spans[0] + 300 < spans[0] and b.spans[0] < b.sorts[1]
+    assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(whole, spans=spans))
+    report = api.verify_hex(plan, built.firmware.hex_text, sum(m.frames for m in plan.moves) + 3)
+    assert report.ok and report.max_error_cycles == 0, report.summary()
+
+
+@pytest.mark.toolchain
+def test_a_later_ports_items_may_be_written_after_its_rise():
+    """`later_port` built 100 us below its minimum (the budget bypassed): in frames after the first,
+    P1's rise comes while its items are still being written (after RISEM, which it reads), and
+    every pulse is exact in ucsim."""
+    from servoc import api, sim
+    from servoc.diagnostics import Reporter
+    from servoc.observe import listing_lines
+    from servoc.source import SourceFile
+
+    at_min = build_text(at_period(later_port(), 20000))
+    period = at_min.plan.min_period_us - 100
+    source = SourceFile("later.servo", at_period(later_port(), period))
+    reporter = Reporter(source)
+    plan = api.front_end(source, reporter).plan          # refused (period-too-short): built all the same
+    assert [d.code for d in reporter.diagnostics if d.is_error] == ["period-too-short"]
+    fw = api.assemble(api.codegen.generate(plan, source), reporter)
+    unit, t = fw.unit, plan.program.target
+    assert unit.budget.stagger
+    labels = {line.split(":")[0].strip(): addr for addr, line, _ in listing_lines(fw.image.listing)
+              if addr is not None and ":" in line.split(";")[0]}
+    first, later = unit.ports
+    rise = labels[f"win_p{first}"] + 2 * costs.SLED + 16      # P1's rise in P0's window (its sled's end)
+    marks = {labels[f"ft{later}"]: 0, labels["fi_done"]: 1, rise: 2}
+    frames = sum(m.frames for m in plan.moves) + 10
+    trace = sim.run(fw.hex_text, api.cycles_needed(plan, frames), probes=[(a, tag, ()) for a, tag in marks.items()],
+                    xtal_hz=t.clock_hz)
+    late, writing = 0, False
+    rises = [p for p in trace.probes if p.tag == 2]
+    assert len(rises) >= frames - 2
+    for p in trace.probes:
+        late += p.tag == 2 and writing and p.cycle > rises[1].cycle
+        writing = p.tag == 0 or (writing and p.tag == 2)
+    assert late > 0
+    assert api.verify_hex(plan, fw.hex_text, frames).ok
