@@ -1019,6 +1019,8 @@ def _set_rises(e: dict, plan: Plan, period_cycles: int, spans: tuple[int, ...]) 
         # stagger: the highest N whose fall comes before the next port's rise, and the N after it
         p["nstar"] = max((n for n in range(251) if target.width_cycles(n) < p["rnext"]), default=-1)
         p["n_after"] = p["nstar"] + 1
+        p["upto"], p["rise_at"] = ((f"N <= {p['nstar']}", f"after the N up to {p['nstar']}") if p["nstar"] >= 0
+                                   else ("N < 0, never", "before every N"))
         # rins takes the rise for a step only where nstar - N is below this (its gap from C(N) is then
         # found from low bytes): 0 where the rise is SPLIT or more after C(nstar), so never a step
         # (the last port's, or one whose span its sort made longer, can be 256 cycles or more after)
