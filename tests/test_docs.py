@@ -354,6 +354,7 @@ def test_hexapod_period_quoted(tmp_path: Path):
     assert b.stagger and f"their spans are {spans} cycles (the pulses: {sum(b.spans)})" in text
     assert f"Everything the frame's work takes is {sum(b.sorts) + b.work + load} cycles" in text
     assert f"P_min would be {apart} µs, the pulses themselves" in text
+    assert b.spans[0] < b.sorts[1] and f"shorter than P1's sort and list ({b.sorts[1]} cycles)" in text
 
 
 def test_keyword_list():
