@@ -19,8 +19,8 @@ Coverage: every code of the lint registry and of the checker and parser has a
 
 from __future__ import annotations
 
-import dataclasses
 import contextlib
+import dataclasses
 import io
 import itertools
 import json
