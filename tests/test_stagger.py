@@ -612,6 +612,38 @@ def test_the_minimum_is_the_first_period_from_which_every_longer_one_holds(text)
     assert all(costs.holds(t, b, p) for p in range(least, least + 600, 7))
 
 
+def read_while_written(template: str, period: int, marks, after_frame: int = 0) -> tuple[int, bool]:
+    """`template` built at `period`, below its own minimum (refused as period-too-short, built all
+    the same) and run in ucsim with probes at `marks(ports)`: where a port's items start being
+    written, where that ends, and the read (a label, or a label and an offset from it). How often
+    the read comes while the items are being written (after the first `after_frame` reads), and
+    whether every pulse is exact."""
+    from servoc import api, sim
+    from servoc.diagnostics import Reporter
+    from servoc.observe import listing_lines
+    from servoc.source import SourceFile
+
+    source = SourceFile("below.servo", at_period(template, period))
+    reporter = Reporter(source)
+    plan = api.front_end(source, reporter).plan
+    assert [d.code for d in reporter.diagnostics if d.is_error] == ["period-too-short"]
+    fw = api.assemble(api.codegen.generate(plan, source), reporter)
+    assert fw.unit.budget.stagger
+    labels = {line.split(":")[0].strip(): addr for addr, line, _ in listing_lines(fw.image.listing)
+              if addr is not None and ":" in line.split(";")[0]}
+    at = [labels[m] if isinstance(m, str) else labels[m[0]] + m[1] for m in marks(fw.unit.ports)]
+    frames = sum(m.frames for m in plan.moves) + 10
+    trace = sim.run(fw.hex_text, api.cycles_needed(plan, frames), probes=[(a, tag, ()) for tag, a in enumerate(at)],
+                    xtal_hz=plan.program.target.clock_hz)
+    reads = [p for p in trace.probes if p.tag == 2]
+    assert len(reads) >= frames - 2
+    late, writing, since = 0, False, reads[after_frame - 1].cycle if after_frame else -1
+    for p in trace.probes:
+        late += p.tag == 2 and writing and p.cycle > since
+        writing = p.tag == 0 or (writing and p.tag == 2)
+    return late, api.verify_hex(plan, fw.hex_text, frames).ok
+
+
 def rotated_goal(clock: str = "") -> str:
     """24 servos moving between two poses over the full range (N 0 and 250 on every port), eased
     and linear, two speed classes, as the benchmark's goal program, but each port's N in another
@@ -635,35 +667,13 @@ def test_the_first_ports_items_may_end_after_its_handover_for_it_reads_only_thei
     must be written before the rise. Built below that (the budget bypassed), some frame's
     items are still being written when the handler takes them, and every pulse is exact in ucsim:
     each port's N in its own order, so items left from another port would move edges."""
-    from servoc import api, sim
-    from servoc.diagnostics import Reporter
-    from servoc.observe import listing_lines
-    from servoc.source import SourceFile
-
     at_min = build_text(at_period(rotated_goal(), 20000))
     b, t = at_min.firmware.unit.budget, at_min.plan.program.target
     assert b.stagger and len(b.lines) == 3 and 0 < b.head < b.items[0] and costs.first_read(t, b) > b.rises[0]
     assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(b, head=0))  # all by the rise
-    period = at_min.plan.min_period_us - 150
-    source = SourceFile("goal.servo", at_period(rotated_goal(), period))
-    reporter = Reporter(source)
-    plan = api.front_end(source, reporter).plan          # refused (period-too-short): built all the same
-    assert [d.code for d in reporter.diagnostics if d.is_error] == ["period-too-short"]
-    fw = api.assemble(api.codegen.generate(plan, source), reporter)
-    unit = fw.unit
-    labels = {line.split(":")[0].strip(): addr for addr, line, _ in listing_lines(fw.image.listing)
-              if addr is not None and ":" in line.split(";")[0]}
-    first = unit.ports[0]
-    marks = {labels[f"ft{first}"]: 0, labels[f"fs{unit.ports[1]}"]: 1, labels[f"emit_s{first}"]: 2}
-    frames = sum(m.frames for m in plan.moves) + 10
-    trace = sim.run(fw.hex_text, api.cycles_needed(plan, frames), probes=[(a, tag, ()) for a, tag in marks.items()],
-                    xtal_hz=t.clock_hz)
-    late, writing = 0, False
-    for p in trace.probes:
-        late += p.tag == 2 and writing      # the handover while the first port's items are being written
-        writing = p.tag == 0 or (writing and p.tag == 2)
-    assert late > 0
-    assert api.verify_hex(plan, fw.hex_text, frames).ok
+    late, ok = read_while_written(rotated_goal(), at_min.plan.min_period_us - 150,
+                                  lambda ports: (f"ft{ports[0]}", f"fs{ports[1]}", f"emit_s{ports[0]}"))
+    assert late > 0 and ok
 
 
 @pytest.mark.toolchain
@@ -728,33 +738,8 @@ def test_a_later_ports_items_may_be_written_after_its_rise():
     """`later_port` built 100 us below its minimum (the budget bypassed): in frames after the first,
     P1's rise comes while its items are still being written (after RISEM, which it reads), and
     every pulse is exact in ucsim."""
-    from servoc import api, sim
-    from servoc.diagnostics import Reporter
-    from servoc.observe import listing_lines
-    from servoc.source import SourceFile
-
     at_min = build_text(at_period(later_port(), 20000))
-    period = at_min.plan.min_period_us - 100
-    source = SourceFile("later.servo", at_period(later_port(), period))
-    reporter = Reporter(source)
-    plan = api.front_end(source, reporter).plan          # refused (period-too-short): built all the same
-    assert [d.code for d in reporter.diagnostics if d.is_error] == ["period-too-short"]
-    fw = api.assemble(api.codegen.generate(plan, source), reporter)
-    unit, t = fw.unit, plan.program.target
-    assert unit.budget.stagger
-    labels = {line.split(":")[0].strip(): addr for addr, line, _ in listing_lines(fw.image.listing)
-              if addr is not None and ":" in line.split(";")[0]}
-    first, later = unit.ports
-    rise = labels[f"win_p{first}"] + 2 * costs.SLED + 16      # P1's rise in P0's window (its sled's end)
-    marks = {labels[f"ft{later}"]: 0, labels["fi_done"]: 1, rise: 2}
-    frames = sum(m.frames for m in plan.moves) + 10
-    trace = sim.run(fw.hex_text, api.cycles_needed(plan, frames), probes=[(a, tag, ()) for a, tag in marks.items()],
-                    xtal_hz=t.clock_hz)
-    late, writing = 0, False
-    rises = [p for p in trace.probes if p.tag == 2]
-    assert len(rises) >= frames - 2
-    for p in trace.probes:
-        late += p.tag == 2 and writing and p.cycle > rises[1].cycle
-        writing = p.tag == 0 or (writing and p.tag == 2)
-    assert late > 0
-    assert api.verify_hex(plan, fw.hex_text, frames).ok
+    late, ok = read_while_written(later_port(), at_min.plan.min_period_us - 100,
+                                  lambda ports: (f"ft{ports[1]}", "fi_done", (f"win_p{ports[0]}", 2 * costs.SLED + 16)),
+                                  after_frame=1)     # P1's rise: in P0's window, its sled's end
+    assert late > 0 and ok
