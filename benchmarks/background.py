@@ -1,7 +1,7 @@
 """The background's stretches measured in ucsim, beside the parts of the budget that charge them.
 
     .venv/bin/python benchmarks/background.py            # the goal program at 12 MHz, 6.985 ms
-    .venv/bin/python benchmarks/background.py --period 6751
+    .venv/bin/python benchmarks/background.py --period 6727
 
 The program is `engine_terms.goal_source` (24 servos over the full range, an eased move and a
 linear one), built with rises among falls at the given period and run in ucsim over every move
