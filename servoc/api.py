@@ -15,7 +15,6 @@ from __future__ import annotations
 import dataclasses
 import gc
 import os
-from collections import OrderedDict
 from contextlib import contextmanager
 from dataclasses import dataclass
 from fractions import Fraction
@@ -102,33 +101,40 @@ def check(tree, reporter: Reporter):
 def plan(program, reporter: Reporter) -> Plan:
     """model.Program -> Plan (frame period, steps with frame counts, move instances), its period
     fixed by the period stage (`choose_period`)."""
-    return choose_period(program, _plan.plan(program, reporter))
+    with _stage():
+        return choose_period(program, _plan.plan(program, reporter))
 
 
-_GENERATED_MOST = 64                # plans `_generate` keeps the code of, and at most
-_GENERATED_CHARS = 32_000_000       # this much assembly text in all (the newest always kept)
-_generated: OrderedDict = OrderedDict()     # plan as a key -> code, the newest last
+_built: list | None = None      # the builds of the period stage under way (`_stage`): (plan as a key, code)
 
 
-def forget_generated() -> None:
-    """Drop the code `_generate` keeps (for a cost model or a template changed under it)."""
-    _generated.clear()
+@contextmanager
+def _stage():
+    """A period stage: the code generated for a plan is kept until it ends, and an equal plan
+    (but for `min_period_us` and `period_is_default`, which code generation does not read) gets
+    it back (the searches meet the same periods; `_least_fitting` runs the stage again)."""
+    global _built
+    outer = _built
+    if outer is None:
+        _built = []
+    try:
+        yield
+    finally:
+        if outer is None:
+            _built = None
 
 
 def _generate(p: Plan) -> codegen.AsmUnit:
-    """`codegen.generate(p)`, or the code it generated for an equal plan (but for `min_period_us`
-    and `period_is_default`, which code generation does not read) not long ago: the period
-    stage's searches meet the same periods, each command runs the stage again, and the language
-    server and the tests compile the same programs again."""
+    """`codegen.generate(p)`, or, within a period stage, the code it generated for an equal plan."""
+    if _built is None:
+        return codegen.generate(p)
     key = dataclasses.replace(p, min_period_us=0, period_is_default=False)
-    unit = _generated.get(key)
-    if unit is not None:
-        _generated.move_to_end(key)
-        return unit
-    unit = _generated[key] = codegen.generate(p)
-    chars = sum(len(u.text) for u in _generated.values())
-    while len(_generated) > 1 and (len(_generated) > _GENERATED_MOST or chars > _GENERATED_CHARS):
-        chars -= len(_generated.popitem(last=False)[1].text)
+    for k, unit in _built:
+        if (k.period_us, k.compact, k.holds, k.first_step) == (key.period_us, key.compact, key.holds, key.first_step) \
+                and k == key:
+            return unit
+    unit = codegen.generate(p)
+    _built.append((key, unit))
     return unit
 
 
@@ -478,7 +484,8 @@ def build(source: SourceFile, reporter: Reporter, for_size: bool = False) -> tup
             for d in trial.diagnostics:
                 reporter.report(d)
             return fe, firmware
-    fe = dataclasses.replace(fe, plan=choose_period(fe.plan.program, dataclasses.replace(fe.plan, compact=True)))
+    with _stage():
+        fe = dataclasses.replace(fe, plan=choose_period(fe.plan.program, dataclasses.replace(fe.plan, compact=True)))
     unit = generate(fe.plan, source, reporter)
     return fe, None if unit is None else assemble(unit, reporter)
 

@@ -11,24 +11,10 @@ import re
 import tempfile
 from dataclasses import dataclass
 
-import pytest
-
 from servoc import api
 from servoc.diagnostics import render_short
 from servoc.steps import Plan
 from servoc.source import SourceFile
-
-
-@pytest.fixture(autouse=True)
-def _fresh_code_where_patched(request):
-    """A test that patches (`monkeypatch`) gets no code generated before its patches, and leaves
-    none generated under them (`api._generate` keeps the code of the last plans)."""
-    if "monkeypatch" not in request.fixturenames:
-        yield
-        return
-    api.forget_generated()
-    yield
-    api.forget_generated()
 
 
 @dataclass(frozen=True)

@@ -382,6 +382,21 @@ def test_rises_beside_falls_verify_at_the_minimum(clock, case):
     assert codegen.generate(built.plan, stepping=True).min_period_us > period
 
 
+def test_the_held_pose_figures_quoted_in_the_docs_are_the_codes():
+    """docs/language.md and the README quote the shortest period of 24 servos held at N 250 at
+    12 MHz, rises among falls (verified at exactly that period by
+    `test_rises_beside_falls_verify_at_the_minimum`), beside the ports one after another."""
+    template = CASES["all 24 lines at N 250"]
+    period = own_minimum(template, 12000)
+    fe, _ = front_end_text(at_period(template, period))
+    apart = codegen.generate(fe.plan, stepping=True, stagger=False).min_period_us
+    assert fe.plan.rises_among_falls and apart > period
+    root = Path(__file__).resolve().parent.parent
+    for doc in ("docs/language.md", "README.md"):
+        text = " ".join((root / doc).read_text(encoding="utf-8").split())
+        assert f"{period / 1000:.3f} ms instead of {apart / 1000:.3f}" in text, doc
+
+
 def block_program(clock: str, shape: tuple) -> tuple[str, int]:
     """Held lines on P0, P1 and P2 such that P0's rise among its falls comes beside the fall of an
     N j, with P0's lines at j + each offset in `shape`, its others at N 0 (or, where `shape` starts
