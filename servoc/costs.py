@@ -359,9 +359,10 @@ def _stagger_need(target, budget: "Budget", tops: tuple[int, ...], spans, j: int
     """The shortest span of port j - 1 that leaves port j's sort and items their time, from the
     handover of port j - 1 (the background's wait ends there at the latest) with that port's load
     and the serial handler's runs: the rise of port j reads only RISEM (written first), SPLIT - 1
-    before it; its handover only the items' header (`Budget.heads`), ENTRY before it; the rest
-    is read from port j's first edge on (`first_read`), so it ends ENTRY before that edge, port
-    j's rise and handover in between, or SPLIT - 1 before the rise."""
+    before it; its handover only the items' header (`Budget.heads`), ENTRY before it: it comes
+    after port j's rise and after port j - 1's last fall, which in some frame can be its lowest,
+    C(bottom); the rest is read from port j's first edge on (`first_read`), so it ends ENTRY
+    before that edge, port j's rise and handover in between, or SPLIT - 1 before the rise."""
     late = handovers(target, tops, tuple(spans))[j - 1] - sum(spans[:j - 1])
     base = late + handler_load(budget.rises[j - 1], budget.falls[j - 1])
     runs = serial_load(target, budget, spans[j - 1]) if budget.byte_cycles else 0
@@ -373,8 +374,9 @@ def _stagger_need(target, budget: "Budget", tops: tuple[int, ...], spans, j: int
                                                    spans=tuple(spans[j:])))
     more = serial_load(target, budget, spans[j - 1] + first) if budget.byte_cycles else 0
     header = base + net + budget.heads[j] + runs + ENTRY
+    bottom = (budget.bottoms or (0,) * len(spans))[j - 1]
     return max(base + net + RISEM_AT + runs + SPLIT - 1,
-               header if header > target.width_cycles(tops[j - 1]) else 0,
+               header if header > target.width_cycles(bottom) else 0,
                min(written + SPLIT - 1, written - runs + more + budget.rises[j] + ENTRY - first))
 
 

@@ -357,6 +357,7 @@ def test_hexapod_period_quoted(tmp_path: Path):
     assert f"P_min would be {apart} µs, the pulses themselves" in text
     whole = costs.fit_spans(unit.target, dataclasses.replace(b, heads=()), b.tops)[0]     # P1's sort by its rise
     assert b.spans[0] < whole and f"P0's span would be {whole} cycles if P1's sort and list" in text
+    assert unit.target.width_cycles(b.bottoms[0]) < b.spans[0] and f"P0's lowest fall, N {b.bottoms[0]}, can come" in text
 
 
 def test_keyword_list():

@@ -714,15 +714,15 @@ def test_where_the_first_ports_items_end_by_its_first_edge_every_pulse_is_exact_
     assert "period-too-short" in [d.code for d in diags if d.is_error]
 
 
-def later_port(clock: str = "") -> str:
-    """One servo on P0 within N 150..185 and eight on P1 within N 120..185, moved there and back
-    (eased and linear): P1's sort and items take longer than P0's pulses, so where they had to be
-    written whole by P1's rise, P0's span would be that long (a template for `at_period`)."""
+def later_port(clock: str = "", a: tuple[int, int] = (150, 185)) -> str:
+    """One servo on P0 within N `a` (150..185) and eight on P1 within N 120..185, moved there and
+    back (eased and linear): P1's sort and items take longer than P0's pulses, so where they had to
+    be written whole by P1's rise, P0's span would be that long (a template for `at_period`)."""
     low = (120, 185, 130, 175, 140, 165, 150, 160)
     text = clock + "servo a = P0.0 speed 0.0001s/60deg\n"
     text += "".join(f"servo b{i} = P1.{i} speed 0.0001s/60deg\n" for i in range(8))
-    text += "pose lo { a: 150, " + ", ".join(f"b{i}: {n}" for i, n in enumerate(low)) + " }\n"
-    text += "pose hi { a: 185, " + ", ".join(f"b{i}: {305 - n}" for i, n in enumerate(low)) + " }\n"
+    text += f"pose lo {{ a: {a[0]}, " + ", ".join(f"b{i}: {n}" for i, n in enumerate(low)) + " }\n"
+    text += f"pose hi {{ a: {a[1]}, " + ", ".join(f"b{i}: {305 - n}" for i, n in enumerate(low)) + " }\n"
     return text + "main {\n  move lo\n  loop {\n    move hi in 200ms ease in-out\n    move lo in 200ms\n  }\n}\n"
 
 
@@ -746,6 +746,30 @@ def test_a_later_ports_span_need_only_leave_its_rise_mask_by_its_rise(clock):
     assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(whole, spans=spans))
     report = api.verify_hex(plan, built.firmware.hex_text, sum(m.frames for m in plan.moves) + 3)
     assert report.ok and report.max_error_cycles == 0, report.summary()
+
+
+@pytest.mark.toolchain
+@pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n"])
+def test_a_later_ports_header_is_written_before_the_earliest_handover(clock):
+    """P1's handover comes after P1's rise and after P0's last fall. With P0's servo going down to
+    N 0 that fall can come at C(0), before P1's header would be written by a span that leaves only
+    RISEM its time: the span then holds the header too (ENTRY before P1's rise), and is longer than
+    where P0's lowest N puts its last fall after that header (N 40). Both exact in ucsim at their
+    minimum, 1 us less refused."""
+    spans = {}
+    for a in ((0, 120), (40, 100)):
+        built, _ = check_at_minimum(later_port(clock, a), 20000)
+        b, t = built.firmware.unit.budget, built.plan.program.target
+        assert b.stagger and len(b.lines) == 2 and b.bottoms[0] == a[0]
+        late = costs.handovers(t, b.tops, b.spans)[0]
+        header = (late + costs.handler_load(b.rises[0], b.falls[0]) + b.sorts[1] - b.items[1] + b.heads[1]
+                  + costs.ENTRY)    # P1's header written, and the entry before the handover that reads it
+        if a[0] == 0:       # P0's last fall can come before the header: the span holds it
+            assert t.width_cycles(b.bottoms[0]) < header <= b.spans[0]
+        else:               # P0's last fall, and the handover, come after it: the span need not
+            assert b.spans[0] < header <= t.width_cycles(b.bottoms[0])
+        spans[a] = b.spans[0]
+    assert spans[(0, 120)] > spans[(40, 100)]
 
 
 @pytest.mark.toolchain
