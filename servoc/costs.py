@@ -29,7 +29,9 @@ must fit the frame, and so must the pulses themselves:
     P >= R(m-2) + sort(m-1) + W + sort(0) + load(m-2) + load(m-1)   (m >= 2 ports)
     P >= R(m-1) + sort(0) + load(m-1)
 
-(with one port the second is, more finely, the larger of: a frame whose work starts no
+(the falls of ports m-2 and m-1 in the third come from one frame: they are charged together, for the
+frame whose falls of both take the handler longest, `pair_load`, not each port's worst frame apart;
+with one port the second is, more finely, the larger of: a frame whose work starts no
 move, with the worst sort and falls of any frame; and one whose work reads a move's record, with
 the sort of that move's first frame and the falls of the frame before it, for each move: frame_io
 returns only once the handler has taken the port, so a frame's work, its sort and the falls of the
@@ -471,6 +473,34 @@ def port_load(target, motions: frozenset) -> PortLoad:
 
 
 @lru_cache(maxsize=16)
+def pair_load(target, motions: frozenset, ports: tuple[int, ...], pair: tuple[int, int]) -> int:
+    """The handler's most cycles for the falls of two ports in one frame (`edges_load` of each),
+    over every frame the program's moves can put out: `motions` every line of every port
+    (`flow.port_motions(joint=True)`), `ports` each line's port. At most the sum of the two ports'
+    `port_load`, and less where their worst frames are not the same frame. A move that can start
+    after an interruption (a `Reach`), or whose frames are more than SWEEP_BUDGET breakpoints, gets
+    the sum of the two ports' hulls."""
+    widths = [target.width_cycles(n) for n in range(256)]
+    cut = sum(q == pair[0] for q in ports)
+    both = {tuple(ab for ab, q in zip(lines, ports) if q == pair[0]) + tuple(ab for ab, q in zip(lines, ports) if q == pair[1])
+            for lines in motions}
+    worst, budget = 0, SWEEP_BUDGET
+    for lines in sorted(both, key=repr):
+        falling = [ab is not None for ab in lines]
+        fall = [ab for ab in lines if ab is not None]
+        exact = all(isinstance(a, int) and isinstance(b, int) for a, b in fall)
+        cost = sum(abs(b - a) for a, b in fall) if exact else 0
+        if not exact or cost > budget:
+            worst = max(worst, sum(_hull(widths, part, SPLIT) for part in (lines[:cut], lines[cut:]) if any(part)))
+            continue
+        budget -= cost
+        for cur in _frames(lines):
+            worst = max(worst, edges_load(widths, [v for v, f in zip(cur[:cut], falling) if f])
+                        + edges_load(widths, [v for v, f in zip(cur[cut:], falling[cut:]) if f]))
+    return worst
+
+
+@lru_cache(maxsize=16)
 def start_loads(target, starts: frozenset) -> frozenset:
     """For each move start on a port (`flow.move_starts`): (the handler's cycles for the falls of
     the frame before it, the comparators of its sort that swap on its first frame, the move is
@@ -577,6 +607,8 @@ class Budget:
     rises: tuple[int, ...]      # each port's rise entry of the handler, overflow to RETI
     lines: tuple[int, ...]      # servo lines on each port
     falls: tuple[int, ...]      # the handler's worst cycles for each port's falls in a frame (port_load)
+    pair_falls: int = 0         # the most of the last two ports' falls in one frame (`pair_load`; 0: not
+                                # known together, the sum of their `falls`)
     start_frame: int | None = None  # one port: the longest frame that starts a move, its work and
                                 # its own sort and falls (`start_loads`); None: not known apart
     other_work: int = 0         # then the longest work between frames of those that start no move
@@ -722,6 +754,9 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     if budget.start_frame is not None:      # one port: a frame's work, then its sort, within its period
         frame = max(budget.sorts[0] + budget.other_work + load[0], budget.start_frame + budget.rises[0])
     need = [rise[m], frame + runs(period)]
+    # the last two ports' falls in one frame: both in the chain from the one before last's rise
+    # (with stagger, its handover) to the first port's next rise, both of the same frame
+    together = (budget.falls[-2] + budget.falls[-1] - budget.pair_falls) if m >= 2 and budget.pair_falls else 0
     # where each port's items are written (its rise; with stagger, after the port before's last fall)
     hand = handovers(target, budget.tops or (250,) * m, tuple(span)) if budget.stagger else rise[:m]
     last = period - hand[m - 1]     # the last port's handover to the first port's next rise
@@ -739,7 +774,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         chains = [(hand[m - 1] + budget.items[0] + after[-1], last)]
         if m >= 2:
             chains.append((min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
-                           + budget.items[-1] + budget.work + budget.sorts[0] + after[-2] + load[-1],
+                           + budget.items[-1] + budget.work + budget.sorts[0] + after[-2] + load[-1] - together,
                            period - hand[m - 2]))
         for chain, window in chains:     # (the whole before that rise holds too, where it comes first)
             need += [chain - late + runs(window),
@@ -748,7 +783,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:
             need.append(hand[m - 2] + budget.sorts[-1] + budget.work + budget.sorts[0] + load[-2] + load[-1]
-                        + runs(period - hand[m - 2]))
+                        - together + runs(period - hand[m - 2]))
     for j in range(1, m - 1 if budget.last_in_b else m):   # each later port's sort in A fits between the rise before and its own
         room = span[j - 1] - (hand[j - 1] - rise[j - 1]) - (SPLIT - 1 if budget.stagger else 0)
         if (_stagger_need(target, budget, budget.tops or (N_MAX,) * m, span, j) > span[j - 1] if budget.stagger

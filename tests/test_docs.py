@@ -354,6 +354,8 @@ def test_hexapod_period_quoted(tmp_path: Path):
     spans = ", ".join(str(v) for v in b.spans[:-1]) + f" and {b.spans[-1]}"
     assert b.stagger and f"their spans are {spans} cycles (the pulses: {sum(b.spans)})" in text
     assert f"Everything the frame's work takes is {sum(b.sorts) + b.work + load} cycles" in text
+    assert b.pair_falls < b.falls[1] + b.falls[2] and \
+        f"longest, {b.pair_falls} cycles, not each port's worst frame apart ({b.falls[1]} + {b.falls[2]})" in text
     assert f"P_min would be {apart} µs, the pulses themselves" in text
     whole = costs.fit_spans(unit.target, dataclasses.replace(b, heads=()), b.tops)[0]     # P1's sort by its rise
     assert b.spans[0] < whole and f"P0's span would be {whole} cycles if P1's sort and list" in text

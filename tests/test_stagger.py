@@ -782,3 +782,55 @@ def test_a_later_ports_items_may_be_written_after_its_rise():
                                   lambda ports: (f"ft{ports[1]}", "fi_done", (f"win_p{ports[0]}", 2 * costs.SLED + 16)),
                                   after_frame=1)     # P1's rise: in P0's window, its sled's end
     assert late > 0 and ok
+
+
+def two_tripods(clock: str = "") -> str:
+    """Eight servos on each of P0, P1 and P2 within N 120..232: P1's lines spread 16 N apart (each
+    fall an entry of its own) where P2's are together, then the other way round, each by an eased
+    move and a linear one (a template for `at_period`). Each port's worst frame is the other's
+    best."""
+    text = clock + "".join(f"servo s{p}{b} = P{p}.{b} speed 0.0001s/60deg\n" for p in range(3) for b in range(8))
+
+    def pose(name: str, first: bool) -> str:
+        values = [f"s0{b}: {150 + 10 * b if first else 140 + 5 * b}" for b in range(8)]
+        values += [f"s{p}{b}: {120 + 16 * b if first == (p == 1) else 176}" for p in (1, 2) for b in range(8)]
+        return f"pose {name} {{ {', '.join(values)} }}\n"
+
+    return (text + pose("a", True) + pose("b", False)
+            + "main {\n  loop {\n    move a in {3P}us ease in-out\n    hold {1P}us\n    move b in {2P}us\n    hold {1P}us\n  }\n}\n")
+
+
+def test_the_last_two_ports_falls_are_charged_for_their_worst_frame_together():
+    """`costs.pair_load`: the most of two ports' falls in one frame, from every frame the moves can
+    put out, is what adding each port's falls frame by frame over those frames gives (brute force
+    over the joint frames), and where each port's worst frame is the other's best, less than the
+    sum of the two ports' worst."""
+    from servoc.flow import port_motions
+
+    fe, _ = front_end_text(at_period(two_tripods(), 6000))
+    plan, t = fe.plan, fe.plan.program.target
+    widths = [t.width_cycles(n) for n in range(256)]
+    ports_of = tuple(c.port for c in plan.channels)
+    joint = port_motions(plan, joint=True)[0]
+    brute = 0
+    for lines in joint:
+        falling = [ab is not None for ab in lines]
+        for cur in costs._frames(lines):
+            brute = max(brute, sum(costs.edges_load(widths, [v for v, f, q in zip(cur, falling, ports_of) if f and q == p])
+                                   for p in (1, 2)))
+    per = port_motions(plan)
+    apart = costs.port_load(t, per[1]).falls + costs.port_load(t, per[2]).falls
+    assert costs.pair_load(t, joint, ports_of, (1, 2)) == brute < apart
+    assert codegen.generate(plan).budget.pair_falls == brute
+
+
+@pytest.mark.parametrize("clock", ["", SLOW[1]])
+def test_where_the_work_after_the_last_sort_binds_two_ports_falls_of_one_frame_verify_at_the_minimum(clock):
+    """The chain from the middle port's handover to the first port's items charges the falls of the
+    last two ports, which come from one frame: charged for their worst frame together
+    (`Budget.pair_falls`), the reported minimum is shorter than each at its own worst would give,
+    every pulse is exact in ucsim there and 1 us less is refused."""
+    built, period = check_engine_at_minimum(clock + two_tripods(), 9000, stagger=True)
+    b, t = built.firmware.unit.budget, built.plan.program.target
+    assert b.stagger and b.pair_falls < b.falls[1] + b.falls[2]
+    assert costs.frame_cycles(t, b) < costs.frame_cycles(t, dataclasses.replace(b, pair_falls=0))
