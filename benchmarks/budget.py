@@ -161,9 +161,8 @@ def shortest_exact_period(ports: int, per_port: int = 8, runtime_f: bool = False
     """The shortest P (us) from which the stress program verifies exactly at every P up to the one
     servoc reports (`holds_down_to`), over 400 frames (quick mode: 100)."""
     frames = 100 if quick else 400
-    return holds_down_to(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth),
-                         ports * _T12.width_cycles(250),       # never enough: the next rise before the last fall
-                         budget_period(ports, per_port, runtime_f, depth))
+    reported = budget_period(ports, per_port, runtime_f, depth)
+    return holds_down_to(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth), reported * 2 // 3, reported)
 
 
 def stress_default_period(ports: int, runtime_f: bool) -> int:

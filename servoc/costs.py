@@ -771,14 +771,25 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         # before that rise or before that edge, the rise's entry and handover (`rises`) in between
         after = [ld - rise_edge(budget, j) + ENTRY for j, ld in enumerate(load)]
         first, late = first_read(target, budget), budget.items[0] - (budget.head or budget.items[0])
-        chains = [(hand[m - 1] + budget.items[0] + after[-1], last)]
-        if m >= 2:
-            chains.append((min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
-                           + budget.items[-1] + budget.work + budget.sorts[0] + after[-2] + load[-1] - together,
-                           period - hand[m - 2]))
-        for chain, window in chains:     # (the whole before that rise holds too, where it comes first)
-            need += [chain - late + runs(window),
-                     min(chain + runs(window), chain + budget.rises[0] - first + runs(window + first))]
+        def ends(chain: int, window: int) -> tuple[int, int]:     # (the whole before that rise holds
+            return (chain - late + runs(window),                   # too, where it comes first)
+                    min(chain + runs(window), chain + budget.rises[0] - first + runs(window + first)))
+
+        need += ends(hand[m - 1] + budget.items[0] + after[-1], last)
+        if m >= 2:      # the last port's items, once its sort is done and the handler took the port before's
+            rest = budget.items[-1] + budget.work + budget.sorts[0]
+            falls = after[-2] + load[-1] - together         # the handler's runs from the port before's handover
+            chain = ends(min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
+                         + rest + falls, period - hand[m - 2])
+            if m == 3:      # more finely: its sort done by that handover, the chain starts there; else the
+                # background is busy from the first port's handover on (`_items_start`'s `before`), the
+                # handler's runs in it each counted once: the first port's from its handover, the others whole
+                net = [sg - it for sg, it in zip(budget.sorts, budget.items)]
+                ready = ends(hand[1] + rest + falls, period - hand[1])
+                busy = ends(hand[0] + net[1] + budget.items[1] + net[2] + rest + after[0] + load[1] + load[2] - together,
+                            period - hand[0])
+                chain = tuple(min(c, max(r, b)) for c, r, b in zip(chain, ready, busy))
+            need += chain
     else:
         need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
         if m >= 2:
