@@ -134,9 +134,11 @@ def measure(period: int, text: str | None = None) -> dict:
     m = len(ports)
     load = [costs.handler_load(r, f) for r, f in zip(b.rises, b.falls)]
     # the work after the last sort from its start: the last port's items, W, the first port's sort
-    # and items, the handler's loads in it (costs._frame_cycles)
+    # and items, the handler's loads in it, the last two ports' falls for their worst frame together
+    # (costs._frame_cycles)
+    together = b.falls[-2] + b.falls[-1] - b.pair_falls if b.pair_falls else 0
     chain = (b.items[-1] + b.work + b.sorts[0] + load[-1]
-             + load[-2] - costs.rise_edge(b, m - 2) + costs.ENTRY)
+             + load[-2] - costs.rise_edge(b, m - 2) + costs.ENTRY - together)
     charged = {"W": b.work, "chain wall": chain, "header wall": chain - b.items[0] + b.head}
     for k, p in enumerate(ports):
         charged[f"sort P{p}"] = b.sorts[k] - b.items[k]
