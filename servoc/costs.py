@@ -65,7 +65,12 @@ in between. The handler
 never reads the sort
 buffer then: frame_io sorts a port before it waits, and writes only its items (Budget.items) after
 the handler took the port before's, so the last port's sort can end before its wait
-(`_items_start`).
+(`_items_start`). With three ports the third term is the later of two chains to the first port's
+items: from the middle port's handover, where the last port's sort is done by then (its items,
+W, the first port's sort and items, the handler's runs of the last two ports), and from the
+first port's handover, where the background is then at the middle port's sort at the latest
+(chain 1 has the first port's items written before its rise) and busy on to the end (both sorts
+and both lists between, then the same, the handler's runs of all three ports each counted once).
 
 Where a DIV holds one write to every port in use between the falls of two consecutive N
 (`merged_step`: 3 cycles a port and the read and jump), a build may pulse the ports at once
@@ -779,16 +784,17 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         if m >= 2:      # the last port's items, once its sort is done and the handler took the port before's
             rest = budget.items[-1] + budget.work + budget.sorts[0]
             falls = after[-2] + load[-1] - together         # the handler's runs from the port before's handover
-            chain = ends(min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
-                         + rest + falls, period - hand[m - 2])
-            if m == 3:      # more finely: its sort done by that handover, the chain starts there; else the
-                # background is busy from the first port's handover on (`_items_start`'s `before`), the
-                # handler's runs in it each counted once: the first port's from its handover, the others whole
+            if m == 3:      # its sort done by that handover, the chain starts there; else the background is
+                # busy from the first port's handover on (`_items_start`'s `before`), each run of the handler
+                # in it counted once: the first port's from its handover, the others whole
                 net = [sg - it for sg, it in zip(budget.sorts, budget.items)]
                 ready = ends(hand[1] + rest + falls, period - hand[1])
                 busy = ends(hand[0] + net[1] + budget.items[1] + net[2] + rest + after[0] + load[1] + load[2] - together,
                             period - hand[0])
-                chain = tuple(min(c, max(r, b)) for c, r, b in zip(chain, ready, busy))
+                chain = tuple(max(r, b) for r, b in zip(ready, busy))
+            else:
+                chain = ends(min(hand[m - 2] + budget.sorts[-1], _items_start(budget, hand, rise[:m], load, period, runs))
+                             + rest + falls, period - hand[m - 2])
             need += chain
     else:
         need.append(hand[m - 1] + budget.sorts[0] + load[-1] + runs(last))
