@@ -80,12 +80,12 @@ def terms(target_line: str, build: dict | None = None) -> dict:
     target, budget = plan.program.target, unit.budget
     us = lambda cycles: round(cycles * target.cycle_us)     # noqa: E731
     rises = sum(budget.rises)
-    cpu = budget.work + sum(budget.sorts) + budget.merge + rises + sum(budget.falls)
+    cpu = budget.work + sum(budget.sorts) + budget.merge + costs.frame_load(budget)
     pulses = (target.width_cycles(max(budget.tops)) + budget.tail + costs.merged_late(target, budget)
               if budget.merged else sum(budget.spans))
     return {"reported_us": unit.min_period_us if build else plan.min_period_us, "pulses_us": us(pulses),
             "cpu_us": us(cpu), "cpu_cycles": cpu, "work": budget.work, "sorts": sum(budget.sorts) + budget.merge,
-            "rises": rises, "falls": sum(budget.falls), "build": "at once" if budget.merged else
+            "rises": rises, "falls": budget.frame_falls or sum(budget.falls), "build": "at once" if budget.merged else
             "overlapping" if budget.stagger else "one after another"}
 
 

@@ -783,8 +783,10 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
     names = (None, {}) if plan.compact or hosting or not plan.ports else \
         record_names(ctx.records, chans, plan.ports)
 
-    pair = (costs.pair_load(target, port_motions(plan, joint=True)[0], tuple(c.port for c in plan.channels),
-                            plan.ports[-2:]) if len(plan.ports) >= 2 and not merged else 0)
+    # the ports' falls in one frame together: the last two's, and every port's (not for the ports at once)
+    together = (0, 0) if len(plan.ports) < 2 or merged else tuple(
+        costs.falls_together(target, port_motions(plan, joint=True)[0], tuple(c.port for c in plan.channels), which)
+        for which in (plan.ports[-2:], plan.ports))
 
     def measure(text: str):
         return frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
@@ -793,7 +795,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                             else costs.start_loads(target, starts[plan.ports[0]]),
                             0 if s is None else s["byte_cycles"], bport is not None,
                             uses["sends"], uses["holds"], _pl_barred(plan, sequences) if hosting else None,
-                            names, costs.beside_extra(target), mload, pair)
+                            names, costs.beside_extra(target), mload, together)
     budget, work_from = measure(text)
     spans = e["spans"]
     if budget is not None and merged:
@@ -1133,7 +1135,7 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
                  sends: bool = False, holds: bool = True,
                  barred: tuple[str, tuple[tuple[str, str], ...]] | None = None,
                  names: tuple[wcet.Names | None, dict] = (None, {}), beside: int = 0,
-                 merged: costs.MergedLoad | None = None, pair: int = 0) -> tuple[costs.Budget | None, str]:
+                 merged: costs.MergedLoad | None = None, together: tuple[int, int] = (0, 0)) -> tuple[costs.Budget | None, str]:
     """What this assembly takes per frame (see costs.frame_cycles), and where the longest work
     between frames starts (or why it cannot be bounded). `loads`: each port's worst frame
     (costs.port_load); its sort is the longest path less the swaps no frame makes. `starts`: one
@@ -1144,8 +1146,9 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
     `barred`: the code no RET returns to while a sequence `PL` started plays (`_pl_barred`);
     `names`: which servos each record names, and each move statement's records (`record_names`),
     so that a path that reads a record is charged for the servos that record names. `beside`: what
-    a rise beside a fall adds to the handler's cycles for its port (`costs.beside_extra`). `pair`: the
-    most of the last two ports' falls in one frame (`costs.pair_load`; 0: not known together)."""
+    a rise beside a fall adds to the handler's cycles for its port (`costs.beside_extra`). `together`:
+    the most of the last two ports' falls in one frame, and of every port's (`costs.falls_together`;
+    0: not known together)."""
     try:
         facts = ("FLAGS", frozenset(f.name for f in layout.RECORD_FLAGS if f.in_record), frozenset({"PLAYH"}),
                  barred, names[0])
@@ -1201,8 +1204,9 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
                           + code.longest_exit(exits) for p in ports)
     except wcet.WcetError as exc:
         return None, str(exc)
-    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads),
-                         min(pair, sum(load.falls for load in loads[-2:])) if len(loads) >= 2 else 0, last_in_b=last_in_b,
+    apart = (sum(load.falls for load in loads[-2:]), sum(load.falls for load in loads))
+    pair, every = (min(t, a) for t, a in zip(together, apart)) if len(loads) >= 2 else (0, 0)
+    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), pair, every, last_in_b=last_in_b,
                          steps=stepped and not staggered, stagger=staggered, emits=emits, items=items, head=head, heads=heads,
                          **paired, **serial),
             code.label_at(at))

@@ -25,12 +25,13 @@ its falls in the worst frame the program's moves can put out: `port_load`)
 must fit the frame, and so must the pulses themselves:
 
     P >= the sum of the spans
-    P >= sum(sorts) + W + sum(handler loads)
+    P >= sum(sorts) + W + sum(handler loads)                          (`frame_load`)
     P >= R(m-2) + sort(m-1) + W + sort(0) + load(m-2) + load(m-1)   (m >= 2 ports)
     P >= R(m-1) + sort(0) + load(m-1)
 
-(the falls of ports m-2 and m-1 in the third come from one frame: they are charged together, for the
-frame whose falls of both take the handler longest, `pair_load`, not each port's worst frame apart;
+(the falls in the second, from one frame's first items to the next, and those of ports m-2 and m-1
+in the third come from one frame: they are charged together, for the frame whose falls of those
+ports take the handler longest, `falls_together`, not each port's worst frame apart;
 with one port the second is, more finely, the larger of: a frame whose work starts no
 move, with the worst sort and falls of any frame; and one whose work reads a move's record, with
 the sort of that move's first frame and the falls of the frame before it, for each move: frame_io
@@ -400,6 +401,14 @@ def handler_load(rise_cycles: int, falls: int) -> int:
     return rise_cycles + falls
 
 
+def frame_load(budget: "Budget") -> int:
+    """The handler's worst cycles in a frame: every port's rise entry, and every port's falls of one
+    frame (the work from one frame's first items to the next holds those of one frame:
+    `Budget.frame_falls`, where known together, else each port's worst; with the ports at once,
+    their one timeline's)."""
+    return sum(budget.rises) + (budget.frame_falls or sum(budget.falls))
+
+
 def edges_load(widths, values, split: int = 0) -> int:
     """The handler's cycles for the falls of one frame whose lines fall at N = `values`: the first
     fall an entry of its own (ENTRY + EXIT = SPLIT - 1), then per distinct N after it the gap to the
@@ -478,30 +487,31 @@ def port_load(target, motions: frozenset) -> PortLoad:
 
 
 @lru_cache(maxsize=16)
-def pair_load(target, motions: frozenset, ports: tuple[int, ...], pair: tuple[int, int]) -> int:
-    """The handler's most cycles for the falls of two ports in one frame (`edges_load` of each),
-    over every frame the program's moves can put out: `motions` every line of every port
-    (`flow.port_motions(joint=True)`), `ports` each line's port. At most the sum of the two ports'
-    `port_load`, and less where their worst frames are not the same frame. A move that can start
-    after an interruption (a `Reach`), or whose frames are more than SWEEP_BUDGET breakpoints, gets
-    the sum of the two ports' hulls."""
+def falls_together(target, motions: frozenset, ports: tuple[int, ...], which: tuple[int, ...]) -> int:
+    """The handler's most cycles for the falls of the ports `which` in one frame (`edges_load` of
+    each, added), over every frame the program's moves can put out: `motions` every line of every
+    port (`flow.port_motions(joint=True)`), `ports` each line's port. At most the sum of those
+    ports' `port_load`, and less where their worst frames are not the same frame. A move that can
+    start after an interruption (a `Reach`), or whose frames are more than SWEEP_BUDGET
+    breakpoints, gets the sum of the ports' hulls."""
     widths = [target.width_cycles(n) for n in range(256)]
-    cut = sum(q == pair[0] for q in ports)
-    both = {tuple(ab for ab, q in zip(lines, ports) if q == pair[0]) + tuple(ab for ab, q in zip(lines, ports) if q == pair[1])
-            for lines in motions}
+    cuts = [0]
+    for port in which:
+        cuts.append(cuts[-1] + sum(q == port for q in ports))
+    every = {tuple(ab for port in which for ab, q in zip(lines, ports) if q == port) for lines in motions}
     worst, budget = 0, SWEEP_BUDGET
-    for lines in sorted(both, key=repr):
+    for lines in sorted(every, key=repr):
+        parts = [slice(a, b) for a, b in zip(cuts, cuts[1:])]
         falling = [ab is not None for ab in lines]
         fall = [ab for ab in lines if ab is not None]
         exact = all(isinstance(a, int) and isinstance(b, int) for a, b in fall)
         cost = sum(abs(b - a) for a, b in fall) if exact else 0
         if not exact or cost > budget:
-            worst = max(worst, sum(_hull(widths, part, SPLIT) for part in (lines[:cut], lines[cut:]) if any(part)))
+            worst = max(worst, sum(_hull(widths, lines[part], SPLIT) for part in parts if any(lines[part])))
             continue
         budget -= cost
         for cur in _frames(lines):
-            worst = max(worst, edges_load(widths, [v for v, f in zip(cur[:cut], falling) if f])
-                        + edges_load(widths, [v for v, f in zip(cur[cut:], falling[cut:]) if f]))
+            worst = max(worst, sum(edges_load(widths, [v for v, f in zip(cur[part], falling[part]) if f]) for part in parts))
     return worst
 
 
@@ -612,8 +622,10 @@ class Budget:
     rises: tuple[int, ...]      # each port's rise entry of the handler, overflow to RETI
     lines: tuple[int, ...]      # servo lines on each port
     falls: tuple[int, ...]      # the handler's worst cycles for each port's falls in a frame (port_load)
-    pair_falls: int = 0         # the most of the last two ports' falls in one frame (`pair_load`; 0: not
+    pair_falls: int = 0         # the most of the last two ports' falls in one frame (`falls_together`; 0: not
                                 # known together, the sum of their `falls`)
+    frame_falls: int = 0        # the most of every port's falls in one frame (`falls_together`; 0: not known
+                                # together, the sum of `falls`)
     start_frame: int | None = None  # one port: the longest frame that starts a move, its work and
                                 # its own sort and falls (`start_loads`); None: not known apart
     other_work: int = 0         # then the longest work between frames of those that start no move
@@ -750,12 +762,11 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
         # handler's runs in its window)
         last = target.width_cycles(max(budget.tops or (N_MAX,))) + budget.tail
         return max(last + merged_late(target, budget, runs) + runs(period - last),
-                   budget.work + sum(budget.sorts) + budget.merge + sum(budget.rises) + sum(budget.falls)
-                   + runs(period))
+                   budget.work + sum(budget.sorts) + budget.merge + frame_load(budget) + runs(period))
     rise = _rises(target, budget.spans or (port_span(target, 250, budget.steps),) * m, m)
     span = [b - a for a, b in zip(rise, rise[1:])]       # each port's rise to the next one's
     load = [handler_load(r, f) for r, f in zip(budget.rises, budget.falls)]
-    frame = sum(budget.sorts) + budget.work + sum(load)
+    frame = sum(budget.sorts) + budget.work + frame_load(budget)
     if budget.start_frame is not None:      # one port: a frame's work, then its sort, within its period
         frame = max(budget.sorts[0] + budget.other_work + load[0], budget.start_frame + budget.rises[0])
     need = [rise[m], frame + runs(period)]

@@ -281,7 +281,7 @@ def test_engine_terms_goal_program_and_its_terms():
     assert len(ports) == 6 and all(0 in ns and 250 in ns for ns in ports) and len(plan.ports) == 3
     t = terms_mod.terms("")
     b = api.codegen.generate(plan).budget
-    assert t["cpu_cycles"] == sum(b.sorts) + b.work + sum(costs.handler_load(r, f) for r, f in zip(b.rises, b.falls))
+    assert t["cpu_cycles"] == sum(b.sorts) + b.work + costs.frame_load(b)
     assert t["reported_us"] >= max(t["pulses_us"], t["cpu_us"])
 
 

@@ -342,20 +342,24 @@ def test_min_period_formula(tmp_path: Path):
 def test_hexapod_period_quoted(tmp_path: Path):
     source, reporter = api.load_source(str(ROOT / "examples" / "hexapod.servo"))
     plan = api.front_end(source, reporter).plan
-    assert plan is not None and plan.nesting == 2 and plan.min_period_us == plan.period_us
-    assert f"`examples/hexapod.servo`" in doc_text() and f"{plan.period_us} µs, which is also its default P" in doc_text()
+    assert plan is not None and plan.nesting == 2 and plan.period_us == max(plan.min_period_us, units.DEFAULT_PERIOD_FLOOR_US)
+    assert f"`examples/hexapod.servo`" in doc_text() and \
+        f"{plan.min_period_us} µs (its default P is {plan.period_us / 1000:g} ms)" in doc_text()
     # the spans, the pulses, everything a frame does and the ports one after another, as the code has them
     from servoc import codegen, costs
     unit = codegen.generate(plan, source)
     b = unit.budget
-    load = sum(costs.handler_load(r, f) for r, f in zip(b.rises, b.falls))
+    load = costs.frame_load(b)
     apart = codegen.generate(plan, source, stepping=True, stagger=False).min_period_us
     text = " ".join(doc_text().split())
     spans = ", ".join(str(v) for v in b.spans[:-1]) + f" and {b.spans[-1]}"
     assert b.stagger and f"their spans are {spans} cycles (the pulses: {sum(b.spans)})" in text
-    assert f"Everything the frame's work takes is {sum(b.sorts) + b.work + load} cycles" in text
+    assert f"and P_min is {plan.min_period_us} µs" in text and plan.min_period_us == sum(b.sorts) + b.work + load
+    assert f"and falls), {sum(b.sorts) + b.work + load} cycles, binds it" in text
+    assert b.frame_falls < sum(b.falls) and f"take the handler longest, {b.frame_falls} cycles, not each port's " \
+        f"worst frame apart ({b.falls[0]} + {b.falls[1]} + {b.falls[2]})" in text
     assert b.pair_falls < b.falls[1] + b.falls[2] and \
-        f"longest, {b.pair_falls} cycles, not each port's worst frame apart ({b.falls[1]} + {b.falls[2]})" in text
+        f"worst frame together, {b.pair_falls} cycles ({b.falls[1]} + {b.falls[2]} apart)" in text
     assert f"P_min would be {apart} µs, the pulses themselves" in text
     whole = costs.fit_spans(unit.target, dataclasses.replace(b, heads=()), b.tops)[0]     # P1's sort by its rise
     assert b.spans[0] < whole and f"P0's span would be {whole} cycles if P1's sort and list" in text

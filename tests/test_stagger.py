@@ -800,11 +800,11 @@ def two_tripods(clock: str = "") -> str:
             + "main {\n  loop {\n    move a in {3P}us ease in-out\n    hold {1P}us\n    move b in {2P}us\n    hold {1P}us\n  }\n}\n")
 
 
-def test_the_last_two_ports_falls_are_charged_for_their_worst_frame_together():
-    """`costs.pair_load`: the most of two ports' falls in one frame, from every frame the moves can
-    put out, is what adding each port's falls frame by frame over those frames gives (brute force
-    over the joint frames), and where each port's worst frame is the other's best, less than the
-    sum of the two ports' worst."""
+def test_ports_falls_are_charged_for_their_worst_frame_together():
+    """`costs.falls_together`: the most of some ports' falls in one frame, from every frame the moves
+    can put out, is what adding each port's falls frame by frame over those frames gives (brute force
+    over the joint frames), and where each port's worst frame is another's best, less than the sum of
+    the ports' worst."""
     from servoc.flow import port_motions
 
     fe, _ = front_end_text(at_period(two_tripods(), 6000))
@@ -812,32 +812,35 @@ def test_the_last_two_ports_falls_are_charged_for_their_worst_frame_together():
     widths = [t.width_cycles(n) for n in range(256)]
     ports_of = tuple(c.port for c in plan.channels)
     joint = port_motions(plan, joint=True)[0]
-    brute = 0
-    for lines in joint:
-        falling = [ab is not None for ab in lines]
-        for cur in costs._frames(lines):
-            brute = max(brute, sum(costs.edges_load(widths, [v for v, f, q in zip(cur, falling, ports_of) if f and q == p])
-                                   for p in (1, 2)))
     per = port_motions(plan)
-    apart = costs.port_load(t, per[1]).falls + costs.port_load(t, per[2]).falls
-    assert costs.pair_load(t, joint, ports_of, (1, 2)) == brute < apart
-    assert codegen.generate(plan).budget.pair_falls == brute
+    got = {}
+    for which in ((1, 2), (0, 1, 2)):
+        brute = 0
+        for lines in joint:
+            falling = [ab is not None for ab in lines]
+            for cur in costs._frames(lines):
+                brute = max(brute, sum(costs.edges_load(widths, [v for v, f, q in zip(cur, falling, ports_of) if f and q == p])
+                                       for p in which))
+        apart = sum(costs.port_load(t, per[p]).falls for p in which)
+        assert costs.falls_together(t, joint, ports_of, which) == brute < apart
+        got[which] = brute
+    b = codegen.generate(plan).budget
+    assert (b.pair_falls, b.frame_falls) == (got[(1, 2)], got[(0, 1, 2)])
 
 
 @pytest.mark.parametrize("clock", ["", SLOW[1]])
-def test_where_the_work_after_the_last_sort_binds_two_ports_falls_of_one_frame_verify_at_the_minimum(clock):
+def test_falls_of_one_frame_charged_together_verify_at_the_minimum(clock):
     """The chain from the middle port's handover to the first port's items charges the falls of the
-    last two ports, which come from one frame: charged for their worst frame together
-    (`Budget.pair_falls`). At 12 MHz each at its own worst would make that chain bind the minimum;
-    together, everything the frame does binds it (as at 11.0592 MHz either way). Every pulse is
-    exact in ucsim at the minimum and 1 us less is refused."""
+    last two ports, and the work from one frame's first items to the next the falls of every port:
+    each from one frame, charged for their worst frame together (`Budget.pair_falls`,
+    `Budget.frame_falls`). Each lowers this program's minimum below what each port's worst frame
+    apart would give; every pulse is exact in ucsim at that minimum and 1 us less is refused."""
     built, period = check_engine_at_minimum(clock + two_tripods(), 9000, stagger=True)
     b, t = built.firmware.unit.budget, built.plan.program.target
-    assert b.stagger and b.pair_falls < b.falls[1] + b.falls[2]
-    frame = sum(b.sorts) + b.work + sum(costs.handler_load(r, f) for r, f in zip(b.rises, b.falls))
-    assert costs.frame_cycles(t, b) == frame
-    apart = costs.frame_cycles(t, dataclasses.replace(b, pair_falls=0))
-    assert apart > frame if not clock else apart == frame
+    assert b.stagger and b.pair_falls < b.falls[1] + b.falls[2] and b.frame_falls < sum(b.falls)
+    least = costs.frame_cycles(t, b)
+    assert least < costs.frame_cycles(t, dataclasses.replace(b, pair_falls=0))
+    assert least < costs.frame_cycles(t, dataclasses.replace(b, frame_falls=0))
 
 
 def test_the_hexapods_chains_are_below_everything_its_frame_does():
@@ -852,7 +855,7 @@ def test_the_hexapods_chains_are_below_everything_its_frame_does():
     template = "".join(line + "\n" for line in source.splitlines() if not line.startswith("frame "))
     built, period = check_at_minimum(template, 20000)
     plan, b, t = built.plan, built.firmware.unit.budget, built.plan.program.target
-    frame = sum(b.sorts) + b.work + sum(costs.handler_load(r, f) for r, f in zip(b.rises, b.falls))
+    frame = sum(b.sorts) + b.work + costs.frame_load(b)
     assert b.stagger and t.cycles(period) == costs.frame_cycles(t, b) == frame > sum(b.spans)
     report = api.verify_hex(plan, built.firmware.hex_text, sum(m.frames for m in plan.moves) + 3)
     assert report.ok and report.max_error_cycles == 0, report.summary()
