@@ -151,6 +151,16 @@ def test_the_search_down_from_the_reported_period_stops_at_the_first_failure_not
     assert calls == [1600, *range(1592, 1503, -8), *range(1511, 1506, -1)]
 
 
+def test_the_stress_rows_are_scanned_below_their_reported_period_wherever_it_lies(monkeypatch):
+    # with the ports' pulses overlapping, 24 servos report less than 3 x 2500 us: the scan still goes
+    # down from there, one build per us, to the first failure
+    calls = []
+    monkeypatch.setattr(budget, "budget_period", lambda *a, **k: 6830)
+    monkeypatch.setattr(budget, "exact_at", lambda ports, per_port, p, *a, **k: calls.append(p) or p >= 6647)
+    assert budget.shortest_exact_period(3) == 6647 < 3 * target.DEFAULT.width_cycles(250)
+    assert calls == list(range(6830, 6645, -1))
+
+
 def test_keyframes():
     mem = suite.memory(quick=True)
     for key in ("keyframes", "gait_steps"):
