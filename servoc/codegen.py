@@ -784,9 +784,10 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
         record_names(ctx.records, chans, plan.ports)
 
     # the ports' falls in one frame together: the last two's, and every port's (not for the ports at once)
-    together = (0, 0) if len(plan.ports) < 2 or merged else tuple(
-        costs.falls_together(target, port_motions(plan, joint=True)[0], tuple(c.port for c in plan.channels), which)
-        for which in (plan.ports[-2:], plan.ports))
+    groups = (plan.ports[-2:], plan.ports)
+    together = (0, 0) if len(plan.ports) < 2 or merged else costs.falls_together(
+        target, port_motions(plan, joint=True)[0], tuple(c.port for c in plan.channels), groups,
+        tuple(sum(costs.port_load(target, motions[p]).falls for p in which) for which in groups))
 
     def measure(text: str):
         return frame_budget(text, plan.ports, tuple(p["s"] for p in e["ports"]),
@@ -1204,9 +1205,7 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
                           + code.longest_exit(exits) for p in ports)
     except wcet.WcetError as exc:
         return None, str(exc)
-    apart = (sum(load.falls for load in loads[-2:]), sum(load.falls for load in loads))
-    pair, every = (min(t, a) for t, a in zip(together, apart)) if len(loads) >= 2 else (0, 0)
-    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), pair, every, last_in_b=last_in_b,
+    return (costs.Budget(work, sorts, rises, lines, tuple(load.falls for load in loads), *together, last_in_b=last_in_b,
                          steps=stepped and not staggered, stagger=staggered, emits=emits, items=items, head=head, heads=heads,
                          **paired, **serial),
             code.label_at(at))

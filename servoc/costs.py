@@ -487,32 +487,52 @@ def port_load(target, motions: frozenset) -> PortLoad:
 
 
 @lru_cache(maxsize=16)
-def falls_together(target, motions: frozenset, ports: tuple[int, ...], which: tuple[int, ...]) -> int:
-    """The handler's most cycles for the falls of the ports `which` in one frame (`edges_load` of
-    each, added), over every frame the program's moves can put out: `motions` every line of every
-    port (`flow.port_motions(joint=True)`), `ports` each line's port. At most the sum of those
-    ports' `port_load`, and less where their worst frames are not the same frame. A move that can
-    start after an interruption (a `Reach`), or whose frames are more than SWEEP_BUDGET
-    breakpoints, gets the sum of the ports' hulls."""
+def falls_together(target, motions: frozenset, ports: tuple[int, ...], groups: tuple[tuple[int, ...], ...],
+                   caps: tuple[int, ...]) -> tuple[int, ...]:
+    """For each group of ports, the handler's most cycles for the falls of its ports in one frame
+    (`edges_load` of each, added), over every frame the program's moves can put out: `motions`
+    every line of every port (`flow.port_motions(joint=True)`), `ports` each line's port; never more
+    than its cap (the sum of those ports' `port_load`), and less where their worst frames are not
+    the same frame. A move that can start after an interruption (a `Reach`), or whose frames are
+    more than SWEEP_BUDGET breakpoints, gets the sum of the ports' hulls; moves are swept in order
+    of that bound while it can still beat the worst found."""
     widths = [target.width_cycles(n) for n in range(256)]
+    own = sorted({p for group in groups for p in group})
     cuts = [0]
-    for port in which:
+    for port in own:
         cuts.append(cuts[-1] + sum(q == port for q in ports))
-    every = {tuple(ab for port in which for ab, q in zip(lines, ports) if q == port) for lines in motions}
-    worst, budget = 0, SWEEP_BUDGET
-    for lines in sorted(every, key=repr):
-        parts = [slice(a, b) for a, b in zip(cuts, cuts[1:])]
-        falling = [ab is not None for ab in lines]
+    part = dict(zip(own, (slice(a, b) for a, b in zip(cuts, cuts[1:]))))
+    every = {tuple(ab for port in own for ab, q in zip(lines, ports) if q == port) for lines in motions}
+
+    def bounds(lines) -> tuple[int, ...]:      # each group's: its ports' hulls, at most its cap
+        hull = {p: _hull(widths, lines[part[p]], SPLIT) if any(lines[part[p]]) else 0 for p in own}
+        return tuple(min(cap, sum(hull[p] for p in group)) for group, cap in zip(groups, caps))
+
+    order = sorted(((bounds(lines), lines) for lines in every if any(lines)), key=lambda m: (-max(m[0]), repr(m[1])))
+    worst, budget = [0] * len(groups), SWEEP_BUDGET
+    for bound, lines in order:
+        if all(b <= w for b, w in zip(bound, worst)):
+            continue
         fall = [ab for ab in lines if ab is not None]
         exact = all(isinstance(a, int) and isinstance(b, int) for a, b in fall)
         cost = sum(abs(b - a) for a, b in fall) if exact else 0
         if not exact or cost > budget:
-            worst = max(worst, sum(_hull(widths, lines[part], SPLIT) for part in parts if any(lines[part])))
+            worst = [max(b, w) for b, w in zip(bound, worst)]
             continue
         budget -= cost
+        falling = [ab is not None for ab in lines]
+        seen: dict[int, tuple] = {}
+        load: dict[int, int] = {}
         for cur in _frames(lines):
-            worst = max(worst, sum(edges_load(widths, [v for v, f in zip(cur[part], falling[part]) if f]) for part in parts))
-    return worst
+            for p in own:       # each port's falls, again only where its lines moved
+                values = tuple(cur[part[p]])
+                if seen.get(p) != values:
+                    seen[p] = values
+                    load[p] = edges_load(widths, [v for v, f in zip(values, falling[part[p]]) if f])
+            worst = [max(w, sum(load[p] for p in group)) for w, group in zip(worst, groups)]
+            if all(w >= b for w, b in zip(worst, bound)):
+                break
+    return tuple(worst)
 
 
 @lru_cache(maxsize=16)

@@ -822,7 +822,7 @@ def test_ports_falls_are_charged_for_their_worst_frame_together():
                 brute = max(brute, sum(costs.edges_load(widths, [v for v, f, q in zip(cur, falling, ports_of) if f and q == p])
                                        for p in which))
         apart = sum(costs.port_load(t, per[p]).falls for p in which)
-        assert costs.falls_together(t, joint, ports_of, which) == brute < apart
+        assert costs.falls_together(t, joint, ports_of, (which,), (apart,)) == (brute,) and brute < apart
         got[which] = brute
     b = codegen.generate(plan).budget
     assert (b.pair_falls, b.frame_falls) == (got[(1, 2)], got[(0, 1, 2)])
