@@ -136,7 +136,7 @@ def measure(period: int, text: str | None = None) -> dict:
     # the work after the last sort from its start: the last port's items, W, the first port's sort
     # and items, the handler's loads in it, the last two ports' falls for their worst frame together
     # (costs._frame_cycles)
-    together = b.falls[-2] + b.falls[-1] - b.pair_falls if b.pair_falls else 0
+    together = sum(b.falls[-2:]) - costs.last_two_falls(b)
     chain = (b.items[-1] + b.work + b.sorts[0] + load[-1]
              + load[-2] - costs.rise_edge(b, m - 2) + costs.ENTRY - together)
     charged = {"W": b.work, "chain wall": chain, "header wall": chain - b.items[0] + b.head}

@@ -85,7 +85,7 @@ def terms(target_line: str, build: dict | None = None) -> dict:
               if budget.merged else sum(budget.spans))
     return {"reported_us": unit.min_period_us if build else plan.min_period_us, "pulses_us": us(pulses),
             "cpu_us": us(cpu), "cpu_cycles": cpu, "work": budget.work, "sorts": sum(budget.sorts) + budget.merge,
-            "rises": rises, "falls": budget.frame_falls or sum(budget.falls), "build": "at once" if budget.merged else
+            "rises": rises, "falls": costs.frame_falls(budget), "build": "at once" if budget.merged else
             "overlapping" if budget.stagger else "one after another"}
 
 

@@ -406,7 +406,19 @@ def frame_load(budget: "Budget") -> int:
     frame (the work from one frame's first items to the next holds those of one frame:
     `Budget.frame_falls`, where known together, else each port's worst; with the ports at once,
     their one timeline's)."""
-    return sum(budget.rises) + (budget.frame_falls or sum(budget.falls))
+    return sum(budget.rises) + frame_falls(budget)
+
+
+def frame_falls(budget: "Budget") -> int:
+    """The handler's most cycles for every port's falls in one frame: `Budget.frame_falls`, where
+    known together, else each port's worst added."""
+    return budget.frame_falls or sum(budget.falls)
+
+
+def last_two_falls(budget: "Budget") -> int:
+    """The handler's most cycles for the last two ports' falls in one frame: `Budget.pair_falls`,
+    where known together, else each port's worst added."""
+    return budget.pair_falls or sum(budget.falls[-2:])
 
 
 def edges_load(widths, values, split: int = 0) -> int:
@@ -792,7 +804,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
     need = [rise[m], frame + runs(period)]
     # the last two ports' falls in one frame: both in the chain from the one before last's rise
     # (with stagger, its handover) to the first port's next rise, both of the same frame
-    together = (budget.falls[-2] + budget.falls[-1] - budget.pair_falls) if m >= 2 and budget.pair_falls else 0
+    together = sum(budget.falls[-2:]) - last_two_falls(budget)
     # where each port's items are written (its rise; with stagger, after the port before's last fall)
     hand = handovers(target, budget.tops or (250,) * m, tuple(span)) if budget.stagger else rise[:m]
     last = period - hand[m - 1]     # the last port's handover to the first port's next rise
