@@ -1171,8 +1171,8 @@ def _frame_budget(text: str, ports: tuple[int, ...], lines: tuple[int, ...], loa
         fs = tuple(code.longest(f"fs{p}", {f"fi{q}" for q in ports} | {"fi_done"}) for p in ports)
         # with rises among falls a port is sorted first, then its items written once the handler
         # took the port before's (ft: after the wait): the sort's term is both
-        items = tuple(code.longest(f"ft{p}", {f"fs{q}" for q in ports} | {"fi_done"}) for p in ports
-                      ) if ports and f"ft{ports[0]}" in code.labels else ()
+        items = tuple(code.longest(f"ft{p}", {f"fs{q}" for q in ports} | {"fi_done"}) - _unread(code, p, load.distinct)
+                      for p, load in zip(ports, loads)) if ports and f"ft{ports[0]}" in code.labels else ()
         # and each port's up to their header and first edge (stagger_emit.asm.j2's loop)
         heads = tuple(code.longest(f"ft{p}", set(items_loop(p))) for p in ports) if items else ()
         head = heads[0] if heads else 0
@@ -1254,6 +1254,25 @@ def _pl_barred(plan: Plan, sequences: list[dict]) -> tuple[str, tuple[tuple[str,
     labels = ["main"] + [sq["label"] for sq in sequences] + ["looks_start"]
     names = [None] + [sq["name"] for sq in sequences]
     return "PLAYH", tuple((a, b) for a, b, name in zip(labels, labels[1:], names) if name not in playable)
+
+
+def _unread(code: wcet.Code, port: int, distinct: int) -> int:
+    """The cycles the longest path through a port's items (stagger_emit.asm.j2) counts for passes of
+    its loop over the pairs that no frame makes: where its lines with a target fall at `distinct` N
+    at most, the header reads the first pair and at most distinct - 1 passes read one more; every
+    other pass reads the end mark and writes no fall (no call of `efall`). The longest path counts
+    each pass as the longest that makes no call made once in the loop, and one pass as the longest
+    that makes it (the rise placed among the falls): so each pass that reads the end mark is
+    charged the difference to the longest pass that calls no `efall`, less one pass where such a
+    pass with the call made once can take longer than the longest pass does with it."""
+    head = next((f"{pre}{port}_p" for pre in ("fe", "fb") if f"{pre}{port}_p" in code.labels), None)
+    if head is None:
+        return 0
+    count, full, without, short, short_once = code.passes(head, {"efall"})
+    ends = count - max(distinct - 1, 0)
+    if short_once - short > full - without:
+        ends -= 1
+    return max(ends, 0) * (without - short)
 
 
 def _unswapped(code: wcet.Code, n: int, swaps: int) -> int:

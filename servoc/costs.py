@@ -464,6 +464,7 @@ class PortLoad:
     """A port's worst frame, over every frame the program's moves can put out (`port_load`)."""
     falls: int      # the handler's cycles for its falls (`edges_load`)
     swaps: int      # comparators of its sort that swap
+    distinct: int   # distinct N its lines with a target fall at (frame_io's `distinct` pairs)
 
 
 SWEEP_BUDGET = 40_000       # breakpoints swept per port before the rest get the hull bound
@@ -483,19 +484,25 @@ def port_load(target, motions: frozenset) -> PortLoad:
     widths = [target.width_cycles(n) for n in range(256)]
     order = sorted(((_hull(widths, lines, SPLIT), lines) for lines in motions), key=lambda m: -m[0])
     most = max((len(SORTING_NETWORKS[len(lines)]) for lines in motions), default=0)
-    worst, swapped, budget = 0, 0, SWEEP_BUDGET
-    for bound, lines in order:
-        if bound <= worst and swapped >= most:
+    worst, swapped, distinct, budget = 0, 0, 0, SWEEP_BUDGET
+    for at, (bound, lines) in enumerate(order):
+        if bound <= worst and swapped >= most:      # the rest: at most every line its own N
+            distinct = max([distinct] + [_targets(rest) for _, rest in order[at:]])
             break
         exact = all(ab is None or (isinstance(ab[0], int) and isinstance(ab[1], int)) for ab in lines)
         cost = sum(abs(ab[1] - ab[0]) for ab in lines if ab is not None) if exact else 0
         if not exact or cost > budget:
-            worst, swapped = max(worst, bound), most
+            worst, swapped, distinct = max(worst, bound), most, max(distinct, _targets(lines))
             continue
         budget -= cost
-        falls, swapped_here = _sweep(target, lines)
-        worst, swapped = max(worst, falls), max(swapped, swapped_here)
-    return PortLoad(worst, swapped)
+        falls, swapped_here, distinct_here = _sweep(target, lines)
+        worst, swapped, distinct = max(worst, falls), max(swapped, swapped_here), max(distinct, distinct_here)
+    return PortLoad(worst, swapped, distinct)
+
+
+def _targets(lines) -> int:
+    """The lines of a motion with a target: the most distinct N they can fall at."""
+    return sum(ab is not None for ab in lines)
 
 
 @lru_cache(maxsize=16)
@@ -598,21 +605,24 @@ def _frames(lines):
 
 
 @lru_cache(maxsize=4096)
-def _sweep(target, lines: tuple) -> tuple[int, int]:
-    """The most `edges_load` and the most `swaps` over the frames of one move (`_frames`; see
-    `port_load`), each up to its bound (the move's hull, its network's comparators). A line
-    without a target (None) is sorted, never falling. (Kept per move: programs that share moves,
-    and the builds of one program, sweep each once.)"""
+def _sweep(target, lines: tuple) -> tuple[int, int, int]:
+    """The most `edges_load`, the most `swaps` and the most distinct N falling over the frames of
+    one move (`_frames`; see `port_load`), each up to its bound (the move's hull, its network's
+    comparators, its lines with a target). A line without a target (None) is sorted, never
+    falling. (Kept per move: programs that share moves, and the builds of one program, sweep
+    each once.)"""
     widths = [target.width_cycles(n) for n in range(256)]
-    bound, most = _hull(widths, lines, SPLIT), len(SORTING_NETWORKS[len(lines)])
+    bound, most, every = _hull(widths, lines, SPLIT), len(SORTING_NETWORKS[len(lines)]), _targets(lines)
     falling = [ab is not None for ab in lines]
-    worst = swapped = 0
+    worst = swapped = distinct = 0
     for cur in _frames(lines):
-        worst = max(worst, edges_load(widths, [v for v, f in zip(cur, falling) if f]))
+        values = [v for v, f in zip(cur, falling) if f]
+        worst = max(worst, edges_load(widths, values))
         swapped = max(swapped, swaps(cur))
-        if worst >= bound and swapped >= most:
+        distinct = max(distinct, len(set(values)))
+        if worst >= bound and swapped >= most and distinct >= every:
             break
-    return worst, swapped
+    return worst, swapped, distinct
 
 
 @dataclass(frozen=True)

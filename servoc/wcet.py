@@ -736,6 +736,21 @@ class Code:
             return k * full
         return (k - 1) * self._without(head, end, once) + full
 
+    def passes(self, head: str, calls: set[str]) -> tuple[int, int, int, int, int]:
+        """The counted loop whose pass starts at label `head`: its count, its longest pass
+        (`one_pass`), the longest that makes none of the calls made at most once in the loop
+        (`_once_calls`), and the same two again on the paths that call no routine in `calls`."""
+        first = self.labels[head]
+        end = self._loops[first]
+        count = int(self.instrs[first - 1].args[1][1:], 0) or 256
+        once = self._once_calls(first, end)
+        barred = frozenset(i for i in self._reach(first, end) if i < end and self.instrs[i].op in _CALLS
+                           and self.instrs[i].args[0] in calls)
+        djnz = self.instrs[end].cycles
+        with _deep(4 * len(self.instrs)):
+            return (count, self.one_pass(first, end), self._without(first, end, once),
+                    self._longest(first, {end}, once | barred) + djnz, self._longest(first, {end}, barred) + djnz)
+
     def _without(self, head: int, end: int, once: frozenset[int]) -> int:
         """The longest pass of a counted loop that makes none of the calls in `once`."""
         return self._longest(head, {end}, once) + self.instrs[end].cycles

@@ -339,7 +339,7 @@ def test_min_period_formula(tmp_path: Path):
     assert "2.467 ms" in text
 
 
-def test_hexapod_period_quoted(tmp_path: Path):
+def test_hexapod_period_quoted(tmp_path: Path, monkeypatch):
     source, reporter = api.load_source(str(ROOT / "examples" / "hexapod.servo"))
     plan = api.front_end(source, reporter).plan
     assert plan is not None and plan.nesting == 2 and plan.period_us == max(plan.min_period_us, units.DEFAULT_PERIOD_FLOOR_US)
@@ -361,6 +361,16 @@ def test_hexapod_period_quoted(tmp_path: Path):
     assert b.pair_falls < b.falls[1] + b.falls[2] and \
         f"worst frame together, {b.pair_falls} cycles ({b.falls[1]} + {b.falls[2]} apart)" in text
     assert f"P_min would be {apart} µs, the pulses themselves" in text
+    # each port's list charged for the most distinct N its lines fall at in one frame
+    motions = codegen.port_motions(plan)
+    distinct = [costs.port_load(unit.target, motions[p]).distinct for p in plan.ports]
+    monkeypatch.setattr(codegen, "_unread", lambda *args: 0)
+    monkeypatch.setattr(codegen, "_budgets", type(codegen._budgets)())     # none kept from the code's own
+    every = codegen.generate(plan, source).budget
+    saved = sum(every.sorts) - sum(b.sorts)
+    assert f"at most {distinct[0]}, {distinct[1]} and {distinct[2]} distinct N" in text and max(distinct) < 8
+    assert saved > 0 and f"not 8: {saved} cycles less" in text
+    assert costs.frame_cycles(unit.target, every) - costs.frame_cycles(unit.target, b) == saved
     whole = costs.fit_spans(unit.target, dataclasses.replace(b, heads=()), b.tops)[0]     # P1's sort by its rise
     assert b.spans[0] < whole and f"P0's span would be {whole} cycles if P1's sort and list" in text
     assert unit.target.width_cycles(b.bottoms[0]) < b.spans[0] and f"P0's lowest fall, N {b.bottoms[0]}, can come" in text

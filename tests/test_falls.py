@@ -146,14 +146,30 @@ def test_every_frame_of_a_program_is_within_the_bound(name):
     bounds = {p: costs.port_load(t, motions[p]) for p in plan.ports}
     worst = dict.fromkeys(plan.ports, 0)
     swapped = dict.fromkeys(plan.ports, 0)
+    distinct = dict.fromkeys(plan.ports, 0)
     for i, frame in zip(range(3000), expand(plan)):
         for p in plan.ports:
             vals = [n for c, n in zip(plan.channels, frame.n) if c.port == p]
             worst[p] = max(worst[p], costs.edges_load(w, [n for n in vals if n is not None]))
             swapped[p] = max(swapped[p], costs.swaps([n or 0 for n in vals]))
+            distinct[p] = max(distinct[p], len({n for n in vals if n is not None}))
     assert all(worst[p] <= bounds[p].falls for p in plan.ports), (worst, bounds)
     assert all(swapped[p] <= bounds[p].swaps for p in plan.ports), (swapped, bounds)
+    assert all(distinct[p] <= bounds[p].distinct for p in plan.ports), (distinct, bounds)
     assert any(worst[p] > SPLIT - 1 for p in plan.ports)        # the programs do put out clusters
+
+
+def test_a_ports_most_distinct_n_in_one_frame():
+    """frame_io's `distinct` pairs (the lines with a target, one pair per N): the most over the
+    frames of a port's moves, every line with a target where a move can start anywhere."""
+    assert costs.port_load(T12, frozenset({((10, 10), (10, 50), (50, 50))})).distinct == 3    # on the way
+    assert costs.port_load(T12, frozenset({((10, 50), (10, 50), None)})).distinct == 1      # together
+    assert costs.port_load(T12, frozenset({((10, 50), (10, 50), None), ((40, 40), (60, 60), (80, 90))})).distinct == 3
+    assert costs.port_load(T12, frozenset({((Reach(0, 250), 20), (Reach(0, 250), 20), None)})).distinct == 2
+    together = [((k % 40, 250 - k % 30),) * 8 for k in range(60)]     # eight lines as one, each move
+    assert all(costs.port_load(T12, frozenset({p})).distinct == 1 for p in together)
+    assert sum(8 * (b - a) for (a, b), *_ in together) > costs.SWEEP_BUDGET
+    assert costs.port_load(T12, frozenset(together)).distinct == 8  # past the sweep budget: every line
 
 
 def test_past_the_sweep_budget_the_rest_get_their_hull():

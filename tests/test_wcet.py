@@ -249,6 +249,38 @@ def test_a_call_in_a_loop_is_charged_every_pass_unless_it_surely_runs_once(chang
     assert code.longest("start", set()) >= 1 + 1 + 6 * 26 - 6
 
 
+ITEMS = """\
+start:  SETB    F0
+        MOV     R7, #5
+ip:     MOV     A, @R0
+        INC     R0
+        JNB     F0, ir
+        LCALL   once
+ir:     CJNE    A, #0xFF, iw
+        DEC     R0
+        SJMP    ix
+iw:     LCALL   fall
+ix:     DJNZ    R7, ip
+        RET
+once:   CLR     F0
+        MUL     AB
+        RET
+fall:   MUL     AB
+        MUL     AB
+        RET
+"""
+
+
+def test_a_counted_loops_passes_are_read_with_and_without_the_calls_named():
+    """The passes of stagger_emit.asm.j2's loop over a port's pairs (`codegen._unread`): the read
+    and the flag's test (4 cycles), the call made once (LCALL 2, the routine 7), the end mark's
+    branch (CJNE 2, DEC 1, SJMP 2) or a fall's (CJNE 2, LCALL 2, the routine 10), the DJNZ (2)."""
+    code = wcet.Code(ITEMS)
+    assert code.passes("ip", {"fall"}) == (5, 4 + 9 + 14 + 2, 4 + 14 + 2, 4 + 5 + 2, 4 + 9 + 5 + 2)
+    assert code.passes("ip", set()) == (5, 29, 20, 20, 29)         # no call barred: the longest passes again
+    assert code.longest("start", set()) == 1 + 1 + 4 * 20 + 29 + 2 == 113        # SETB, MOV, the loop, RET
+
+
 def test_same_cycles_knows_a_loop_count_from_any_other_register_immediate():
     """A `MOV Rn,#k` is a count only right before `DJNZ Rn,.` or before the label of a `DJNZ Rn,label`
     (wcet's counted loops): other register immediates (a rise's time, an N compared with) may
