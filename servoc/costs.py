@@ -51,7 +51,8 @@ of its own; or, where a DIV is less than 2 STEP cycles (`beside`: 12 MHz, 11.059
 cycles after the fall of an N j, in one block of straight code with that fall and the fall of
 j + 1 (irq_beside.asm.j2), a step from an edge at N j - 1. The
 background writes each port's items after its sort (frame_irq.asm.j2, stagger_emit.asm.j2: the
-sort's term includes it) into the one of two buffers the handler does not use; the handler takes
+sort's term includes it, for the most distinct N the port's lines fall at in one frame:
+`PortLoad.distinct`, codegen._unread) into the one of two buffers the handler does not use; the handler takes
 them after the last edge of the port before (its handover, `handovers`), a run that must end
 before the rising port's earliest fall: the span is C(top) - C(bottom) and that run
 (Budget.emits), `bottom` the lowest N the rising port's lines fall at (flow.port_reach).
