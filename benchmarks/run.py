@@ -1,6 +1,6 @@
 """Run the benchmark suite: print one markdown table, write the results as JSON.
 
-    .venv/bin/python benchmarks/run.py            # full run, about 45 minutes
+    .venv/bin/python benchmarks/run.py            # full run, about half an hour
     .venv/bin/python benchmarks/run.py --quick    # reduced run, under a minute
 
 See benchmarks/suite.py for what is reported, benchmarks/baselines.py and
