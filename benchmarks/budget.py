@@ -65,6 +65,12 @@ def holds_down_to(ok, lo: int, hi: int, step: int = 1) -> int:
     return p
 
 
+def holds_below(ok, reported: int, step: int = 1) -> int:
+    """`holds_down_to` from servoc's reported P down to 2/3 of it, wherever the pulses' term lies
+    (with the ports' pulses overlapping, 24 servos report less than 3 x 2500 us)."""
+    return holds_down_to(ok, reported * 2 // 3, reported, step)
+
+
 # ---------------------------------------------------------------- building at any P
 
 def plan_text(text: str, name: str = "bench", below_budget: bool = False) -> tuple[SourceFile, Plan]:
@@ -162,7 +168,7 @@ def shortest_exact_period(ports: int, per_port: int = 8, runtime_f: bool = False
     servoc reports (`holds_down_to`), over 400 frames (quick mode: 100)."""
     frames = 100 if quick else 400
     reported = budget_period(ports, per_port, runtime_f, depth)
-    return holds_down_to(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth), reported * 2 // 3, reported)
+    return holds_below(lambda p: exact_at(ports, per_port, p, runtime_f, frames, depth), reported)
 
 
 def stress_default_period(ports: int, runtime_f: bool) -> int:
@@ -247,7 +253,7 @@ def clock_budget(quick: bool, progress=None) -> list[dict]:
                 ok = lambda q: serial_exact_at(ports, q, line, rf)      # noqa: E731
             else:
                 ok = lambda q: exact_at(ports, 8, q, rf, frames=100, target=line)      # noqa: E731
-            p = holds_down_to(ok, reported * 2 // 3, reported)
+            p = holds_below(ok, reported)
             out.append({"target": line.split(" ", 1)[1] if line else "at89c52 (12 MHz)", "ports": ports,
                         "servos": 8 * ports, "runtime_f": rf, "serial": SERIAL_LINE if ser else "",
                         "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
@@ -282,7 +288,7 @@ def examples_budget(quick: bool, progress=None) -> list[dict]:
             plan = plan_text(example_source(name, line), name)[1]
             reported, step = plan.min_period_us, 1 if plan.rises_among_falls else EXAMPLE_STEP
             ok = lambda q: exact(*build_unchecked(example_source(name, line, q), name), 100)     # noqa: E731
-            p = holds_down_to(ok, reported * 2 // 3, reported, step)
+            p = holds_below(ok, reported, step)
             out.append({"program": f"examples/{name}.servo", "target": line.split(" ", 1)[1] if line else "at89c52 (12 MHz)",
                         "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
                         "resolution_us": 1 if p == reported else step})

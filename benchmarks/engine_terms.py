@@ -44,7 +44,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from budget import build_unchecked, exact, exact_with_bytes, holds_down_to, plan_text
+from budget import build_unchecked, exact, exact_with_bytes, holds_below, plan_text
 from servoc import api, costs
 
 CLOCKS = (("12 MHz", ""), ("22.1184 MHz, AT89C52", "target at89c52 clock 22.1184MHz"),
@@ -97,7 +97,7 @@ def exact_period(target_line: str, reported: int, frames: int, build: dict | Non
         if plan.program.serial is None:
             return exact(plan, fw, frames)
         return exact_with_bytes(plan, fw, max(frames, sum(m.frames for m in plan.moves) + 2), back_to_back=True)
-    return holds_down_to(ok, reported * 2 // 3, reported, step)
+    return holds_below(ok, reported, step)
 
 
 def goal_rows(frames: int = 60, progress=None) -> list[dict]:

@@ -473,13 +473,13 @@ SWEEP_BUDGET = 40_000       # breakpoints swept per port before the rest get the
 
 @lru_cache(maxsize=16)
 def port_load(target, motions: frozenset) -> PortLoad:
-    """The handler's worst cycles for one port's falls in any frame (`handler_load`), and the most
-    comparators of its sort that swap, over the port's motions (`flow.port_motions`): for a move of
+    """The handler's worst cycles for one port's falls in any frame (`handler_load`), the most
+    comparators of its sort that swap, and the most distinct N its lines fall at, over the port's motions (`flow.port_motions`): for a move of
     known start, every frame it can have at any period. Its lines' N are functions of one u in
     [0, 1] (k / F, or the eased table's value), each a step function that changes at known u: the
     frames are the sets of N between those u, swept in order. A move that can start after an
     interruption (a `Reach`) gets the bound of its hull: each gap at most SPLIT - 1, and all of them
-    at most C(highest) - C(lowest), and every comparator swapping. Paths are swept in order of that
+    at most C(highest) - C(lowest), every comparator swapping and every line at an N of its own. Paths are swept in order of that
     bound while it, or a swap not yet seen, can still beat the worst found. (The motions do not
     depend on the period: the period stage asks again with the same ones.)"""
     widths = [target.width_cycles(n) for n in range(256)]
@@ -490,15 +490,23 @@ def port_load(target, motions: frozenset) -> PortLoad:
         if bound <= worst and swapped >= most:      # the rest: at most every line its own N
             distinct = max([distinct] + [_targets(rest) for _, rest in order[at:]])
             break
-        exact = all(ab is None or (isinstance(ab[0], int) and isinstance(ab[1], int)) for ab in lines)
-        cost = sum(abs(ab[1] - ab[0]) for ab in lines if ab is not None) if exact else 0
-        if not exact or cost > budget:
+        cost = _breakpoints(lines)
+        if cost is None or cost > budget:
             worst, swapped, distinct = max(worst, bound), most, max(distinct, _targets(lines))
             continue
         budget -= cost
         falls, swapped_here, distinct_here = _sweep(target, lines)
         worst, swapped, distinct = max(worst, falls), max(swapped, swapped_here), max(distinct, distinct_here)
     return PortLoad(worst, swapped, distinct)
+
+
+def _breakpoints(lines) -> int | None:
+    """The steps a move's lines take over its frames (`_frames`: what sweeping it costs), or None
+    where one can start anywhere (a `Reach`): its frames are not known."""
+    fall = [ab for ab in lines if ab is not None]
+    if not all(isinstance(a, int) and isinstance(b, int) for a, b in fall):
+        return None
+    return sum(abs(b - a) for a, b in fall)
 
 
 def _targets(lines) -> int:
@@ -533,10 +541,8 @@ def falls_together(target, motions: frozenset, ports: tuple[int, ...], groups: t
     for bound, lines in order:
         if all(b <= w for b, w in zip(bound, worst)):
             continue
-        fall = [ab for ab in lines if ab is not None]
-        exact = all(isinstance(a, int) and isinstance(b, int) for a, b in fall)
-        cost = sum(abs(b - a) for a, b in fall) if exact else 0
-        if not exact or cost > budget:
+        cost = _breakpoints(lines)
+        if cost is None or cost > budget:
             worst = [max(b, w) for b, w in zip(bound, worst)]
             continue
         budget -= cost
@@ -644,10 +650,9 @@ def merged_load(target, motions: frozenset, split: int) -> MergedLoad:
     widths = [target.width_cycles(n) for n in range(256)]
     falls = groups = 0
     for lines in motions:
-        fall = [ab for ab in lines if ab is not None]
-        if not all(isinstance(a, int) and isinstance(b, int) for a, b in fall):
+        if _breakpoints(lines) is None:
             falls = max(falls, _hull(widths, lines, split))
-            groups = max(groups, len(fall))
+            groups = max(groups, _targets(lines))
             continue
         falling = [ab is not None for ab in lines]
         for cur in _frames(lines):
@@ -843,7 +848,7 @@ def _frame_cycles(target, budget: Budget, period: int) -> int:
                 # in it counted once: the first port's from its handover, the others whole
                 net = [sg - it for sg, it in zip(budget.sorts, budget.items)]
                 ready = ends(hand[1] + rest + falls, period - hand[1])
-                busy = ends(hand[0] + net[1] + budget.items[1] + net[2] + rest + after[0] + load[1] + load[2] - together,
+                busy = ends(hand[0] + budget.sorts[1] + net[2] + rest + after[0] + load[1] + load[2] - together,
                             period - hand[0])
                 chain = tuple(max(r, b) for r, b in zip(ready, busy))
             else:

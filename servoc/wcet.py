@@ -741,8 +741,7 @@ class Code:
         (`one_pass`), the longest that makes none of the calls made at most once in the loop
         (`_once_calls`), and the same two again on the paths that call no routine in `calls`."""
         first = self.labels[head]
-        end = self._loops[first]
-        count = int(self.instrs[first - 1].args[1][1:], 0) or 256
+        end, count = self._counted(self.instrs[first - 1])
         once = self._once_calls(first, end)
         barred = frozenset(i for i in self._reach(first, end) if i < end and self.instrs[i].op in _CALLS
                            and self.instrs[i].args[0] in calls)
