@@ -370,6 +370,8 @@ def test_hexapod_period_quoted(tmp_path: Path, monkeypatch):
     saved = sum(every.sorts) - sum(b.sorts)
     assert f"at most {distinct[0]}, {distinct[1]} and {distinct[2]} distinct N" in text and max(distinct) < 8
     assert saved > 0 and f"not 8: {saved} cycles less" in text
+    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    assert f"({distinct[0]}, {distinct[1]} and {distinct[2]} of 8: {saved} cycles less)" in readme
     assert costs.frame_cycles(unit.target, every) - costs.frame_cycles(unit.target, b) == saved
     whole = costs.fit_spans(unit.target, dataclasses.replace(b, heads=()), b.tops)[0]     # P1's sort by its rise
     assert b.spans[0] < whole and f"P0's span would be {whole} cycles if P1's sort and list" in text

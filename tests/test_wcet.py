@@ -369,3 +369,41 @@ def test_every_build_reads_the_work_between_frames_of_its_whole_text(example, mo
         assert (work, whole.label_at(index(at)), code.by_record()) == (
             *(lambda w, a: (w, whole.label_at(a)))(*whole.between_frames()), whole.by_record())
     assert len({id(code) for _, _, (code, _) in seen}) < len({text for text, _, _ in seen})
+
+
+LATE_ONCE = """\
+start:  SETB    F0
+        MOV     R7, #5
+fe1_p:  MOV     A, @R0
+        INC     R0
+        CJNE    A, #0xFF, iw
+        JNB     F0, ie
+        LCALL   once
+ie:     DEC     R0
+        SJMP    ix
+iw:     LCALL   efall
+ix:     DJNZ    R7, fe1_p
+        RET
+once:   CLR     F0
+        MUL     AB
+        MUL     AB
+        MUL     AB
+        RET
+efall:  MUL     AB
+        RET
+"""
+
+
+def test_passes_that_read_only_the_end_mark_are_charged_less_but_not_the_one_with_the_call_made_once():
+    """`codegen._unread` on a port's loop whose call made once comes only on the end mark's path: a
+    pass 4 cycles (the read and CJNE), then the end mark's 5 (JNB, DEC, SJMP) and the call's 17, or a
+    fall's 8 (LCALL efall), and the DJNZ (2). With one N every pass reads the end mark, the first
+    with the call: 28 + 4 x 11 between SETB, MOV and RET, which the charge gives exactly; taking the
+    end mark's saving from all five passes would charge 3 cycles less than that."""
+    from servoc import codegen
+
+    code = wcet.Code(LATE_ONCE)
+    assert code.passes("fe1_p", {"efall"}) == (5, 28, 14, 11, 28)
+    worst = 1 + 1 + 28 + 4 * 11 + 2
+    assert code.longest("start", set()) - codegen._unread(code, 1, 1) == worst == 76
+    assert codegen._unread(code, 1, 6) == 0                 # five more N: every pass writes a fall
