@@ -38,6 +38,12 @@ from servoc.units import DEFAULT_PERIOD_FLOOR_US
 
 from servoc.target import DEFAULT as _T12
 
+PLANNED_AT = 20000
+"""us: the `frame` the stress programs are planned at for the shortest P servoc reports."""
+BEFORE_KEY = "_before"
+"""A row's program for the table's "before" column ([text, planned again at its shortest P]:
+suite.before_column), dropped from the results once that is measured."""
+
 SPAN = costs.port_span(_T12)
 """A port's rise to the next port's at 12 MHz: the floor of P is SPAN x ports (the pulses alone)."""
 
@@ -148,7 +154,7 @@ def stress_source(ports: int, per_port: int, period: int, runtime_f: bool = Fals
 
 
 def budget_period(ports: int, per_port: int, runtime_f: bool = False, depth: int | None = None,
-                  period: int = 20000, target: str = "", serial: bool = False) -> int:
+                  period: int = PLANNED_AT, target: str = "", serial: bool = False) -> int:
     """The shortest P servoc reports for the stress program (planned at `period`)."""
     return plan_text(stress_source(ports, per_port, period, runtime_f, depth, target, serial),
                      "stress")[1].min_period_us
@@ -257,7 +263,7 @@ def clock_budget(quick: bool, progress=None) -> list[dict]:
             out.append({"target": line.split(" ", 1)[1] if line else "at89c52 (12 MHz)", "ports": ports,
                         "servos": 8 * ports, "runtime_f": rf, "serial": SERIAL_LINE if ser else "",
                         "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
-                        "resolution_us": 1})
+                        "resolution_us": 1, BEFORE_KEY: (stress_source(ports, 8, PLANNED_AT, rf, target=line, serial=ser), False)})
     return out
 
 
@@ -291,7 +297,7 @@ def examples_budget(quick: bool, progress=None) -> list[dict]:
             p = holds_below(ok, reported, step)
             out.append({"program": f"examples/{name}.servo", "target": line.split(" ", 1)[1] if line else "at89c52 (12 MHz)",
                         "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
-                        "resolution_us": 1 if p == reported else step})
+                        "resolution_us": 1 if p == reported else step, BEFORE_KEY: (example_source(name, line), False)})
     return out
 
 
@@ -316,14 +322,15 @@ def frame_budget(quick: bool, progress=None) -> dict:
                 "reported_min_p_us": reported, "shortest_exact_p_us": p, "difference_us": reported - p,
                 "resolution_us": 1, "over_pulses_cycles": p - pulse_floor(ports),
                 "default_p_us": stress_default_period(ports, rf),
-                "search_seconds": round(time.perf_counter() - t0, 1)})
+                "search_seconds": round(time.perf_counter() - t0, 1), BEFORE_KEY: (stress_source(ports, 8, PLANNED_AT, rf), False)})
         say(f"shortest exact P, pose held, {ports} port(s)")
         p, step = hold_shortest(ports, quick)
         plan = plan_text(hold_source(ports, None), "hold")[1]
         out["steady_state"].append({
             "ports": ports, "servos": 8 * ports, "reported_min_p_us": plan.min_period_us,
             "shortest_exact_p_us": p, "difference_us": plan.min_period_us - p, "resolution_us": step,
-            "over_pulses_cycles": p - pulse_floor(ports), "default_p_us": plan.period_us})
+            "over_pulses_cycles": p - pulse_floor(ports), "default_p_us": plan.period_us,
+            BEFORE_KEY: (hold_source(ports, None), False)})
     return out
 
 

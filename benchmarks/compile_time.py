@@ -15,29 +15,21 @@ from __future__ import annotations
 
 import argparse
 import json
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 from engine_terms import goal_source
+from revision import CHILD_HEAD, ROOT, child, worktree
 
-HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
 EXAMPLES = ("biped", "pan_tilt", "hexapod", "hexapod_serial", "serial_arm", "ssc32_arm", "greeter",
             "sweep_until_pressed", "stc_board")
 
-# run in a fresh interpreter with the side's servoc first on the path, and its templates and grammar
-# (an editable install maps servoc.firmware_templates to its own tree): builds the file, prints
-# the seconds the build took and a digest of its HEX
-_CHILD = """
-import hashlib, json, sys, time
-sys.path.insert(0, sys.argv[1])
-import servoc
-servoc.__path__.append(sys.argv[1])     # its templates and grammar too (not an editable install's)
-from importlib import resources
+# run with the side's servoc (revision.CHILD_HEAD): builds the file, prints the seconds the build
+# took and a digest of its HEX
+_CHILD = CHILD_HEAD + """
+import hashlib, time
 from servoc import api
-assert str(resources.files("servoc.firmware_templates")).startswith(sys.argv[1]), "another tree's templates"
 source, reporter = api.load_source(sys.argv[2])
 start = time.perf_counter()
 fe, fw = api.build(source, reporter)
@@ -57,9 +49,7 @@ def programs(tmp: Path) -> list[Path]:
 
 
 def build(tree: Path, program: Path) -> dict:
-    done = subprocess.run([sys.executable, "-c", _CHILD, str(tree), str(program)], capture_output=True,
-                          text=True, check=True, cwd=tree)
-    return json.loads(done.stdout.strip().splitlines()[-1])
+    return json.loads(child(_CHILD, tree, str(program)))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -67,25 +57,18 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--against", required=True, help="the git revision to compare with")
     ap.add_argument("--rounds", type=int, default=5)
     args = ap.parse_args(argv)
-    with tempfile.TemporaryDirectory() as tmp_name:
-        tmp = Path(tmp_name)
-        other = tmp / "other"
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(other), args.against],
-                       check=True)
-        try:
-            sides = {"this tree": ROOT, args.against: other}
-            best: dict[tuple[str, str], float] = {}
-            digests: dict[tuple[str, str], str | None] = {}
-            timed = programs(tmp)
-            for _ in range(args.rounds):
-                for program in timed:
-                    for side, tree in sides.items():
-                        got = build(tree, program)
-                        key = (side, program.stem)
-                        best[key] = min(best.get(key, got["seconds"]), got["seconds"])
-                        digests[key] = got["hex"]
-        finally:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(other)], check=True)
+    with tempfile.TemporaryDirectory() as tmp_name, worktree(args.against) as other:
+        sides = {"this tree": ROOT, args.against: other}
+        best: dict[tuple[str, str], float] = {}
+        digests: dict[tuple[str, str], str | None] = {}
+        timed = programs(Path(tmp_name))
+        for _ in range(args.rounds):
+            for program in timed:
+                for side, tree in sides.items():
+                    got = build(tree, program)
+                    key = (side, program.stem)
+                    best[key] = min(best.get(key, got["seconds"]), got["seconds"])
+                    digests[key] = got["hex"]
     names = [p.stem for p in timed]
     print(f"| program | {args.against} (s) | this tree (s) | ratio | same HEX |")
     print("|---|---|---|---|---|")

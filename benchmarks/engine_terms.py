@@ -44,7 +44,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from budget import build_unchecked, exact, exact_with_bytes, holds_below, plan_text
+from budget import BEFORE_KEY, build_unchecked, exact, exact_with_bytes, holds_below, plan_text
 from servoc import api, costs
 
 CLOCKS = (("12 MHz", ""), ("22.1184 MHz, AT89C52", "target at89c52 clock 22.1184MHz"),
@@ -112,7 +112,7 @@ def goal_rows(frames: int = 60, progress=None) -> list[dict]:
         step = STEP if t["reported_us"] > 1.01 * t["pulses_us"] else 1
         p = exact_period(line, t["reported_us"], frames, build, step)
         rows.append({"clock": name, **t, "shortest_exact_p_us": p, "resolution_us": step,
-                     "difference_us": t["reported_us"] - p})
+                     "difference_us": t["reported_us"] - p, BEFORE_KEY: (goal_source(line), True)})
     return rows
 
 

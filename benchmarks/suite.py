@@ -10,6 +10,8 @@
   for the examples (real programs) at three clocks; `engine_terms.goal_rows` for the 24-servo goal
   program (every port's lines over the full range) at 12 MHz, 22.1184 MHz on two chips and
   11.0592 MHz 6T (full run only: about 13 minutes).
+- `before_column`: for each of those programs, the shortest P servoc reported at revision BEFORE,
+  whose ports were pulsed one after another (revision.reported_at), beside today's.
 - `memory`: ROM (runtime, per keyframe, keyframes that fit 8 KB) and RAM.
 - `compiler_time`: the time of each compiler stage.
 
@@ -27,12 +29,16 @@ from pathlib import Path
 
 from baselines import (FRAMES, POSITIONS, BuildError, Decoded, build_hobby, build_source_algorithm,
                        measure_baseline, positions_source)
-from budget import SPAN, clock_budget, examples_budget, frame_budget, hold_source
+from budget import BEFORE_KEY, SPAN, clock_budget, examples_budget, frame_budget, hold_source
 from engine_terms import goal_rows
+from revision import reported_at
 from servoc import api, codegen, target, toolchain
 from servoc.diagnostics import Reporter
 from servoc.source import SourceFile
 
+BEFORE = "5f75dbb"
+"""The revision of the "before" column: the last whose three ports were pulsed one after another
+(the 24-servo goal program's shortest P 7833 us at 12 MHz, 7681 us at 22.1184 MHz)."""
 ROM_SIZE = target.CHIPS[target.DEFAULT_CHIP].code_bytes
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
@@ -296,51 +302,78 @@ def run_all(quick: bool = False, progress=None) -> dict:
         "memory": memory(quick, progress),
         "compiler": compiler_time(quick, progress),
     }
+    if progress:
+        progress(f"shortest P reported at {BEFORE}, each program")
+    results["before"] = before_column(results)
     results["seconds"] = round(time.perf_counter() - t0, 1)
     return results
+
+
+def _period_rows(results: dict) -> list[dict]:
+    """The rows that report a shortest P, in the table's order."""
+    fb = results["frame_budget"]
+    return (fb["worst_case"] + fb["steady_state"] + results["clock_budget"] + results["goal_budget"]
+            + results["examples_budget"])
+
+
+def before_column(results: dict, rev: str = BEFORE) -> str:
+    """Each row's program (BEFORE_KEY, then dropped from the row) planned by revision `rev`: its
+    shortest P reported there, as the row's `before_us` (or the error codes `rev` gave). Returns `rev`."""
+    rows = _period_rows(results)
+    for x, got in zip(rows, reported_at(rev, [x.pop(BEFORE_KEY) for x in rows])):
+        x["before_us"] = got
+    return rev
 
 
 def _servos(ports: int) -> str:
     return {1: "8 servos on P0", 2: "16 servos on P0-P1", 3: "24 servos on P0-P2"}[ports]
 
 
-
-
-
-def _budget_rows(fb: dict) -> list[tuple[str, str, str, str]]:
-    """Per program: servoc's shortest P against the shortest exact in ucsim, cycles over the pulses, default P."""
+def _budget_rows(fb: dict) -> list[tuple[str, ...]]:
+    """Per program: servoc's shortest P against the shortest exact in ucsim (and the shortest P
+    reported before: `_before`), cycles over the pulses, default P."""
+    label = "servoc: shortest P reported / shortest exact in ucsim / difference"
     rows = []
     cases = [(w, "worst case", ", run-time F" if w["runtime_f"] else "") for w in fb["worst_case"]]
     cases += [(st, "pose held", "") for st in fb["steady_state"]]
     for x, what, kind in cases:
-        res = _resolution(x)
         name = f"{what}, {_servos(x['ports'])}{kind}"
         rows += [
-            (f"servoc: shortest P reported / shortest exact in ucsim / difference, {name} (us)", "", "",
-             f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{res} / {x['difference_us']:+d} ({_over(x)})"),
+            (f"{label}, {name} (us)", "", "", _period(x), _before(x)),
             (f"servoc: cycles over the pulses at N 250 (shortest exact P - ports x {SPAN}; below 0: the spans fitted to the lines are shorter), {name}", "", "",
-             f"{x['over_pulses_cycles']}{res}"),
+             f"{x['over_pulses_cycles']}{_resolution(x)}"),
         ]
         if not kind:
             rows.append((f"servoc: default P, {name} (us)", "", "", f"{x['default_p_us']}"))
     for x in fb.get("clocks", ()):
         kind = "".join(f", {k}" for k in ("run-time F" if x.get("runtime_f") else "", x.get("serial", "")) if k)
-        rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, worst case, "
-                     f"{_servos(x['ports'])}, {x['target']}{kind} (us)", "", "",
-                     f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
-                     f"{x['difference_us']:+d} ({_over(x)})"))
+        rows.append((f"{label}, worst case, {_servos(x['ports'])}, {x['target']}{kind} (us)", "", "", _period(x), _before(x)))
     for x in fb.get("goal", ()):
-        rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, the goal program "
-                     f"(24 moving servos, N 0 and 250 on every port), {x['clock']}"
-                     f"{'' if x['build'] in x['clock'] else ', ports ' + x['build']} (us)", "", "",
-                     f"{x['reported_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
-                     f"{x['difference_us']:+d} ({_over(x)})"))
+        rows.append((f"{label}, the goal program (24 moving servos, N 0 and 250 on every port), {x['clock']}"
+                     f"{'' if x['build'] in x['clock'] else ', ports ' + x['build']} (us)", "", "", _period(x), _before(x)))
     for x in fb.get("examples", ()):
-        rows.append((f"servoc: shortest P reported / shortest exact in ucsim / difference, {x['program']}, "
-                     f"{x['target']} (us)", "", "",
-                     f"{x['reported_min_p_us']} / {x['shortest_exact_p_us']}{_resolution(x)} / "
-                     f"{x['difference_us']:+d} ({_over(x)})"))
+        rows.append((f"{label}, {x['program']}, {x['target']} (us)", "", "", _period(x), _before(x)))
     return rows
+
+
+def _reported(x: dict) -> int:
+    return x["reported_us"] if "reported_us" in x else x["reported_min_p_us"]
+
+
+def _period(x: dict) -> str:
+    """A row's shortest P reported, the shortest exact in ucsim, and the difference."""
+    return (f"{_reported(x)} / {x['shortest_exact_p_us']}{_resolution(x)} / {x['difference_us']:+d} ({_over(x)})")
+
+
+def _before(x: dict) -> str:
+    """The shortest P the revision before the ports overlapped reported for the row's program
+    (`before_column`), and today's against it; empty where not measured."""
+    got = x.get("before_us")
+    if got is None:
+        return ""
+    if isinstance(got, list):
+        return "refused: " + ", ".join(got)
+    return f"{got} ({100 * (_reported(x) - got) / got:+.1f}%)"
 
 
 def _resolution(x: dict) -> str:
@@ -361,7 +394,7 @@ def table(r: dict) -> str:
     """One markdown table: the comparison, then servoc's own figures."""
     c = r["comparison"]
     h, s, v = c["hobby"], c["source_algorithm"], c["servoc"]
-    rows: list[tuple[str, str, str, str]] = []
+    rows: list[tuple[str, ...]] = []
 
     def cmp(label: str, key: str, fmt=str) -> None:
         rows.append((label, fmt(h[key]), fmt(s[key]), fmt(v[key])))
@@ -398,7 +431,8 @@ def table(r: dict) -> str:
         ("servoc: compile time total / without SDCC (assemble) / first compile in the process (s)", "", "",
          f"{comp['total_seconds']:.3f} / {comp['without_sdcc_seconds']:.3f} / {comp.get('cold_total_seconds', 0):.3f}"),
     ]
-    head = ("figure", "hobby.c (SDCC, Timer0)", "source_algorithm.asm", "servoc")
+    head = ("figure", "hobby.c (SDCC, Timer0)", "source_algorithm.asm", "servoc",
+            f"servoc at {r.get('before') or BEFORE} (ports one after another): shortest P reported (us; today against it)")
     lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in head) + "|"]
-    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    lines += ["| " + " | ".join(row + ("",) * (len(head) - len(row))) + " |" for row in rows]
     return "\n".join(lines)

@@ -8,6 +8,7 @@ its traps (zero differences) send DJNZ round 256 times, servoc is exact.
 
 from __future__ import annotations
 
+import ast
 import importlib.util
 import json
 import re
@@ -36,6 +37,7 @@ def _load(module_name: str, file_name: str):
 baselines = _load("baselines", "baselines.py")
 budget = _load("budget", "budget.py")
 _load("engine_terms", "engine_terms.py")
+revision = _load("revision", "revision.py")
 suite = _load("suite", "suite.py")
 run_cli = _load("bench_run", "run.py")
 
@@ -161,6 +163,32 @@ def test_the_stress_rows_are_scanned_below_their_reported_period_wherever_it_lie
     assert calls == list(range(6830, 6645, -1))
 
 
+def test_the_before_column_is_each_rows_program_planned_by_the_revision_named(monkeypatch):
+    """before_column hands each row's program to revision.reported_at and puts what it gives back in
+    the row; the child that plans them, run here on this tree (which `reported_at` checks out as a
+    worktree), gives this tree's shortest P, planned again at it where asked, and refusals' codes."""
+    stress = budget.stress_source(1, 3, budget.PLANNED_AT)
+    goal = sys.modules["engine_terms"].goal_source("")
+    results = {"frame_budget": {"worst_case": [{budget.BEFORE_KEY: (stress, False)}],
+                                "steady_state": [{budget.BEFORE_KEY: (budget.stress_source(1, 3, 100), False)}]},
+               "clock_budget": [], "examples_budget": [], "goal_budget": [{budget.BEFORE_KEY: (goal, True)}]}
+    asked = []
+
+    def child_here(rev, programs):      # the worktree is this tree
+        asked.append(rev)
+        return json.loads(revision.child(revision._SHORTEST, revision.ROOT, stdin=json.dumps(programs)))
+    monkeypatch.setattr(suite, "reported_at", child_here)
+    assert suite.before_column(results, "abc1234") == "abc1234" and asked == ["abc1234"]
+    first = budget.plan_text(goal, "goal")[1].min_period_us
+    again = budget.plan_text(goal.replace("frame 20ms", f"frame {first}us"), "goal")[1].min_period_us
+    with pytest.raises(baselines.BuildError) as refused:
+        budget.plan_text(budget.stress_source(1, 3, 100), "refused")
+    codes = ["infeasible-speed", "period-too-short"]
+    assert sorted(set(ast.literal_eval(str(refused.value).split(": ", 1)[1]))) == codes
+    assert [x["before_us"] for x in suite._period_rows(results)] == [budget.budget_period(1, 3), codes, again]
+    assert all(set(x) == {"before_us"} for x in suite._period_rows(results))
+
+
 def test_keyframes():
     mem = suite.memory(quick=True)
     for key in ("keyframes", "gait_steps"):
@@ -206,9 +234,10 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
                                           for p in (1, 3)]},
         "examples_budget": [{"program": "examples/biped.servo", "target": "at89c52 clock 22.1184MHz",
                              "reported_min_p_us": 1810, "shortest_exact_p_us": 1800, "difference_us": 10,
-                             "resolution_us": 1}],
+                             "resolution_us": 1, "before_us": ["period-too-short"]}],
         "goal_budget": [{"clock": "22.1184 MHz, STC89C52RC", "build": "at once", "reported_us": 3337,
-                         "shortest_exact_p_us": 2881, "resolution_us": 8, "difference_us": 456}],
+                         "shortest_exact_p_us": 2881, "resolution_us": 8, "difference_us": 456, "before_us": 7681}],
+        "before": "abc1234",
         "memory": {"runtime_bytes_8_servos": 10, "runtime_bytes_24_servos": 20, "ram_bytes_8_servos": 196,
                    "ram_bytes_24_servos": 230,
                    **{f"{key}_{how}": {"bytes_per_item": 24.0, "runtime_bytes": 15, "estimate": 146, "confirmed": 146,
@@ -225,17 +254,18 @@ def test_table_and_json(tmp_path, monkeypatch, hobby, source_algorithm, servoc_s
     text = suite.table(fake)
     lines = text.splitlines()
     assert lines[0].startswith("| figure | hobby.c") and lines[1].startswith("|---")
-    assert all(line.count("|") == 5 for line in lines)
+    assert all(line.count("|") == 6 for line in lines)
+    assert lines[0].endswith("| servoc at abc1234 (ports one after another): shortest P reported (us; today against it) |")
     assert any("146/146 (24.0 B; P = 8000 us) / 146/146 (24.0 B; for size, P = 8000 us)" in line for line in lines)
     assert "| max abs width error, all channels (us) | " in text
     assert "777 (to 8 us)" in text and "146/146" in text
     assert ("| servoc: shortest P reported / shortest exact in ucsim / difference, worst case, 24 servos on P0-P2, "
-            "run-time F (us) |  |  | 10020 / 9999 (to 8 us) / +21 (+0.2%) |") in text
-    assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 (+2.4%) |" in text
-    assert ("difference, examples/biped.servo, at89c52 clock 22.1184MHz (us) |  |  | 1810 / 1800 / +10 (+0.6%) |"
-            in text)
+            "run-time F (us) |  |  | 10020 / 9999 (to 8 us) / +21 (+0.2%) |  |") in text
+    assert "pose held, 8 servos on P0 (us) |  |  | 2600 / 2540 / +60 (+2.4%) |  |" in text
+    assert ("difference, examples/biped.servo, at89c52 clock 22.1184MHz (us) |  |  | 1810 / 1800 / +10 (+0.6%) "
+            "| refused: period-too-short |" in text)
     assert ("the goal program (24 moving servos, N 0 and 250 on every port), 22.1184 MHz, STC89C52RC, ports at once "
-            "(us) |  |  | 3337 / 2881 (to 8 us) / +456 (+15.8%) |") in text
+            "(us) |  |  | 3337 / 2881 (to 8 us) / +456 (+15.8%) | 7681 (-56.6%) |") in text
 
 
 def test_the_examples_benchmark_builds_each_example_at_each_clock_and_period():
