@@ -386,3 +386,27 @@ def test_the_docs_figures_of_the_goal_program_are_the_codes_and_the_latest_bench
     assert at89["work"] == twelve["work"] == apart["work"] and at89["falls"] == twelve["falls"]
     missing = [w for w in expected if w not in section]
     assert not missing, missing
+
+
+def test_the_readme_table_is_the_latest_runs_and_says_what_its_before_column_shows():
+    """README.md's table is suite.table of benchmarks/results.json (the run it comes from), and its
+    words on the last column are that run's: no row longer than at suite.BEFORE, and by how much shorter."""
+    readme = (BENCH.parent / "README.md").read_text(encoding="utf-8")
+    results = json.loads((BENCH / "results.json").read_text(encoding="utf-8"))
+    assert suite.table(results) in readme and results["before"] == suite.BEFORE
+    rows = suite._period_rows(results)
+    assert all(isinstance(x["before_us"], int) for x in rows)
+    def ports(x: dict) -> int:      # the goal program's: 3; an example's: its plan's
+        if "program" in x:
+            name = Path(x["program"]).stem
+            return len(budget.plan_text(budget.example_source(name, ""), name)[1].ports)
+        return x.get("ports", 3)
+    ports = [ports(x) for x in rows]
+    change = [100 * (suite._reported(x) - x["before_us"]) / x["before_us"] for x in rows]
+    assert max(change) < 0
+    few = lambda one: (round(-max(c for c, p in zip(change, ports) if (p == 1) == one)),     # noqa: E731
+                       round(-min(c for c, p in zip(change, ports) if (p == 1) == one)))
+    (lo3, hi3), (lo1, hi1) = few(False), few(True)
+    said = " ".join(readme.split())
+    assert (f"no row is longer; the rows with two or three ports are {lo3} to {hi3} % shorter, those with one port "
+            f"{lo1} to {hi1} %.") in said
