@@ -307,7 +307,10 @@ def _least_period(program, at: Plan) -> int:
     2.8 ms), the search above. So does a program whose `send`s bound the period of the code built
     for `at` (`AsmUnit.sends_bind`): the frames between them also follow P (`frame 20ms`, a 30 ms
     move between runs of sends: 3.294 ms from the code for 20 ms, 0.785 ms from its own). Where they
-    do not bind there, they do not at a shorter P either: the frames between them only grow."""
+    do not bind there, they do not at a shorter P either: the frames between them only grow. The
+    code built for a shorter P can do more between frames, so that its sends no longer fit that P
+    (`send-overrun`): it holds them from the period the error names (`Plan.sends_hold_us`), where
+    the search goes on."""
     if at.firmware_limit is not None:
         return at.min_period_us
     by_f = program.serial is None or not (hosted(at) or send_run(at) and _unit(at).sends_bind)   # the code
@@ -323,10 +326,11 @@ def _least_period(program, at: Plan) -> int:
         return at.min_period_us
     known = {at.period_us: at.min_period_us}
 
-    def need(p: int) -> int:            # the shortest period of the code built for p (p + 1: none)
-        if p not in known:
+    def need(p: int) -> int:            # the shortest period of the code built for p (p + 1: none
+        if p not in known:              # known, where it hits a limit other than its sends')
             got = _budgeted(_built_as(_plan_at(program, p), at))
-            known[p] = p + 1 if got.firmware_limit is not None else got.min_period_us
+            known[p] = (got.min_period_us if got.firmware_limit is None
+                        else max(p + 1, got.sends_hold_us or 0))
         return known[p]
 
     p = at.min_period_us
@@ -357,7 +361,8 @@ def _budgeted(p: Plan) -> Plan:
     except layout.LayoutError as exc:
         layout.forget_frames(exc)
         return dataclasses.replace(p, min_period_us=p.period_us,
-                                   firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)))
+                                   firmware_limit=tuple((e.code, str(e), e.help, e.span, e.labels) for e in layout.each(exc)),
+                                   sends_hold_us=exc.shortest_us if isinstance(exc, layout.SendOverrun) else None)
     result = dataclasses.replace(with_rises(p, unit), min_period_us=unit.min_period_us or p.period_us,
                                  period_holds=unit.min_period_us is None or unit.period_holds)
     _keep_unit(result, unit)

@@ -304,6 +304,8 @@ class Plan:
     power_up: tuple = ()                    # the steps that make the power-up (the first of `main`)
     firmware_limit: tuple | None = None     # (code, message, help, span, labels) of each resource limit the code generated
                                             # for this plan hits (layout.LayoutError), found without assembling
+    sends_hold_us: int | None = None        # where that limit is send-overrun alone: the period from which on
+                                            # the code generated for this plan holds its sends and its frame
     compact: bool = False                   # its firmware built for size (`api.build`: when the fast build
                                             # does not fit the code memory): loops where the fast one is unrolled
     first_step: bool = True                 # a move of known F sets each pin up and steps its first frame

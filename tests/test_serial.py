@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import build_text, front_end_text, simulate_events
+from conftest import assert_exact, build_text, front_end_text, simulate_events
 from servoc import api, cli, codegen, costs, events, layout, verify
 from servoc.flow import send_gap, send_run
 from servoc.target import byte_cycles, timer1_baud, working_bauds
@@ -508,6 +508,40 @@ def test_send_overrun_names_the_shortest_period_at_which_the_sends_fit():
     assert d.code == "send-overrun" and f"`frame {shortest / 1000:g}ms` or longer" in d.help, d.help
     _, diags = front_end_text(f"frame {shortest}us\n" + text)
     assert not [d for d in diags if d.is_error]
+
+
+def test_the_shortest_period_is_found_where_the_code_built_below_it_cannot_hold_its_sends():
+    """8 servos on two ports at once (11.0592 MHz 6T, 9600 baud), a select whose `on "b"` sends a
+    byte each frame: the code built for 20 ms holds 2.18 ms, but the code built for that period has
+    more work between frames, so its sends need longer (`send-overrun`, which names the period from
+    which that code holds them). The search for the shortest period (api._least_period) goes there
+    at once, not 1 us at a time until it gives up and reports P itself: lint at `frame 20ms` and by
+    default reports it, `frame P` builds, 1 us less is refused naming P, and at P every pulse and
+    byte sent is exact in ucsim with a byte asking for a send in every frame of a run."""
+    names = [f"s{i}" for i in range(8)]
+    body = ("target stc89c52rc clock 11.0592MHz mode 6T\nserial 9600\n"
+            + "".join(f"servo s{i} = P{1 + i % 2}.{i // 2}\n" for i in range(8)) + "input btn = P3.2\n"
+            + "pose q0 { " + ", ".join(f"{s}: 16" for s in names) + " }\n"
+            + "pose q2 { " + ", ".join(f"{s}: {95 if i % 2 else 57}" for i, s in enumerate(names)) + " }\n"
+            + 'main { move q0; loop { select { on press btn { move q2 in 1070ms ease in-out; move q2 in 1018ms } '
+              'on "a" { move q0 in 1113ms } on "b" { send "z" } after 3s { move q2 in 998ms } } } }\n')
+    fe, _ = front_end_text("frame 20ms\n" + body)
+    reported = fe.plan.min_period_us
+    assert fe.plan.ports_at_once and reported < 2500
+    assert codegen.generate(fe.plan).min_period_us < reported       # the code built for 20 ms holds less
+    assert front_end_text(body)[0].plan.min_period_us == reported
+    at, diags = front_end_text(f"frame {reported}us\n" + body)
+    assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
+    _, diags = front_end_text(f"frame {reported - 1}us\n" + body)
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "send-overrun" and f"`frame {reported / 1000:g}ms` or longer" in d.help, d.help
+    scenario = ("".join(f'{0.4 + 0.3 * k:.1f}s "b" "b" "b" "b"\n' for k in range(3)) + '1.1s "a"\n'
+                + "".join(f'{1.3 + 0.3 * k:.1f}s "b" "b" "b" "b"\n' for k in range(3)) + "2.5s btn active\n2.6s btn inactive\n")
+    frames = 1600
+    plan, evs, trace = simulate_events(f"frame {reported}us\n" + body, scenario, frames)
+    report = api.check_events(plan, trace, frames, evs)
+    assert_exact(report)
+    assert report.bytes_sent >= 12
 
 
 @pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n",
