@@ -305,16 +305,19 @@ def _least_period(program, at: Plan) -> int:
     flag). So where those are the same at the shortest period as at P, the code's own shortest
     period is the answer; where they are not (`frame 20ms`, a 1.2 s move: F 60 there, over 255 at
     2.8 ms), the search above. So does a program whose `send`s bound the period of the code built
-    for `at` (`AsmUnit.sends_bind`): the frames between them also follow P (`frame 20ms`, a 30 ms
+    for `at` (`AsmUnit.unsent_us`): the frames between them also follow P (`frame 20ms`, a 30 ms
     move between runs of sends: 3.294 ms from the code for 20 ms, 0.785 ms from its own). Where they
     do not bind there, they do not at a shorter P either: the frames between them only grow. The
     code built for a shorter P can do more between frames, so that its sends no longer fit that P
     (`send-overrun`): it holds them from the period the error names (`Plan.sends_hold_us`), where
-    the search goes on."""
+    the search goes on. Where the sends bind the code for `at`, the search starts from the period the
+    rest of that code holds: the least P whose own code holds it can be far below (`frame 20ms`, a 37
+    ms hold before four bytes at 1200 baud: two frames at 20 ms, seven at 5 ms)."""
     if at.firmware_limit is not None:
         return at.min_period_us
-    by_f = program.serial is None or not (hosted(at) or send_run(at) and _unit(at).sends_bind)   # the code
-    # follows P through its records only
+    unsent = None if program.serial is None or not send_run(at) else _unit(at).unsent_us
+    by_f = program.serial is None or not (hosted(at) or unsent is not None)   # the code follows P through
+    # its records only
     fs: dict[int, tuple] = {at.period_us: _one_byte_fs(at)}
 
     def f8(p: int) -> tuple:
@@ -333,14 +336,22 @@ def _least_period(program, at: Plan) -> int:
                         else max(p + 1, got.sends_hold_us or 0))
         return known[p]
 
-    p = at.min_period_us
-    for _ in range(64):
+    def holds(p: int) -> bool:
+        return need(p) <= p
+
+    p = at.min_period_us if unsent is None else unsent     # (with the frames between the sends shorter,
+    for _ in range(64):                                      # the sends may no longer bind: from below)
         m = need(p)
-        if m != p:
+        if m > p or (m < p and holds(m)):
             p = m                       # up while the code for p needs more, down while it needs less
-        elif p > 1 and not (by_f and f8(p - 1) == f8(p)) and need(p - 1) <= p - 1:   # (the same F8: the
-            # code for p - 1 takes the cycles of the code for p, which does not hold p - 1)
-            p = need(p - 1)
+            continue
+        if m < p:       # the code for p holds from m on, the code for m does not hold m: the least
+            lo = m      # period between that holds (each build's own), by bisection
+            while p - lo > 1:
+                mid = (lo + p) // 2
+                lo, p = (lo, mid) if holds(mid) else (mid, p)
+        if p > 1 and not (by_f and f8(p - 1) == f8(p)) and holds(p - 1):   # (the same F8: the code for
+            p -= 1                      # p - 1 takes the cycles of the code for p, which does not hold p - 1)
         else:
             return p
     return min((q for q, m in known.items() if m <= q), default=at.min_period_us)

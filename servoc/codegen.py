@@ -63,8 +63,9 @@ class AsmUnit:
     xram_bytes: int = 0             # XRAM in use (flow.host_xram: the host's arrays, the motion state)
     both_passes: bool = False       # some moves take the one call (Plan.first_step), others the two passes:
                                     # both are laid out, so the build without first_step has less code
-    sends_bind: bool = False        # the runs of `send` need a longer period than the rest of the code
-                                    # (`_send_floor`): the frames between them follow P
+    unsent_us: int | None = None    # where the runs of `send` need a longer period than the rest of the
+                                    # code (`_send_floor`): the shortest period the rest holds (the frames
+                                    # between the runs follow P); None: they do not
 
     def fits_code(self) -> bool:
         """Whether the code memory surely holds it, by the size read from the text
@@ -856,7 +857,7 @@ def _generate(plan: Plan, source: SourceFile | None, hold_off: int, answers: int
                    (flow_mod.HOST_XRAM_PER_SERVO * len(plan.channels) + layout.HOLD_BYTES * layout.host_holds(plan, in_xram)
                     + layout.RAM_SIZE - layout.state_at(nports)) if in_xram else 0,
                    passes["fused"] is not None and passes["sx"],
-                   floor is not None and least is not None and floor > least)
+                   target.us_at_least(least) if floor is not None and least is not None and floor > least else None)
 
 
 def _select_ram(ctx: _Ctx, ram: layout.RamAllocator) -> list[dict]:

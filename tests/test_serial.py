@@ -544,6 +544,57 @@ def test_the_shortest_period_is_found_where_the_code_built_below_it_cannot_hold_
     assert report.bytes_sent >= 12
 
 
+def test_where_the_sends_bind_at_20ms_the_shortest_period_is_searched_from_what_the_rest_of_the_code_holds():
+    """A 37 ms hold before four bytes at 1200 baud: at 20 ms the hold is two frames and the sends
+    need 16.968 ms, at 5 ms it is seven and they fit easily. The shortest period reported at `frame
+    20ms` is the default's, the least P whose own code holds it, not the fixed point near the code
+    for 20 ms; `frame P` builds, 1 us less is refused, and at P the pulses and the bytes sent after
+    each hold are exact in ucsim."""
+    body = ("target stc89c52rc clock 11.0592MHz mode 6T\nserial 1200\nservo a = P1.1\nservo b = P1.4\n"
+            "input btn = P3.2\npose q0 { a: 63, b: 58 }\npose q2 { a: 250, b: 250 }\n"
+            'main { move q0; loop { select { on press btn { move q2; hold 9ms } '
+            'on "a" { hold 37ms; send "z"; send "z"; send "z"; send "z" } on "b" { move q0 } } } }\n')
+    fe, _ = front_end_text("frame 20ms\n" + body)
+    reported = fe.plan.min_period_us
+    assert codegen.generate(fe.plan).min_period_us > 15000 > 3000 > reported     # the code for 20 ms: sends bind
+    assert front_end_text(body)[0].plan.min_period_us == reported
+    at, diags = front_end_text(f"frame {reported}us\n" + body)
+    assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
+    _, diags = front_end_text(f"frame {reported - 1}us\n" + body)
+    assert [d.code for d in diags if d.is_error] == ["period-too-short"]
+    frames = 1500
+    plan, evs, trace = simulate_events(f"frame {reported}us\n" + body, '0.3s "a"\n0.8s "b"\n1.5s "a"\n2.4s "a"\n', frames)
+    report = api.check_events(plan, trace, frames, evs)
+    assert_exact(report)
+    assert report.bytes_sent == 12
+
+
+def test_the_shortest_period_is_bisected_where_each_builds_code_holds_another_period():
+    """13 servos on two ports at once at 22.1184 MHz, 19200 baud, five bytes a frame apart: the
+    code built for 3908 us holds its sends only from 4018 us, the code built for 4018 us holds
+    3908 us. The search does not go back and forth between the two (and give up at the higher):
+    the shortest period reported is the least between whose own code holds it; 1 us less is
+    refused."""
+    names = ("s00 = P0.0", "s01 = P0.1", "s02 = P0.2", "s04 = P0.4", "s06 = P0.6", "s07 = P0.7", "s10 = P1.0",
+             "s11 = P1.1", "s12 = P1.2", "s13 = P1.3", "s15 = P1.5", "s16 = P1.6", "s17 = P1.7")
+    servos = [n.split(" = ")[0] for n in names]
+    pose = lambda k, ns: f"pose q{k} {{ " + ", ".join(f"{s}: {n}" for s, n in zip(servos, ns)) + " }\n"     # noqa: E731
+    body = ("target at89c52 clock 22.1184MHz\nserial 19200\n" + "".join(f"servo {n}\n" for n in names)
+            + "input btn = P3.2\n"
+            + pose(0, (102, 102, 102, 103, 102, 103, 102, 103, 102, 102, 103, 103, 102))
+            + pose(2, (157, 203, 203, 233, 157, 203, 203, 157, 157, 157, 217, 233, 217))
+            + 'main { move q0; loop { select { on press btn { move q0 in 1007ms ease in-out; hold 17ms } '
+              'on "a" { move q2 in 419ms; send "y"; send "z" } on "b" { send "x"; send "z"; send "y" } } } }\n')
+    fe, _ = front_end_text("frame 20ms\n" + body)
+    reported = fe.plan.min_period_us
+    assert fe.plan.ports_at_once and 3908 < reported < 4018
+    at, diags = front_end_text(f"frame {reported}us\n" + body)
+    assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
+    _, diags = front_end_text(f"frame {reported - 1}us\n" + body)
+    (d,) = [d for d in diags if d.is_error]
+    assert d.code == "send-overrun", d
+
+
 @pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n",
                                    "target stc89c52rc clock 11.0592MHz mode 6T\n"])
 def test_the_shortest_period_of_a_program_whose_sends_bound_it_follows_the_frames_between_them(clock):
