@@ -340,7 +340,9 @@ def _least_period(program, at: Plan) -> int:
         return need(p) <= p
 
     p = at.min_period_us if unsent is None else unsent     # (with the frames between the sends shorter,
-    for _ in range(64):                                      # the sends may no longer bind: from below)
+    for _ in range(256):                                     # the sends may no longer bind: from below)
+        if len(known) > 64:             # (every candidate a build: past 64, the least known to hold)
+            break
         m = need(p)
         if m > p or (m < p and holds(m)):
             p = m                       # up while the code for p needs more, down while it needs less
