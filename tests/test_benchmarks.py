@@ -189,6 +189,20 @@ def test_the_before_column_is_each_rows_program_planned_by_the_revision_named(mo
     assert all(set(x) == {"before_us"} for x in suite._period_rows(results))
 
 
+def test_reported_at_checks_a_revision_out_beside_the_tree_and_removes_it_again():
+    """revision.reported_at on this repository's HEAD: that revision's own servoc plans each program
+    (a shortest P, or a refusal's codes) in a worktree that is gone again after."""
+    import subprocess
+    listed = lambda: subprocess.run(["git", "-C", str(revision.ROOT), "worktree", "list"],      # noqa: E731
+                                    capture_output=True, text=True, check=True).stdout
+    before = listed()
+    got = revision.reported_at("HEAD", [(budget.stress_source(1, 3, budget.PLANNED_AT), False),
+                                        (budget.stress_source(1, 3, 100), False)])
+    assert isinstance(got[0], int) and 1000 < got[0] < budget.PLANNED_AT
+    assert "period-too-short" in got[1]
+    assert listed() == before
+
+
 def test_keyframes():
     mem = suite.memory(quick=True)
     for key in ("keyframes", "gait_steps"):

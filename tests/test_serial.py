@@ -510,6 +510,11 @@ def test_send_overrun_names_the_shortest_period_at_which_the_sends_fit():
     assert not [d for d in diags if d.is_error]
 
 
+def _docs_text() -> str:
+    """docs/language.md, its whitespace one space."""
+    return " ".join((Path(__file__).resolve().parent.parent / "docs" / "language.md").read_text(encoding="utf-8").split())
+
+
 def test_the_shortest_period_is_found_where_the_code_built_below_it_cannot_hold_its_sends():
     """8 servos on two ports at once (11.0592 MHz 6T, 9600 baud), a select whose `on "b"` sends a
     byte each frame: the code built for 20 ms holds 2.18 ms, but the code built for that period has
@@ -556,7 +561,10 @@ def test_where_the_sends_bind_at_20ms_the_shortest_period_is_searched_from_what_
             'on "a" { hold 37ms; send "z"; send "z"; send "z"; send "z" } on "b" { move q0 } } } }\n')
     fe, _ = front_end_text("frame 20ms\n" + body)
     reported = fe.plan.min_period_us
-    assert codegen.generate(fe.plan).min_period_us > 15000 > 3000 > reported     # the code for 20 ms: sends bind
+    twenty = codegen.generate(fe.plan).min_period_us
+    assert twenty > 15000 > 3000 > reported     # the code for 20 ms: sends bind
+    assert (f"P_min is {reported / 1000:.3f} ms, not the {twenty / 1000:.3f} ms the code for 20 ms needs"
+            in _docs_text())        # docs/language.md's example is this program
     assert front_end_text(body)[0].plan.min_period_us == reported
     at, diags = front_end_text(f"frame {reported}us\n" + body)
     assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
@@ -574,7 +582,7 @@ def test_the_shortest_period_is_bisected_where_each_builds_code_holds_another_pe
     code built for 3908 us holds its sends only from 4018 us, the code built for 4018 us holds
     3908 us. The search does not go back and forth between the two (and give up at the higher):
     the shortest period reported is the least between whose own code holds it; 1 us less is
-    refused."""
+    refused; at it every pulse and byte is exact in ucsim with a run of sends asked for each frame."""
     names = ("s00 = P0.0", "s01 = P0.1", "s02 = P0.2", "s04 = P0.4", "s06 = P0.6", "s07 = P0.7", "s10 = P1.0",
              "s11 = P1.1", "s12 = P1.2", "s13 = P1.3", "s15 = P1.5", "s16 = P1.6", "s17 = P1.7")
     servos = [n.split(" = ")[0] for n in names]
@@ -593,6 +601,12 @@ def test_the_shortest_period_is_bisected_where_each_builds_code_holds_another_pe
     _, diags = front_end_text(f"frame {reported - 1}us\n" + body)
     (d,) = [d for d in diags if d.is_error]
     assert d.code == "send-overrun", d
+    frames = 1000
+    scenario = "".join(f'{0.3 + 0.4 * k:.1f}s "b" "b" "b" "b"\n' for k in range(4)) + '2s "a"\n'
+    plan, evs, trace = simulate_events(f"frame {reported}us\n" + body, scenario, frames)
+    report = api.check_events(plan, trace, frames, evs)
+    assert_exact(report)
+    assert report.bytes_sent >= 24
 
 
 @pytest.mark.parametrize("clock", ["", "target stc89c52rc clock 11.0592MHz\n",
@@ -608,7 +622,10 @@ def test_the_shortest_period_of_a_program_whose_sends_bound_it_follows_the_frame
     fe, _ = front_end_text("frame 20ms\n" + body)
     reported = fe.plan.min_period_us
     assert fe.plan.program.target.cycle_us == (1 if not clock else Fraction(15625, 14400 * (2 if "6T" in clock else 1)))
-    assert codegen.generate(fe.plan).min_period_us > reported      # the code built for 20 ms: fewer frames
+    twenty = codegen.generate(fe.plan).min_period_us
+    assert twenty > reported      # the code built for 20 ms: fewer frames
+    if not clock:       # docs/language.md's example
+        assert f"the code built for 20 ms holds {twenty / 1000:.3f} ms, its own P_min is {reported / 1000:.3f} ms" in _docs_text()
     assert front_end_text(body)[0].plan.min_period_us == reported
     at, diags = front_end_text(f"frame {reported}us\n" + body)
     assert at.plan.min_period_us == reported and not [d for d in diags if d.is_error]
