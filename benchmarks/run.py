@@ -1,7 +1,7 @@
 """Run the benchmark suite: print one markdown table, write the results as JSON.
 
     .venv/bin/python benchmarks/run.py            # full run, about half an hour
-    .venv/bin/python benchmarks/run.py --quick    # reduced run, under a minute
+    .venv/bin/python benchmarks/run.py --quick    # reduced run, about two minutes
 
 See benchmarks/suite.py for what is reported, benchmarks/baselines.py and
 benchmarks/budget.py for how it is measured.
@@ -22,7 +22,7 @@ BENCH_DIR = Path(__file__).resolve().parent
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true",
-                    help="fewer binary-search points and smaller programs (under a minute)")
+                    help="fewer search points and smaller programs (about two minutes)")
     ap.add_argument("--json", metavar="PATH",
                     help="where to write the results (default: benchmarks/results.json, "
                          "benchmarks/results_quick.json with --quick)")
